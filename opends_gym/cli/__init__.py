@@ -1,0 +1,1 @@
+"""The `opends-gym` command line."""

@@ -1,0 +1,36 @@
+"""`opends-gym list`: bundled tasks and registered environment ids."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..task.bundled import bundled_task_names
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--envs", action="store_true", help="only environment ids")
+    p.add_argument("--tasks", action="store_true", help="only bundled tasks")
+
+
+def registered_env_ids() -> list[str]:
+    """Ids registered by opends_gym (importing it registers them)."""
+    try:
+        import gymnasium
+
+        import opends_gym  # noqa: F401  (registers the environments)
+    except ImportError:
+        return []
+    return sorted(k for k in gymnasium.registry if k.startswith("OpenDS/"))
+
+
+def run(args: argparse.Namespace) -> int:
+    show_all = not (args.envs or args.tasks)
+    if args.tasks or show_all:
+        print("bundled tasks:")
+        for name in bundled_task_names():
+            print(f"  {name}")
+    if args.envs or show_all:
+        print("environments:")
+        for env_id in registered_env_ids():
+            print(f"  {env_id}")
+    return 0

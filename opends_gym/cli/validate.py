@@ -1,0 +1,54 @@
+"""`opends-gym validate PATH...`: load tasks, print a summary line each, fail on errors."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+
+from ..task import TaskError, load_task
+from ..task.bundled import BUNDLED_DIR, bundled_task_names
+from ..task.summary import summarize
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("paths", nargs="*", help="task folders, entry files or bundled task names (default: all bundled tasks)")
+    p.add_argument("--strict", action="store_true", help="also validate every file against the OpenDS XSDs")
+    p.add_argument("--schema-dir", type=Path, help="folder holding scene.xsd, scenario.xsd, ... for --strict")
+    p.add_argument("-w", "--show-warnings", action="store_true", help="print each warning under its task")
+    p.add_argument("--recursive", action="store_true", help="treat each path as a folder of task folders")
+
+
+def _expand(paths: list[str], recursive: bool) -> list[str]:
+    if not paths:
+        return [str(BUNDLED_DIR / n) for n in bundled_task_names()]
+    if not recursive:
+        return paths
+    out: list[str] = []
+    for p in paths:
+        for entry in sorted(Path(p).rglob("*.xml")):
+            if entry.read_bytes()[:2048].find(b"<properties") >= 0:
+                out.append(str(entry))
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    logging.getLogger("opends_gym.task").setLevel(logging.ERROR)  # warnings are printed below
+    targets = _expand(list(args.paths), args.recursive)
+    if not targets:
+        print("no tasks to validate")
+        return 2
+    failed = 0
+    for target in targets:
+        try:
+            task = load_task(target, strict=args.strict, schema_dir=args.schema_dir)
+        except TaskError as exc:
+            failed += 1
+            print(f"ERROR {target}\n      {exc}")
+            continue
+        print(f"OK    {task.name:<28} {summarize(task).line()}")
+        if args.show_warnings:
+            for w in task.warnings:
+                print(f"      warning: {w}")
+    print(f"{len(targets) - failed} of {len(targets)} task(s) valid")
+    return 1 if failed else 0
