@@ -4,8 +4,8 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 source "$ROOT/scripts/_env.sh" "dev,rl"
 cd "$ROOT"
-echo "== ruff"; ruff check opends_gym tests benchmarks agents
-ruff format --check opends_gym tests benchmarks agents
+echo "== ruff"; ruff check .
+ruff format --check .
 echo "== mypy"; mypy
 echo "== pytest"
 set +e
