@@ -32,7 +32,13 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$WANT" ]; then
   SPEC="$ROOT"
   [ -n "$EXTRAS" ] && SPEC="$ROOT[$EXTRAS]"
   # constraints.txt pins torch to the CPU build 2.13.0 (a local wheel on our CI machines)
-  "$VENV/bin/python" -m pip install --quiet -c "$ROOT/constraints.txt" -e "$SPEC"
+  LOG="$VENV/pip-install.log"
+  echo "installing opends_gym${EXTRAS:+[$EXTRAS]} into $VENV (log: $LOG)" >&2
+  if ! "$VENV/bin/python" -m pip install -c "$ROOT/constraints.txt" -e "$SPEC" >"$LOG" 2>&1; then
+    tail -n 30 "$LOG" >&2
+    echo "pip install failed; see $LOG" >&2
+    exit 1
+  fi
   echo "$WANT" > "$STAMP"
 fi
 export PATH="$VENV/bin:$PATH"
