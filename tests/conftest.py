@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-CORPUS = ROOT.parent / "shared" / "opends-tasks"
+# The corpus of real OpenDS tasks lives beside the project (../shared/opends-tasks);
+# OPENDS_CORPUS points elsewhere when the checkout is not beside it.
+CORPUS = Path(os.environ.get("OPENDS_CORPUS", ROOT.parent / "shared" / "opends-tasks"))
 
 
 def corpus_task_dirs() -> list[Path]:
