@@ -1,0 +1,70 @@
+"""What a driver (agent, human or CAN bus) does in one physics step.
+
+Why: every input source -- an RL action, a keyboard, a wheel, a CAN frame -- is turned
+into this one record, so the simulation core never knows who is driving.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+# Steering wheel lock-to-centre in degrees. OpenDS's lane-change timer records the
+# first |steer| >= 0.004444 and >= 0.006666 as "2 and 3 degrees" of steering, i.e. a
+# full input of 1.0 is 450 degrees of steering wheel.
+STEERING_WHEEL_MAX_DEG = 450.0
+
+
+@dataclass
+class DriverControls:
+    """Inputs for one step. Steering: -1..1, positive turns left (OpenDS convention).
+
+    `keys` and `buttons` are pressed *this step* (edge events, jME key names such as
+    `KEY_A`, joystick button numbers); they feed pressKey/pressButton triggers and key
+    reaction timers. Gear requests: -1 reverse, 0 neutral, 1..6 forward (manual gearbox),
+    None keeps the gear.
+    """
+
+    steering: float = 0.0
+    accelerator: float = 0.0
+    brake: float = 0.0
+    clutch: float = 0.0
+    gear: int | None = None
+    shift_up: bool = False
+    shift_down: bool = False
+    hand_brake: bool = False
+    engine_on: bool | None = None
+    toggle_automatic: bool = False
+    cruise_control: bool | None = None  # True: engage at current speed, False: disengage
+    cruise_speed_delta_mps: float = 0.0
+    turn_signal: str | None = None  # off | left | right | both
+    horn: bool = False
+    keys: tuple[str, ...] = ()
+    buttons: tuple[int, ...] = ()
+    remote_triggers: tuple[str, ...] = ()
+    reset_to: str | None = None  # reset point id
+
+    def clipped(self) -> DriverControls:
+        """A copy with pedal and steering values forced into their ranges (NaN -> 0)."""
+
+        def clip(v: float, lo: float, hi: float) -> float:
+            if v != v:  # NaN
+                return 0.0
+            return lo if v < lo else hi if v > hi else v
+
+        c = DriverControls(**self.__dict__)
+        c.steering = clip(float(self.steering), -1.0, 1.0)
+        c.accelerator = clip(float(self.accelerator), 0.0, 1.0)
+        c.brake = clip(float(self.brake), 0.0, 1.0)
+        c.clutch = clip(float(self.clutch), 0.0, 1.0)
+        return c
+
+
+@dataclass
+class HeldInputs:
+    """Pedal/steering values as the trigger core sees them after a step (for pressPedal)."""
+
+    steering: float = 0.0
+    accelerator: float = 0.0
+    brake: float = 0.0
+    clutch: float = 0.0
+    keys_down: set[str] = field(default_factory=set)

@@ -1,0 +1,165 @@
+"""Scene models at run time: poses that actions change, visibility, trigger volumes.
+
+Why: `manipulateObject` moves, scales and hides models; `collideWith` conditions test the
+car against trigger volumes; static obstacles stop the car. This module keeps each model's
+current oriented box (in the ground plane, plus a height range) in a uniform grid so the
+per-step queries touch only the few objects near the car.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from ..task.conditions import CollideWith
+from ..task.model_task import DrivingTask
+from .assets import AssetShape, shape_of
+from .geometry2d import Obb, obb_overlap
+
+CELL_M = 50.0
+
+
+@dataclass
+class SceneObject:
+    """One model's run-time state. `half` is (x, y, z) half extents after scaling."""
+
+    index: int
+    id: str
+    position: tuple[float, float, float]
+    yaw: float
+    scale: tuple[float, float, float]
+    base_half: tuple[float, float, float]
+    kind: str  # obstacle | ground | vehicle | trigger
+    visible: bool
+    collidable: bool  # physical obstacle for the car
+    is_trigger: bool  # named by a collideWith condition
+    mass_kg: float
+    shape_source: str
+
+    @property
+    def half(self) -> tuple[float, float, float]:
+        return (self.base_half[0] * abs(self.scale[0]), self.base_half[1] * abs(self.scale[1]), self.base_half[2] * abs(self.scale[2]))
+
+    def obb(self) -> Obb:
+        hx, _, hz = self.half
+        return Obb(self.position[0], self.position[2], self.yaw, hx, hz)
+
+    def y_range(self) -> tuple[float, float]:
+        hy = self.half[1]
+        return (self.position[1] - hy, self.position[1] + hy)
+
+
+class SceneObjects:
+    """All scene models except the ego car, indexed by a grid for nearby queries."""
+
+    def __init__(self, task: DrivingTask, folder: Path | None = None, extra_trigger_ids: set[str] | None = None) -> None:
+        self.task = task
+        trigger_ids = {c.model_id for t in task.interaction.triggers for c in t.condition.items if isinstance(c, CollideWith)}
+        trigger_ids |= extra_trigger_ids or set()
+        car_ref = task.scenario.driver.car.ref
+        self._initial: list[SceneObject] = []
+        car_skipped = False
+        for i, m in enumerate(task.scene.models):
+            if m.id == car_ref and not car_skipped:
+                car_skipped = True
+                continue
+            shape: AssetShape = shape_of(m, task.scene, folder or task.folder)
+            is_trigger = m.id in trigger_ids
+            if shape.kind == "ground" and not is_trigger:
+                continue
+            pos = m.translation_m or (0.0, 0.0, 0.0)
+            self._initial.append(
+                SceneObject(
+                    index=i,
+                    id=m.id,
+                    position=pos,
+                    yaw=m.rotation.yaw_rad,
+                    scale=m.scale,
+                    base_half=shape.half_extents,
+                    kind="trigger" if is_trigger else shape.kind,
+                    visible=m.visible and not is_trigger,
+                    collidable=(m.collision_shape != "none") and not is_trigger and shape.kind != "ground",
+                    is_trigger=is_trigger,
+                    mass_kg=m.mass_kg,
+                    shape_source=shape.source,
+                )
+            )
+        self.objects: list[SceneObject] = []
+        self.by_id: dict[str, list[SceneObject]] = {}
+        self._grid: dict[tuple[int, int], list[int]] = {}
+        self.reset()
+
+    # ------------------------------------------------------------------ lifecycle
+    def reset(self) -> None:
+        self.objects = [replace(o) for o in self._initial]
+        self.by_id = {}
+        for o in self.objects:
+            self.by_id.setdefault(o.id, []).append(o)
+        self._rebuild_grid()
+
+    def get_state(self) -> list[tuple[Any, ...]]:
+        return [(o.position, o.yaw, o.scale, o.visible, o.collidable) for o in self.objects]
+
+    def set_state(self, state: list[tuple[Any, ...]]) -> None:
+        for o, (pos, yaw, scale, visible, collidable) in zip(self.objects, state):
+            o.position, o.yaw, o.scale, o.visible, o.collidable = pos, yaw, scale, visible, collidable
+        self._rebuild_grid()
+
+    # ------------------------------------------------------------------ grid
+    def _cells(self, o: SceneObject) -> list[tuple[int, int]]:
+        hx, _, hz = o.half
+        r = math.hypot(hx, hz)
+        x0, x1 = int(math.floor((o.position[0] - r) / CELL_M)), int(math.floor((o.position[0] + r) / CELL_M))
+        z0, z1 = int(math.floor((o.position[2] - r) / CELL_M)), int(math.floor((o.position[2] + r) / CELL_M))
+        if (x1 - x0 + 1) * (z1 - z0 + 1) > 400:  # a huge object: keep it in a catch-all cell
+            return [(1 << 30, 1 << 30)]
+        return [(ix, iz) for ix in range(x0, x1 + 1) for iz in range(z0, z1 + 1)]
+
+    def _rebuild_grid(self) -> None:
+        self._grid = {}
+        for k, o in enumerate(self.objects):
+            if o.is_trigger or o.collidable:
+                for c in self._cells(o):
+                    self._grid.setdefault(c, []).append(k)
+
+    def update(self, obj: SceneObject) -> None:
+        """Call after changing an object's pose, scale or flags (actions do)."""
+        self._rebuild_grid()
+
+    # ------------------------------------------------------------------ queries
+    def near(self, x: float, z: float, radius: float) -> list[SceneObject]:
+        """Trigger volumes and obstacles whose grid cells touch a circle around (x, z)."""
+        x0, x1 = int(math.floor((x - radius) / CELL_M)), int(math.floor((x + radius) / CELL_M))
+        z0, z1 = int(math.floor((z - radius) / CELL_M)), int(math.floor((z + radius) / CELL_M))
+        seen: set[int] = set()
+        out = []
+        grid = self._grid
+        for ix in range(x0, x1 + 1):
+            for iz in range(z0, z1 + 1):
+                for k in grid.get((ix, iz), ()):
+                    if k not in seen:
+                        seen.add(k)
+                        out.append(self.objects[k])
+        for k in grid.get((1 << 30, 1 << 30), ()):
+            if k not in seen:
+                out.append(self.objects[k])
+        return out
+
+    def overlapping(self, car: Obb, y_lo: float, y_hi: float) -> tuple[list[SceneObject], list[SceneObject]]:
+        """(trigger volumes, obstacles) the car box overlaps now."""
+        triggers: list[SceneObject] = []
+        obstacles: list[SceneObject] = []
+        reach = math.hypot(car.hx, car.hz)
+        for o in self.near(car.cx, car.cz, reach):
+            lo, hi = o.y_range()
+            if hi < y_lo or lo > y_hi:
+                continue
+            if not obb_overlap(car, o.obb()):
+                continue
+            if o.is_trigger:
+                triggers.append(o)
+            elif o.collidable:
+                obstacles.append(o)
+        return triggers, obstacles
