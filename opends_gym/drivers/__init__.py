@@ -1,0 +1,1 @@
+"""Driver models usable as agents: controllers, rule-based and distracted drivers."""

@@ -1,0 +1,325 @@
+"""`OpenDSEnv`: the one `step()` every OpenDS environment shares.
+
+Why: task envs differ in reward, stimuli, termination and summary metrics, not in how a
+policy step runs. This base owns `reset`/`step`/`render` (Gymnasium API to the letter) and
+calls small hooks that task envs override (`_make_task`, `_setup`, `_reset_task`,
+`_on_physics_step`, `_stimulus`, `_reward`, `_task_terminated`, `_task_info`,
+`_episode_metrics`).
+
+Info keys (numbers, so they batch in vector envs; NaN when not applicable):
+  sim_time_s, speed_kmh, lateral_offset_m (from the lane centre, + left), lane_index
+  (-1 off the lanes), fuel_used_l, collisions (count so far), reaction_result (1 correct,
+  -1 failure, -2 missed, 0 none this step), reaction_time_s (of that reaction),
+  mean_deviation_m (running; the final OpenDS/ISO value is in episode_metrics),
+  sdlp_m (running, lane-keeping samples), headway_s (front-to-front to the lead, inf
+  without one), ttc_s (inf unless closing in).
+  `events`: tuple of event dicts emitted this step (the documented non-numeric key).
+  `episode_metrics`: dict of the task's summary, present only on the last step.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.utils import EzPickle
+
+from ..metrics.headway import time_headway, time_to_collision
+from ..metrics.lateral import sdlp
+from ..metrics.steering import reversal_rate
+from ..sim.controls import STEERING_WHEEL_MAX_DEG, DriverControls
+from ..sim.guide import RoadGuide
+from ..sim.perception import lead_vehicle
+from ..sim.world import World, WorldConfig
+from ..task import DrivingTask
+from .actions import make_action_type
+from .config import EnvConfig, build_config
+from .observations import make_observation_type
+from .trace import Trace
+
+LANE_KEEPING_OFFSET_M = 1.0  # |offset from lane centre| below which a sample counts for SDLP
+
+
+class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
+    """Base class; see the module docstring for the shared info keys."""
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+    config_class: ClassVar[type[EnvConfig]] = EnvConfig
+    stimulus_names: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+        EzPickle.__init__(self, render_mode=render_mode, **kwargs)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, not {render_mode!r}")
+        self.config = build_config(self.config_class, kwargs)
+        self.render_mode = render_mode
+        self.task: DrivingTask = self._make_task()
+        self.world = World(self.task, WorldConfig(physics=self.config.physics, dt_s=1.0 / self.config.physics_hz))
+        self.guide = RoadGuide(self.world)
+        self._setup()
+        self.obs_type = make_observation_type(
+            self.config.observation, self.world, self.guide, self.config, self._stimulus, self.stimulus_names
+        )
+        self.act_type = make_action_type(self.config.action, self.world, self.guide, self.config)
+        self.observation_space = self.obs_type.space()
+        self.action_space = self.act_type.space()
+        self.trace = Trace()
+        self._run = RunningLateral()
+        self._renderer: Any = None
+        self._window: Any = None
+        self._episode_over = False
+
+    # ------------------------------------------------------------------ hooks
+    def _make_task(self) -> DrivingTask:
+        raise NotImplementedError
+
+    def _setup(self) -> None:
+        """After the World is built (register action handlers, precompute task data)."""
+
+    def _reset_task(self, options: dict[str, Any] | None) -> None:
+        """After the World is reset, before the first observation."""
+
+    def _on_physics_step(self) -> None:
+        """After every physics step (accumulate task measures)."""
+
+    def _stimulus(self) -> list[float]:
+        """Task stimulus features appended to vector observations (`stimulus_names`)."""
+        return []
+
+    def _reward(self, info: dict[str, Any]) -> float:
+        """Default: progress along the road in metres, minus lane offset and collisions."""
+        return float(info["progress_m"]) - 0.1 * abs(float(info["lateral_offset_m"])) - 10.0 * float(info["new_collisions"])
+
+    def _task_terminated(self) -> bool:
+        return False
+
+    def _task_info(self, info: dict[str, Any]) -> None:
+        """Add or override numeric info keys."""
+
+    def _episode_metrics(self) -> dict[str, float]:
+        """The task's summary; the base adds the generic driving measures."""
+        return {}
+
+    # ------------------------------------------------------------------ gym API
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        self.world.reset(seed=int(self.np_random.integers(0, 2**31 - 1)))
+        self.act_type.reset()
+        self.trace.clear()
+        self._run = RunningLateral()
+        self._event_cursor = 0
+        self._reaction_cursor = 0
+        self._collisions_seen = 0
+        self._last_s = self.guide.locate(self.world.ego.state.x, self.world.ego.state.z).s_m
+        self._episode_over = False
+        self._reset_task(options)
+        self._record_row()
+        info = self._info(progress_m=0.0, new_collisions=0, events=())
+        return self.obs_type.observe(), info
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self._episode_over:
+            raise RuntimeError("step() called after the episode ended; call reset() first")
+        controls = self.act_type.to_controls(action)
+        world = self.world
+        for k in range(self.config.action_repeat):
+            world.step(controls)
+            self._record_row()
+            self._on_physics_step()
+            if k == 0:
+                controls = _without_edges(controls)
+            if self._stop_early():
+                break
+        s = world.ego.state
+        s_now = self.guide.locate(s.x, s.z).s_m
+        progress = s_now - self._last_s
+        self._last_s = s_now
+        new_collisions = world.collisions - self._collisions_seen
+        self._collisions_seen = world.collisions
+        events = world.events.since(self._event_cursor)
+        self._event_cursor = len(world.events)
+        info = self._info(progress_m=progress, new_collisions=new_collisions, events=tuple(e.to_dict() for e in events))
+        reward = float(self._reward(info))
+        terminated = bool(self._terminated(new_collisions))
+        truncated = bool(not terminated and world.t_s >= self.config.max_episode_s - 1e-9)
+        if terminated or truncated:
+            self._episode_over = True
+            info["episode_metrics"] = self.episode_metrics()
+        if self.render_mode == "human":
+            self.render()
+        return self.obs_type.observe(), reward, terminated, truncated, info
+
+    def _stop_early(self) -> bool:
+        return self._terminated(self.world.collisions - self._collisions_seen)
+
+    def _terminated(self, new_collisions: int) -> bool:
+        trig = self.world.triggers
+        if getattr(trig, "shutdown_requested", False):
+            return True
+        if getattr(trig, "paused", False) and math.isinf(getattr(trig, "pause_until_s", 0.0)):
+            return True  # paused "until resumed": nobody resumes an RL episode
+        if self.config.terminate_on_collision and new_collisions > 0:
+            return True
+        return self._task_terminated()
+
+    # ------------------------------------------------------------------ info
+    def _record_row(self) -> None:
+        w = self.world
+        s = w.ego.state
+        p = self.guide.locate(s.x, s.z)
+        lane = p.lane_index
+        center = self.guide.lane_laterals_m[lane if lane >= 0 else self.guide.nearest_lane(p.lateral_m)]
+        offset = p.lateral_m - center
+        lead = lead_vehicle(w) if w.traffic is not None else None
+        if lead is not None:
+            headway = time_headway(lead.gap_m, lead.length_m, s.u)
+            ttc = time_to_collision(lead.gap_m, s.u, lead.speed_mps)
+        else:
+            headway = ttc = math.inf
+        inp = w.ego.inputs
+        tr = self.trace
+        if tr.n:
+            ds = math.hypot(s.x - tr.last("x_m"), s.z - tr.last("z_m"))
+            self._run.add_distance(ds, abs(tr.last("lane_offset_m")), abs(offset))
+        self._run.add_offset(offset)
+        tr.append((w.t_s, s.x, s.z, s.yaw, s.u, p.lateral_m, offset, float(lane), inp.steering, inp.accelerator, inp.brake, headway, ttc))
+
+    def _new_reaction(self) -> tuple[float, float]:
+        reactions = getattr(self.world.triggers, "reactions", ())
+        if len(reactions) <= self._reaction_cursor:
+            return 0.0, math.nan
+        last = reactions[-1]
+        self._reaction_cursor = len(reactions)
+        return float(last.result), float(last.reaction_time_s)
+
+    def _info(self, progress_m: float, new_collisions: int, events: tuple[dict[str, Any], ...]) -> dict[str, Any]:
+        w = self.world
+        tr = self.trace
+        result, rt = self._new_reaction()
+        info: dict[str, Any] = {
+            "sim_time_s": w.t_s,
+            "speed_kmh": w.ego.state.u * 3.6,
+            "lateral_offset_m": tr.last("lane_offset_m"),
+            "lane_index": int(tr.last("lane_index")),
+            "fuel_used_l": w.ego.powertrain.state.fuel_used_l,
+            "collisions": w.collisions,
+            "reaction_result": result,
+            "reaction_time_s": rt,
+            "mean_deviation_m": self._run.mean_deviation_m,
+            "sdlp_m": self._run.sdlp_m,
+            "headway_s": tr.last("headway_s"),
+            "ttc_s": tr.last("ttc_s"),
+            "progress_m": progress_m,
+            "new_collisions": new_collisions,
+            "events": events,
+        }
+        self._task_info(info)
+        return info
+
+    def episode_metrics(self) -> dict[str, float]:
+        """Summary of the episode so far (the `episode_metrics` info of the last step)."""
+        tr = self.trace
+        offsets = tr.col("lane_offset_m")
+        fs = self.config.physics_hz
+        steer_deg = tr.col("steering") * STEERING_WHEEL_MAX_DEG
+        headway = tr.col("headway_s")
+        finite_h = headway[np.isfinite(headway)]
+        ttc = tr.col("ttc_s")
+        finite_t = ttc[np.isfinite(ttc)]
+        reactions = getattr(self.world.triggers, "reactions", ())
+        correct = [r for r in reactions if r.result == 1]
+        out: dict[str, float] = {
+            "duration_s": self.world.t_s,
+            "distance_m": float(np.sum(np.hypot(np.diff(tr.col("x_m")), np.diff(tr.col("z_m"))))) if tr.n > 1 else 0.0,
+            "mean_speed_kmh": float(np.mean(tr.col("speed_mps")) * 3.6) if tr.n else math.nan,
+            "fuel_used_l": self.world.ego.powertrain.state.fuel_used_l,
+            "collisions": float(self.world.collisions),
+            "sdlp_m": sdlp(offsets, np.abs(offsets) < LANE_KEEPING_OFFSET_M),
+            "steering_reversal_rate_per_min": reversal_rate(steer_deg, fs, gap_deg=2.0, cutoff_hz=0.6) if tr.n > 3 else math.nan,
+            "mean_headway_s": float(np.mean(finite_h)) if len(finite_h) else math.nan,
+            "min_ttc_s": float(np.min(finite_t)) if len(finite_t) else math.inf,
+            "reactions": float(len(reactions)),
+            "reactions_correct": float(len(correct)),
+            "reactions_failed": float(sum(1 for r in reactions if r.result == -1)),
+            "reactions_missed": float(sum(1 for r in reactions if r.result == -2)),
+            "mean_reaction_time_s": float(np.mean([r.reaction_time_s for r in correct])) if correct else math.nan,
+        }
+        out.update(self._episode_metrics())
+        return out
+
+    # ------------------------------------------------------------------ render
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode")
+            return None
+        from ..render import make_renderer
+
+        if self._renderer is None:
+            self._renderer = make_renderer(str(self.config.extra.get("render_view", "topdown")), self.world)
+        frame = self._renderer.render(self.config.render_width, self.config.render_height)
+        if self.render_mode == "rgb_array":
+            return frame
+        from ..render.window import FrameWindow
+
+        if self._window is None:
+            self._window = FrameWindow(self.config.render_width, self.config.render_height, title=type(self).__name__)
+        self._window.show(frame, fps=self.metadata["render_fps"])
+        return None
+
+    def close(self) -> None:
+        if self._window is not None:
+            self._window.close()
+            self._window = None
+        self.world.close()
+
+
+class RunningLateral:
+    """O(1)-per-sample running SDLP (Welford) and mean |lane offset| per metre driven."""
+
+    def __init__(self) -> None:
+        self.n = 0
+        self.mean = 0.0
+        self.m2 = 0.0
+        self.area = 0.0
+        self.dist = 0.0
+
+    def add_offset(self, offset: float) -> None:
+        if abs(offset) < LANE_KEEPING_OFFSET_M:
+            self.n += 1
+            d = offset - self.mean
+            self.mean += d / self.n
+            self.m2 += d * (offset - self.mean)
+
+    def add_distance(self, ds: float, prev_abs: float, abs_now: float) -> None:
+        self.dist += ds
+        self.area += 0.5 * (prev_abs + abs_now) * ds
+
+    @property
+    def sdlp_m(self) -> float:
+        return math.sqrt(self.m2 / self.n) if self.n >= 2 else math.nan
+
+    @property
+    def mean_deviation_m(self) -> float:
+        return self.area / self.dist if self.dist > 0 else 0.0
+
+
+def _without_edges(c: DriverControls) -> DriverControls:
+    """The same inputs for the next physics substeps, minus one-shot key/button presses."""
+    if not (
+        c.keys
+        or c.buttons
+        or c.remote_triggers
+        or c.reset_to
+        or c.shift_up
+        or c.shift_down
+        or c.toggle_automatic
+        or c.cruise_control is not None
+    ):
+        return c
+    d = DriverControls(**c.__dict__)
+    d.keys, d.buttons, d.remote_triggers, d.reset_to = (), (), (), None
+    d.shift_up = d.shift_down = d.toggle_automatic = False
+    d.cruise_control = None
+    return d

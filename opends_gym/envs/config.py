@@ -1,0 +1,60 @@
+"""Env configuration: a frozen dataclass with units in the names; typos are errors.
+
+Why: `gymnasium.make("OpenDS/LaneChangeTest-v0", policy_hz=20, physics="bullet")` must
+reject `polcy_hz=20` loudly instead of silently training with the default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Options shared by every OpenDS env (task envs add their own dataclass fields)."""
+
+    physics: str = "fast"  # fast | bullet
+    physics_hz: float = 60.0
+    policy_hz: float = 10.0
+    observation: str = "kinematics"  # kinematics | rays | topdown | driver_view
+    action: str = "continuous"  # continuous | continuous_buttons | discrete
+    max_episode_s: float = 600.0
+    nearby_vehicles: int = 4  # traffic objects in the kinematics observation
+    rays: int = 24
+    ray_range_m: float = 80.0
+    image_width: int = 84
+    image_height: int = 84
+    render_width: int = 640
+    render_height: int = 360
+    terminate_on_collision: bool = True
+    reward_speed_weight: float = 0.0
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def action_repeat(self) -> int:
+        """Physics steps per policy step."""
+        return max(1, int(round(self.physics_hz / self.policy_hz)))
+
+
+def build_config(cls: type[T], kwargs: dict[str, Any]) -> T:
+    """`cls(**kwargs)` that names the unknown keys and the valid ones on a typo."""
+    names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    unknown = sorted(set(kwargs) - names)
+    if unknown:
+        raise TypeError(f"unknown option(s) {', '.join(unknown)} for {cls.__name__}; valid: {', '.join(sorted(names))}")
+    cfg = cls(**kwargs)
+    _validate(cfg)
+    return cfg
+
+
+def _validate(cfg: Any) -> None:
+    if getattr(cfg, "physics", "fast") not in ("fast", "bullet"):
+        raise ValueError(f"physics must be 'fast' or 'bullet', not {cfg.physics!r}")
+    if getattr(cfg, "policy_hz", 1.0) <= 0 or getattr(cfg, "physics_hz", 1.0) <= 0:
+        raise ValueError("policy_hz and physics_hz must be positive")
+    if getattr(cfg, "policy_hz", 1.0) > getattr(cfg, "physics_hz", 60.0):
+        raise ValueError("policy_hz cannot exceed physics_hz")

@@ -1,0 +1,20 @@
+"""Environment ids, registered once per process (idempotent, string entry points).
+
+Why: SB3's SubprocVecEnv starts workers with forkserver/spawn; they never run our
+registration unless `gymnasium.make("opends_gym:OpenDS/...")` imports the package, so
+registration must happen on import and tolerate running twice.
+"""
+
+from __future__ import annotations
+
+import gymnasium
+
+ENVS: dict[str, str] = {
+    "OpenDS/DrivingTask-v0": "opends_gym.envs.driving_task:DrivingTaskEnv",
+}
+
+
+def register_envs() -> None:
+    for env_id, entry_point in ENVS.items():
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point=entry_point, disable_env_checker=False)

@@ -1,0 +1,153 @@
+"""Lane Change Test (ISO 26022-style) metrics: mean deviation (MDEV) from a normative path.
+
+Why: the LCT scores a drive by the area between the driven lateral position and a
+normative lane-change path, per metre driven. Two normative paths exist:
+
+* **basic** -- the same path for everyone: lane keeping on the lane centre, and at each
+  sign a straight (constant-gradient) lane change that starts `start_before_sign_m`
+  before the sign and is `change_length_m` long;
+* **adapted** -- fitted per driver from their own lane changes (median start point and
+  length) and their habitual offset within the lane, so a consistent personal style is
+  not scored as error (Tattegrain, Bruyas & Karmann, "Comparison between adaptive and
+  basic model metrics in LCT").
+
+Inputs are arrays over the drive: `d` distance along the track (m, increasing) and `y`
+lateral position (m) in the same coordinate as `lane_centers_m`. Signs name the lane
+index to drive in from that sign on. The default geometry lives with the env
+(`opends_gym.envs.lct`); these functions take every parameter explicitly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class LctSign:
+    """A lane-change sign at distance `d_m` telling the driver to go to lane `to_lane`."""
+
+    d_m: float
+    from_lane: int
+    to_lane: int
+
+
+@dataclass(frozen=True)
+class NormativeModel:
+    """Where lane changes start (metres before the sign), how long they are, lane offset."""
+
+    start_before_sign_m: float
+    change_length_m: float
+    habitual_offset_m: float = 0.0
+
+
+def normative_path(
+    d: np.ndarray, signs: Sequence[LctSign], lane_centers_m: Sequence[float], initial_lane: int, model: NormativeModel
+) -> np.ndarray:
+    """Normative lateral position at each distance `d` (piecewise linear)."""
+    d = np.asarray(d, dtype=float)
+    y = np.full(d.shape, float(lane_centers_m[initial_lane]))
+    for sign in sorted(signs, key=lambda s: s.d_m):
+        start = sign.d_m - model.start_before_sign_m
+        end = start + max(model.change_length_m, 1e-6)
+        y_from = float(lane_centers_m[sign.from_lane])
+        y_to = float(lane_centers_m[sign.to_lane])
+        ramp = np.clip((d - start) / (end - start), 0.0, 1.0)
+        after = d >= start
+        y = np.where(after, y_from + ramp * (y_to - y_from), y)
+    return y + model.habitual_offset_m
+
+
+def mean_deviation(d: np.ndarray, y: np.ndarray, y_norm: np.ndarray) -> float:
+    """Area between the driven and normative lateral paths divided by distance (m)."""
+    d = np.asarray(d, dtype=float)
+    if len(d) < 2 or d[-1] <= d[0]:
+        return math.nan
+    diff = np.abs(np.asarray(y, dtype=float) - np.asarray(y_norm, dtype=float))
+    area = float(np.sum(0.5 * (diff[1:] + diff[:-1]) * np.diff(d)))
+    return area / float(d[-1] - d[0])
+
+
+@dataclass(frozen=True)
+class LaneChangeFit:
+    """One lane change as seen in a drive: where it started and how long it took."""
+
+    sign: LctSign
+    start_d_m: float  # NaN if the driver never left the old lane
+    length_m: float
+    reached_target: bool
+    latency_m: float  # start relative to the sign becoming visible
+
+
+def fit_lane_changes(
+    d: np.ndarray, y: np.ndarray, signs: Sequence[LctSign], lane_centers_m: Sequence[float], visibility_m: float
+) -> list[LaneChangeFit]:
+    """Per sign: the 10 %-90 % ramp of the driver's move, extrapolated to 0 and 100 %."""
+    d = np.asarray(d, dtype=float)
+    y = np.asarray(y, dtype=float)
+    ordered = sorted(signs, key=lambda s: s.d_m)
+    out: list[LaneChangeFit] = []
+    for k, sign in enumerate(ordered):
+        y_from = float(lane_centers_m[sign.from_lane])
+        y_to = float(lane_centers_m[sign.to_lane])
+        shift = y_to - y_from
+        window_start = sign.d_m - visibility_m
+        window_end = ordered[k + 1].d_m - visibility_m if k + 1 < len(ordered) else (d[-1] if len(d) else sign.d_m)
+        mask = (d >= window_start) & (d <= window_end)
+        if shift == 0.0 or not np.any(mask):
+            out.append(LaneChangeFit(sign, math.nan, math.nan, sign.from_lane == sign.to_lane, math.nan))
+            continue
+        dd, frac = d[mask], (y[mask] - y_from) / shift
+        i10 = np.flatnonzero(frac >= 0.1)
+        i90 = np.flatnonzero(frac >= 0.9)
+        reached = bool(np.any(np.abs(y[mask] - y_to) < 0.5 * abs(shift) * 0.5))
+        if len(i10) == 0 or len(i90) == 0:
+            out.append(LaneChangeFit(sign, math.nan, math.nan, reached, math.nan))
+            continue
+        d10, d90 = float(dd[i10[0]]), float(dd[i90[0]])
+        length = max((d90 - d10) / 0.8, 1e-6)
+        start = d10 - 0.1 * length
+        out.append(LaneChangeFit(sign, start, length, reached, start - window_start))
+    return out
+
+
+def fit_adapted_model(
+    d: np.ndarray, y: np.ndarray, signs: Sequence[LctSign], lane_centers_m: Sequence[float], visibility_m: float, fallback: NormativeModel
+) -> NormativeModel:
+    """A driver's own normative model: median start and length, median in-lane offset."""
+    fits = [f for f in fit_lane_changes(d, y, signs, lane_centers_m, visibility_m) if math.isfinite(f.start_d_m)]
+    if not fits:
+        return fallback
+    start_before = float(np.median([f.sign.d_m - f.start_d_m for f in fits]))
+    length = float(np.median([f.length_m for f in fits]))
+    basic = normative_path(d, signs, lane_centers_m, signs[0].from_lane if signs else 0, NormativeModel(start_before, length))
+    keeping = np.ones(len(d), dtype=bool)
+    for f in fits:
+        keeping &= ~((d >= f.start_d_m) & (d <= f.start_d_m + f.length_m))
+    offset = float(np.median(np.asarray(y)[keeping] - basic[keeping])) if np.any(keeping) else 0.0
+    return NormativeModel(start_before, length, offset)
+
+
+def lct_mdev(
+    d: np.ndarray,
+    y: np.ndarray,
+    signs: Sequence[LctSign],
+    lane_centers_m: Sequence[float],
+    initial_lane: int,
+    basic: NormativeModel,
+    visibility_m: float,
+) -> dict[str, float]:
+    """MDEV against the basic and the adapted model, plus the fitted adapted parameters."""
+    y_basic = normative_path(d, signs, lane_centers_m, initial_lane, basic)
+    adapted = fit_adapted_model(d, y, signs, lane_centers_m, visibility_m, basic)
+    y_adapted = normative_path(d, signs, lane_centers_m, initial_lane, adapted)
+    return {
+        "mdev_basic_m": mean_deviation(d, y, y_basic),
+        "mdev_adapted_m": mean_deviation(d, y, y_adapted),
+        "adapted_start_before_sign_m": adapted.start_before_sign_m,
+        "adapted_change_length_m": adapted.change_length_m,
+        "adapted_habitual_offset_m": adapted.habitual_offset_m,
+    }

@@ -1,0 +1,100 @@
+"""Steering wheel reversal rate (SRR), following Markkula & Engstroem (2006).
+
+Why: small steering reversals rise with cognitive load, larger ones with visual load.
+The algorithm (as in the reference MATLAB `metric_ReversalRate_VTEC.m`): low-pass the
+steering angle with a 2nd-order Butterworth filter run forwards and backwards (zero
+phase), find its stationary points, and count movements between consecutive extrema in
+opposite directions whose amplitude is at least the gap size. The rate is reversals per
+minute. Report the gap and cut-off with every value.
+
+The filter is designed here (bilinear transform) so numpy is the only dependency.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def butter2_lowpass(cutoff_hz: float, fs_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """Coefficients (b, a) of a 2nd-order Butterworth low-pass (bilinear, pre-warped)."""
+    if not 0 < cutoff_hz < fs_hz / 2:
+        raise ValueError("cutoff must be between 0 and the Nyquist frequency")
+    k = math.tan(math.pi * cutoff_hz / fs_hz)
+    q = math.sqrt(2.0)
+    norm = 1.0 / (1.0 + q * k + k * k)
+    b = np.array([k * k * norm, 2.0 * k * k * norm, k * k * norm])
+    a = np.array([1.0, 2.0 * (k * k - 1.0) * norm, (1.0 - q * k + k * k) * norm])
+    return b, a
+
+
+def _lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, zi: np.ndarray) -> np.ndarray:
+    y = np.empty_like(x)
+    z0, z1 = float(zi[0]), float(zi[1])
+    b0, b1, b2 = b
+    _, a1, a2 = a
+    for i, xi in enumerate(x):
+        yi = b0 * xi + z0
+        z0 = b1 * xi - a1 * yi + z1
+        z1 = b2 * xi - a2 * yi
+        y[i] = yi
+    return y
+
+
+def _steady_state(b: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """Initial filter state for a unit step (as scipy's lfilter_zi)."""
+    m = np.array([[1.0 + a[1], -1.0], [a[2], 1.0]])
+    rhs = np.array([b[1] - a[1] * b[0], b[2] - a[2] * b[0]])
+    return np.linalg.solve(m, rhs)
+
+
+def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Zero-phase filtering with odd-extension padding (like scipy.signal.filtfilt)."""
+    x = np.asarray(x, dtype=float)
+    pad = min(3 * max(len(a), len(b)), len(x) - 1)
+    if pad < 1:
+        return x.copy()
+    ext = np.concatenate([2 * x[0] - x[pad:0:-1], x, 2 * x[-1] - x[-2 : -pad - 2 : -1]])
+    zi = _steady_state(b, a)
+    y = _lfilter(b, a, ext, zi * ext[0])
+    y = _lfilter(b, a, y[::-1], zi * y[-1])[::-1]
+    return y[pad : pad + len(x)]
+
+
+def reversal_count(angle_deg: np.ndarray, gap_deg: float) -> int:
+    """Reversals of at least `gap_deg` between the stationary points of a (filtered) signal."""
+    x = np.asarray(angle_deg, dtype=float)
+    if len(x) < 3:
+        return 0
+    dx = np.diff(x)
+    # stationary points: sign changes of the derivative (plateaus take their first sample)
+    signs = np.sign(dx)
+    nz = np.flatnonzero(signs)
+    if len(nz) == 0:
+        return 0
+    s = signs[nz]
+    turns = nz[1:][s[1:] != s[:-1]]
+    extrema = np.concatenate([[0], turns, [len(x) - 1]])
+    values = x[extrema]
+    count = 0
+    # count upward and downward reversals separately, as the reference implementation
+    for direction in (1.0, -1.0):
+        anchor = values[0]
+        for v in values[1:]:
+            if direction * (v - anchor) >= gap_deg:
+                count += 1
+                anchor = v
+            elif direction * (v - anchor) < 0:
+                anchor = v
+    return count
+
+
+def reversal_rate(angle_deg: np.ndarray, fs_hz: float, gap_deg: float = 2.0, cutoff_hz: float = 0.6) -> float:
+    """Steering reversals per minute of a steering-wheel angle trace sampled at `fs_hz`."""
+    x = np.asarray(angle_deg, dtype=float)
+    if len(x) < 3:
+        return math.nan
+    duration_min = (len(x) - 1) / fs_hz / 60.0
+    filtered = filtfilt(*butter2_lowpass(cutoff_hz, fs_hz), x) if cutoff_hz < fs_hz / 2 else x
+    return reversal_count(filtered, gap_deg) / duration_min if duration_min > 0 else math.nan

@@ -1,0 +1,163 @@
+"""Metric functions against hand-computed values."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from opends_gym.metrics import (
+    Completeness,
+    LctSign,
+    NormativeModel,
+    lct_mdev,
+    mean_ci,
+    mean_deviation,
+    normative_path,
+    reversal_rate,
+    score_drt,
+    sdlp,
+    time_gap,
+    time_headway,
+    time_to_collision,
+)
+from opends_gym.metrics.deviation import quad_area
+from opends_gym.metrics.lateral import lane_exceedances
+from opends_gym.metrics.lct import mean_deviation as lct_area_mean
+from opends_gym.metrics.reaction import brake_reaction_time, summarize_reactions
+from opends_gym.metrics.stats import t_quantile
+from opends_gym.metrics.steering import butter2_lowpass, filtfilt, reversal_count
+
+
+def _line(x0: float, x1: float, y: float, n: int = 400) -> np.ndarray:
+    x = np.linspace(x0, x1, n)
+    return np.stack([x, np.full_like(x, y)], axis=1)
+
+
+def test_quadrilateral_area_by_hand() -> None:
+    # trapezoid between y=1 and y=3 offsets over 10 m: (1 + 3) / 2 * 10 = 20
+    a = quad_area(np.array([0.0, 1.0]), np.array([10.0, 3.0]), np.array([10.0, 0.0]), np.array([0.0, 0.0]))
+    assert a == pytest.approx(20.0)
+    # crossing: +2 to -2 over 10 m crosses at 5 m: two triangles of 5 each
+    b = quad_area(np.array([0.0, 2.0]), np.array([10.0, -2.0]), np.array([10.0, 0.0]), np.array([0.0, 0.0]))
+    assert b == pytest.approx(10.0)
+
+
+def test_mean_deviation_constant_offset_is_the_offset() -> None:
+    res = mean_deviation(_line(-5, 105, 1.5), [(0, 0), (50, 0), (100, 0)])
+    assert res.status is Completeness.COMPLETE
+    assert res.mean_deviation_m == pytest.approx(1.5)
+    assert res.length_m == pytest.approx(100.0)
+
+
+def test_mean_deviation_on_a_corner_uses_bisector_crossings() -> None:
+    # ideal L-shape; driven path = ideal shifted 1 m inward (x+1 on the first leg, y-1 on the second)
+    ideal = [(0, 0), (0, 100), (100, 100)]
+    leg1 = np.stack([np.full(200, 1.0), np.linspace(-5, 99, 200)], axis=1)
+    leg2 = np.stack([np.linspace(1, 105, 200), np.full(200, 99.0)], axis=1)
+    res = mean_deviation(np.concatenate([leg1, leg2]), ideal)
+    # crossings: (1, 0), corner bisector meets (1, 99), (100, 99): areas 1*100 - 0.5 and 1*99 + 0.5
+    assert res.driven_points[1] == pytest.approx((1.0, 99.0))
+    assert res.area_m2 == pytest.approx(99.5 + 99.5)
+    assert res.mean_deviation_m == pytest.approx(199.0 / 200.0)
+
+
+def test_mean_deviation_completeness_status() -> None:
+    ideal = [(0, 0), (50, 0), (100, 0), (150, 0)]
+    assert mean_deviation(_line(40, 160, 1), ideal).status is Completeness.INCOMPLETE_BEGINNING
+    assert mean_deviation(_line(-5, 110, 1), ideal).status is Completeness.INCOMPLETE_END
+    assert mean_deviation(_line(40, 110, 1), ideal).status is Completeness.INCOMPLETE_BEGINNING_AND_END
+    far = mean_deviation(_line(-5, 160, 30), ideal)  # beyond roadWidth/2 and the 10 m sample rule
+    assert far.status is Completeness.UNAVAILABLE and math.isnan(far.mean_deviation_m)
+
+
+def test_sdlp_and_exceedances() -> None:
+    y = np.array([0.1, -0.1, 0.1, -0.1])
+    assert sdlp(y) == pytest.approx(0.1)
+    keep = np.array([True, True, False, False])
+    assert sdlp(np.array([1.0, 3.0, 50.0, 60.0]), keep) == pytest.approx(1.0)
+    assert math.isnan(sdlp(np.array([1.0, np.nan, np.nan, np.nan]), min_valid_fraction=0.85))
+    assert lane_exceedances(np.array([0.0, 1.0, 0.0, 1.2, 1.3, 0.0]), half_lane_m=1.85, half_car_m=0.9) == 2
+
+
+def test_headway_gap_ttc() -> None:
+    assert time_headway(20.0, 4.0, 12.0) == pytest.approx(2.0)
+    assert time_gap(20.0, 10.0) == pytest.approx(2.0)
+    assert time_to_collision(30.0, 20.0, 10.0) == pytest.approx(3.0)
+    assert time_to_collision(30.0, 10.0, 20.0) == math.inf
+    assert time_headway(10.0, 4.0, 0.0) == math.inf
+
+
+def test_reversal_rate_counts_sine_reversals() -> None:
+    fs = 60.0
+    t = np.arange(0, 60, 1 / fs)
+    big = 5.0 * np.sin(2 * np.pi * 0.25 * t)  # 15 cycles/min, 2 reversals each
+    assert reversal_rate(big, fs, gap_deg=2.0, cutoff_hz=0.6) == pytest.approx(30.0, abs=1.5)
+    small = 0.4 * np.sin(2 * np.pi * 0.25 * t)  # amplitude 0.8 p-p: below a 2 degree gap
+    assert reversal_rate(small, fs, gap_deg=2.0) == 0.0
+    assert reversal_count(np.array([0.0, 3.0, 0.5, 3.0, 0.0]), gap_deg=2.0) == 4
+
+
+def test_filtfilt_is_zero_phase_and_passes_dc() -> None:
+    b, a = butter2_lowpass(0.6, 60.0)
+    assert float(np.sum(b) / np.sum(a)) == pytest.approx(1.0)
+    t = np.arange(0, 30, 1 / 60)
+    slow = np.sin(2 * np.pi * 0.05 * t)
+    out = filtfilt(b, a, slow)
+    assert np.max(np.abs(out - slow)[300:-300]) < 0.01  # no lag at low frequency
+
+
+def test_drt_scoring_iso17488_windows() -> None:
+    s = score_drt([1.0, 5.0, 9.0, 13.0], [1.05, 5.5, 12.0, 13.3])
+    assert (s.hits, s.misses, s.premature) == (2, 2, 1)
+    assert s.hit_rate == 0.5 and s.mean_rt_s == pytest.approx(0.4)
+
+
+def test_brake_reaction_time_interpolates_threshold() -> None:
+    t = np.arange(0, 3, 0.1)
+    acc = np.where(t < 0.8, 1.0, 0.0)
+    brake = np.clip((t - 1.0) * 2.0, 0.0, 1.0)
+    r = brake_reaction_time(t, acc, brake, stimulus_s=0.5, brake_threshold=0.1)
+    assert r.accelerator_release_s == pytest.approx(0.3)
+    assert r.brake_onset_s == pytest.approx(0.55)
+
+
+def test_reaction_summary_by_group() -> None:
+    summary = summarize_reactions([("Brake", 1, 0.8), ("Brake", 1, 1.0), ("Brake", -2, 10.0), ("Lane", -1, 10.0)])
+    assert summary["Brake"].correct == 2 and summary["Brake"].misses == 1
+    assert summary["Brake"].mean_rt_s == pytest.approx(0.9)
+    assert summary["Lane"].failures == 1 and math.isnan(summary["Lane"].mean_rt_s)
+
+
+def test_lct_normative_path_and_mdev() -> None:
+    centers = [-3.5, 0.0, 3.5]
+    signs = [LctSign(100.0, 1, 2), LctSign(250.0, 2, 0)]
+    model = NormativeModel(start_before_sign_m=30.0, change_length_m=20.0)
+    d = np.linspace(0, 400, 4001)
+    y = normative_path(d, signs, centers, 1, model)
+    assert y[np.searchsorted(d, 50)] == pytest.approx(0.0)
+    assert y[np.searchsorted(d, 80)] == pytest.approx(1.75)  # half-way through the first change
+    assert y[np.searchsorted(d, 120)] == pytest.approx(3.5)
+    assert y[-1] == pytest.approx(-3.5)
+    # a driver exactly on the normative path scores zero; one 0.5 m off everywhere 0.5
+    assert lct_area_mean(d, y, y) == pytest.approx(0.0)
+    assert lct_area_mean(d, y + 0.5, y) == pytest.approx(0.5)
+    # a late driver (lane changes 15 m later) scores the area of two parallelograms
+    late = normative_path(d, signs, centers, 1, NormativeModel(15.0, 20.0))
+    res = lct_mdev(d, late, signs, centers, 1, model, visibility_m=40.0)
+    expected = (15.0 * 3.5 + 15.0 * 7.0) / 400.0
+    assert res["mdev_basic_m"] == pytest.approx(expected, rel=1e-3)
+    # the adapted model learns the late start and scores the consistent driver ~0
+    assert res["adapted_start_before_sign_m"] == pytest.approx(15.0, abs=0.2)
+    assert res["mdev_adapted_m"] < 0.02
+
+
+def test_mean_ci() -> None:
+    ci = mean_ci([1.0, 2.0, 3.0, 4.0])
+    assert ci.mean == pytest.approx(2.5)
+    half = t_quantile(0.95, 3) * math.sqrt(5 / 3) / 2
+    assert (ci.low, ci.high) == pytest.approx((2.5 - half, 2.5 + half))
+    assert t_quantile(0.95, 10) == pytest.approx(2.2281, abs=1e-3)
+    assert t_quantile(0.95, 1) == pytest.approx(12.706, abs=1e-3)
+    assert mean_ci([float("nan")]).n == 0
