@@ -20,14 +20,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 
 MAX_SAMPLE_DISTANCE_M = 10.0
 
 
-class Completeness(str, Enum):
+class Completeness(StrEnum):
     COMPLETE = "Complete"
     INCOMPLETE_BEGINNING = "IncompleteBeginning"
     INCOMPLETE_END = "IncompleteEnd"
