@@ -133,12 +133,13 @@ def test_reaction_summary_by_group() -> None:
 def test_lct_normative_path_and_mdev() -> None:
     centers = [-3.5, 0.0, 3.5]
     signs = [LctSign(100.0, 1, 2), LctSign(250.0, 2, 0)]
-    model = NormativeModel(start_before_sign_m=30.0, change_length_m=20.0)
+    model = NormativeModel(start_before_sign_m=30.0, length_per_lane_m=20.0)
     d = np.linspace(0, 400, 4001)
     y = normative_path(d, signs, centers, 1, model)
     assert y[np.searchsorted(d, 50)] == pytest.approx(0.0)
     assert y[np.searchsorted(d, 80)] == pytest.approx(1.75)  # half-way through the first change
     assert y[np.searchsorted(d, 120)] == pytest.approx(3.5)
+    assert y[np.searchsorted(d, 230)] == pytest.approx(1.75)  # two lanes: twice the length, same gradient
     assert y[-1] == pytest.approx(-3.5)
     # a driver exactly on the normative path scores zero; one 0.5 m off everywhere 0.5
     assert lct_area_mean(d, y, y) == pytest.approx(0.0)
@@ -147,6 +148,7 @@ def test_lct_normative_path_and_mdev() -> None:
     late = normative_path(d, signs, centers, 1, NormativeModel(15.0, 20.0))
     res = lct_mdev(d, late, signs, centers, 1, model, visibility_m=40.0)
     expected = (15.0 * 3.5 + 15.0 * 7.0) / 400.0
+    assert res["adapted_length_per_lane_m"] == pytest.approx(20.0, rel=0.02)
     assert res["mdev_basic_m"] == pytest.approx(expected, rel=1e-3)
     # the adapted model learns the late start and scores the consistent driver ~0
     assert res["adapted_start_before_sign_m"] == pytest.approx(15.0, abs=0.2)

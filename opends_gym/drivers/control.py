@@ -44,3 +44,20 @@ def stanley_steering(
 def speed_pedal(speed_mps: float, target_mps: float, gain: float = 0.4) -> float:
     """Pedal (-1 brake .. +1 throttle) proportional to the speed error."""
     return max(-1.0, min(1.0, gain * (target_mps - speed_mps)))
+
+
+def pure_pursuit_steering(
+    yaw: float, road_heading: float, lateral_m: float, target_lateral_ahead_m: float, lookahead_m: float, wheelbase_m: float = 2.7
+) -> float:
+    """Steering input (-1..1, + left) towards the path point `lookahead_m` ahead.
+
+    Pure pursuit (Coulter 1992): the arc through the rear axle and the look-ahead point;
+    `target_lateral_ahead_m` is the path's lateral position at that distance along the road.
+    """
+    heading = wrap_angle(yaw - road_heading)
+    dy = target_lateral_ahead_m - lateral_m
+    ahead = lookahead_m * math.cos(heading) + dy * math.sin(heading)
+    left = -lookahead_m * math.sin(heading) + dy * math.cos(heading)
+    alpha = math.atan2(left, ahead)
+    delta = math.atan2(2.0 * wheelbase_m * math.sin(alpha), math.hypot(ahead, left))
+    return max(-1.0, min(1.0, delta / MAX_WHEEL_ANGLE_RAD))

@@ -27,7 +27,7 @@ import numpy as np
 from gymnasium.utils import EzPickle
 
 from ..metrics.headway import time_headway, time_to_collision
-from ..metrics.lateral import sdlp
+from ..metrics.lateral import lane_keeping_mask, sdlp
 from ..metrics.steering import reversal_rate
 from ..sim.controls import STEERING_WHEEL_MAX_DEG, DriverControls
 from ..sim.guide import RoadGuide
@@ -236,7 +236,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             "mean_speed_kmh": float(np.mean(tr.col("speed_mps")) * 3.6) if tr.n else math.nan,
             "fuel_used_l": self.world.ego.powertrain.state.fuel_used_l,
             "collisions": float(self.world.collisions),
-            "sdlp_m": sdlp(offsets, np.abs(offsets) < LANE_KEEPING_OFFSET_M),
+            "sdlp_m": sdlp(offsets, lane_keeping_mask(tr.col("t_s"), tr.col("lane_index"))),
             "steering_reversal_rate_per_min": reversal_rate(steer_deg, fs, gap_deg=2.0, cutoff_hz=0.6) if tr.n > 3 else math.nan,
             "mean_headway_s": float(np.mean(finite_h)) if len(finite_h) else math.nan,
             "min_ttc_s": float(np.min(finite_t)) if len(finite_t) else math.inf,

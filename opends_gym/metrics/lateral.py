@@ -32,3 +32,14 @@ def lane_exceedances(lateral_m: np.ndarray, half_lane_m: float, half_car_m: floa
     y = np.abs(np.asarray(lateral_m, dtype=float))
     out = y + half_car_m > half_lane_m
     return int(np.sum(out[1:] & ~out[:-1]) + (1 if len(out) and out[0] else 0))
+
+
+def lane_keeping_mask(t_s: np.ndarray, lane_index: np.ndarray, window_s: float = 2.5) -> np.ndarray:
+    """True for samples farther than `window_s` from any change of lane index (or off-lane)."""
+    t = np.asarray(t_s, dtype=float)
+    lane = np.asarray(lane_index, dtype=float)
+    keep = lane >= 0
+    changes = t[1:][lane[1:] != lane[:-1]]
+    for tc in changes:
+        keep &= np.abs(t - tc) > window_s
+    return keep

@@ -5,9 +5,10 @@ normative lane-change path, per metre driven. Two normative paths exist:
 
 * **basic** -- the same path for everyone: lane keeping on the lane centre, and at each
   sign a straight (constant-gradient) lane change that starts `start_before_sign_m`
-  before the sign and is `change_length_m` long;
+  before the sign and covers one lane width every `length_per_lane_m` (a change over two
+  lanes takes twice as long, at the same gradient);
 * **adapted** -- fitted per driver from their own lane changes (median start point and
-  length) and their habitual offset within the lane, so a consistent personal style is
+  gradient) and their habitual offset within the lane, so a consistent personal style is
   not scored as error (Tattegrain, Bruyas & Karmann, "Comparison between adaptive and
   basic model metrics in LCT").
 
@@ -37,10 +38,10 @@ class LctSign:
 
 @dataclass(frozen=True)
 class NormativeModel:
-    """Where lane changes start (metres before the sign), how long they are, lane offset."""
+    """Where lane changes start (m before the sign), their gradient (m per lane), lane offset."""
 
     start_before_sign_m: float
-    change_length_m: float
+    length_per_lane_m: float
     habitual_offset_m: float = 0.0
 
 
@@ -52,7 +53,7 @@ def normative_path(
     y = np.full(d.shape, float(lane_centers_m[initial_lane]))
     for sign in sorted(signs, key=lambda s: s.d_m):
         start = sign.d_m - model.start_before_sign_m
-        end = start + max(model.change_length_m, 1e-6)
+        end = start + max(model.length_per_lane_m * abs(sign.to_lane - sign.from_lane), 1e-6)
         y_from = float(lane_centers_m[sign.from_lane])
         y_to = float(lane_centers_m[sign.to_lane])
         ramp = np.clip((d - start) / (end - start), 0.0, 1.0)
@@ -77,7 +78,7 @@ class LaneChangeFit:
 
     sign: LctSign
     start_d_m: float  # NaN if the driver never left the old lane
-    length_m: float
+    length_m: float  # over the whole change (all lanes crossed)
     reached_target: bool
     latency_m: float  # start relative to the sign becoming visible
 
@@ -122,13 +123,13 @@ def fit_adapted_model(
     if not fits:
         return fallback
     start_before = float(np.median([f.sign.d_m - f.start_d_m for f in fits]))
-    length = float(np.median([f.length_m for f in fits]))
-    basic = normative_path(d, signs, lane_centers_m, signs[0].from_lane if signs else 0, NormativeModel(start_before, length))
+    per_lane = float(np.median([f.length_m / max(1, abs(f.sign.to_lane - f.sign.from_lane)) for f in fits]))
+    basic = normative_path(d, signs, lane_centers_m, signs[0].from_lane if signs else 0, NormativeModel(start_before, per_lane))
     keeping = np.ones(len(d), dtype=bool)
     for f in fits:
         keeping &= ~((d >= f.start_d_m) & (d <= f.start_d_m + f.length_m))
     offset = float(np.median(np.asarray(y)[keeping] - basic[keeping])) if np.any(keeping) else 0.0
-    return NormativeModel(start_before, length, offset)
+    return NormativeModel(start_before, per_lane, offset)
 
 
 def lct_mdev(
@@ -148,6 +149,6 @@ def lct_mdev(
         "mdev_basic_m": mean_deviation(d, y, y_basic),
         "mdev_adapted_m": mean_deviation(d, y, y_adapted),
         "adapted_start_before_sign_m": adapted.start_before_sign_m,
-        "adapted_change_length_m": adapted.change_length_m,
+        "adapted_length_per_lane_m": adapted.length_per_lane_m,
         "adapted_habitual_offset_m": adapted.habitual_offset_m,
     }

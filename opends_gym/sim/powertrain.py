@@ -2,10 +2,12 @@
 
 Why: human-factors users compare fuel use and engine behaviour with OpenDS, so the
 formulas are OpenDS's (OPENDS.md section 5), in SI units, per physics step. Where OpenDS
-turned power into a game-engine force with a tuning constant (`30 x P_accel`), we apply the
-same power physically (F = P / v, capped by the engine block's `acceleration`), and the
-gear "power share" OpenDS read from fitted per-gear polynomials is computed from the same
-bmep engine curve (the fitted coefficients are not public). Both are documented deviations.
+turned the surplus power P_accel = P_engine - P_load into a game-engine force with a tuning
+constant (`30 x P_accel x powerShare`), we apply it physically (F = P_accel / v, capped by
+the engine block's `acceleration`), with the road loads (tyre, air, grade) as forces on the
+body. The gear "power share" OpenDS read from fitted per-gear polynomials is computed from
+the same bmep engine curve (the fitted coefficients are not public) and picks the gear.
+Both are documented deviations; fuel follows OpenDS's formula exactly.
 
 Pure Python floats: this runs every physics step of every env, where numpy scalars cost
 more than they save.
@@ -248,11 +250,12 @@ class Powertrain:
         )
         st.p_engine_kw = p_engine
         st.p_load_kw = p_load
-        # drive force: the engine's power beyond accessories, delivered at the wheel
+        # drive force: OpenDS's P_accel = P_engine - P_load, with the road loads (tyre, air,
+        # grade) applied as forces on the body below and the inertia term being the
+        # acceleration itself; what remains to subtract are accessories and engine friction
         drive = 0.0
         if gas > 0.0 and gear != 0 and st.engine_on and gear_rpm_now <= eng.max_rpm:
-            share = self._full_power_kw(gear_rpm_now) / self.max_power_kw
-            p_wheel_kw = p_engine * share - ACCESSORIES_KW
+            p_wheel_kw = p_engine - ACCESSORIES_KW - inner_friction_kw(rpm)
             if p_wheel_kw > 0.0:
                 v = speed if speed > MIN_DRIVE_SPEED else MIN_DRIVE_SPEED
                 cap = m * eng.acceleration_mps2 * gas

@@ -1,0 +1,203 @@
+"""`OpenDS/LaneChangeTest-v0`: the ISO 26022-style Lane Change Test."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..metrics.lct import LctSign, NormativeModel, fit_lane_changes, lct_mdev, normative_path
+from ..task import DrivingTask
+from .base import OpenDSEnv
+from .config import EnvConfig
+from .lct_task import LctGeometry, LctSignSpec, build_lct_task, sign_sequence
+
+_GEOMETRY_FIELDS = {f.name for f in dataclasses.fields(LctGeometry)}
+
+
+@dataclass(frozen=True)
+class LaneChangeTestConfig(EnvConfig):
+    max_episode_s: float = 300.0
+    lanes: int = 3
+    lane_width_m: float = 3.85
+    speed_kmh: float = 60.0
+    signs: int = 18
+    spacing_min_m: float = 140.0
+    spacing_max_m: float = 190.0
+    visibility_m: float = 40.0
+    lead_in_m: float = 200.0
+    lead_out_m: float = 200.0
+    start_z_m: float = 0.0
+    track_seed: int = 1
+    hold_lane_s: float = 1.0
+    normative_start_before_sign_m: float = 30.0
+    normative_length_per_lane_m: float = 40.0
+    off_road_margin_m: float = 1.5
+    reward_scale: float = 0.1
+
+    def geometry(self) -> LctGeometry:
+        return LctGeometry(**{k: getattr(self, k) for k in _GEOMETRY_FIELDS})
+
+
+class LaneChangeTestEnv(OpenDSEnv):
+    """ISO 26022-style Lane Change Test: a straight three-lane road at a fixed 60 km/h;
+    pairs of signs, revealed `visibility_m` (40 m) ahead of the driver, tell which lane to
+    drive in. The drive is scored by the mean deviation (MDEV) of the lateral position
+    from a normative path: the basic model (lane change from `normative_start_before_sign_m`
+    before the sign over `normative_length_per_lane_m`) and the adapted model fitted to the
+    driver's own lane changes (see `opends_gym.metrics.lct`). Track geometry defaults and
+    their sources are in `opends_gym.envs.lct_task`; the bundled `tasks/LaneChangeTest` is
+    the default track.
+
+    ## Action space
+    Default `continuous`: Box(-1, 1, (2,)): [steering (+ left), pedal]. The speed is held
+    at 60 km/h by the car (engine min = max speed), as in the ISO test with the pedal
+    floored; braking still slows the car.
+
+    ## Observation space
+    Default `kinematics` (see `DrivingTaskEnv`) plus three stimulus slots:
+    `sign_visible` (0/1), `instructed_lane_offset_m` (lateral position of the instructed
+    lane's centre relative to the car, m, + left), `sign_distance_m` (to the revealed
+    sign ahead, 0 when none).
+
+    ## Reward
+    -`reward_scale` x the area (m x m) between the driven and the basic normative lateral
+    path over the step, so the return is -reward_scale x MDEV x distance driven.
+
+    ## Episode end
+    Terminated when the car reaches the end of the track (the task pauses the simulation),
+    leaves the road by more than `off_road_margin_m`, or collides; truncated after
+    `max_episode_s` (300 s; the track takes ~195 s).
+
+    ## Info
+    The keys of `OpenDSEnv`; `mean_deviation_m` is the running MDEV against the basic
+    model. `episode_metrics` adds: mdev_basic_m, mdev_adapted_m, the adapted model's
+    parameters, lane_changes (signs passed), lane_changes_correct (target lane reached),
+    lane_change_errors, mean_lane_change_latency_s (sign visible to start of the move),
+    and per sign `sign07_latency_s`, `sign07_reached`, `sign07_timer_result` (OpenDS's
+    lane-change reaction timer: 1 correct, -1 failure, -2 missed, 0 not armed).
+
+    ## Arguments
+    Every `EnvConfig` field (physics, policy_hz, observation, action, ...) and the track:
+    lanes, lane_width_m, speed_kmh, signs, spacing_min_m, spacing_max_m, visibility_m,
+    lead_in_m, lead_out_m, track_seed, hold_lane_s, normative_start_before_sign_m,
+    normative_length_per_lane_m, off_road_margin_m, reward_scale.
+
+    ## Version history
+    v0: initial release.
+    """
+
+    config_class = LaneChangeTestConfig
+    stimulus_names = ("sign_visible", "instructed_lane_offset_m", "sign_distance_m")
+
+    def _make_task(self) -> DrivingTask:
+        assert isinstance(self.config, LaneChangeTestConfig)
+        self.geometry = self.config.geometry()
+        return build_lct_task(self.geometry)
+
+    def _setup(self) -> None:
+        g = self.geometry
+        self.sign_specs: list[LctSignSpec] = sign_sequence(g)
+        # distance along the track of each sign (the guide measures s from the start)
+        self.metric_signs = [LctSign(g.start_z_m - s.z_m, s.from_lane, s.to_lane) for s in self.sign_specs]
+        self.lane_laterals = list(self.guide.lane_laterals_m)
+        self.initial_lane = g.lanes // 2
+        self.basic = NormativeModel(g.normative_start_before_sign_m, g.normative_length_per_lane_m)
+        self._sign_models = [self.world.objects.by_id[f"LCT_Sign{s.index:02d}_Left"][0] for s in self.sign_specs]
+        # the normative path tabulated every 0.05 m: one lookup per physics step
+        length = self.metric_signs[-1].d_m + g.lead_out_m + 50.0
+        self._norm_step = 0.05
+        d = np.arange(-20.0, length, self._norm_step)
+        self._norm_d0 = float(d[0])
+        self._norm = normative_path(d, self.metric_signs, self.lane_laterals, self.initial_lane, self.basic).tolist()
+        self.half_road = g.lanes * g.lane_width_m / 2
+
+    def _norm_at(self, d: float) -> float:
+        i = int((d - self._norm_d0) / self._norm_step)
+        table = self._norm
+        return table[0] if i < 0 else table[-1] if i >= len(table) else table[i]
+
+    def _reset_task(self, options: dict[str, Any] | None) -> None:
+        self._area = 0.0
+        self._step_area = 0.0
+        self._prev: tuple[float, float] | None = None
+
+    def _on_physics_step(self) -> None:
+        tr = self.trace
+        d = float(self.world.task.start_pose.position_m[2]) - tr.last("z_m")
+        dev = abs(tr.last("lateral_m") - self._norm_at(d))
+        if self._prev is not None:
+            d0, dev0 = self._prev
+            a = 0.5 * (dev + dev0) * (d - d0)
+            self._area += a
+            self._step_area += a
+        self._prev = (d, dev)
+
+    def _active_sign(self) -> LctSignSpec | None:
+        active = None
+        for spec, model in zip(self.sign_specs, self._sign_models):
+            if model.visible:
+                active = spec
+        return active
+
+    def _stimulus(self) -> list[float]:
+        s = self.world.ego.state
+        lat = self.guide.locate(s.x, s.z).lateral_m
+        sign = self._active_sign()
+        lane = sign.to_lane if sign is not None else self.initial_lane
+        distance = max(0.0, s.z - sign.z_m) if sign is not None else 0.0
+        visible = 1.0 if sign is not None and distance > 0.0 else 0.0
+        return [visible, self.lane_laterals[lane] - lat, distance]
+
+    def _reward(self, info: dict[str, Any]) -> float:
+        r = -self.config.reward_scale * self._step_area  # type: ignore[attr-defined]
+        self._step_area = 0.0
+        return r - 10.0 * float(info["new_collisions"])
+
+    def _task_info(self, info: dict[str, Any]) -> None:
+        dist = self._prev[0] if self._prev else 0.0
+        info["mean_deviation_m"] = self._area / dist if dist > 0 else 0.0
+
+    def _task_terminated(self) -> bool:
+        return abs(self.trace.last("lateral_m")) > self.half_road + self.config.off_road_margin_m  # type: ignore[attr-defined]
+
+    def _episode_metrics(self) -> dict[str, float]:
+        tr = self.trace
+        g = self.geometry
+        d = float(self.world.task.start_pose.position_m[2]) - tr.col("z_m")
+        y = tr.col("lateral_m")
+        passed = [s for s in self.metric_signs if s.d_m <= d[-1]]
+        out: dict[str, float] = {}
+        if len(d) > 1 and passed:
+            out.update(lct_mdev(d, y, passed, self.lane_laterals, self.initial_lane, self.basic, g.visibility_m))
+        else:
+            out.update({"mdev_basic_m": math.nan, "mdev_adapted_m": math.nan})
+        fits = fit_lane_changes(d, y, passed, self.lane_laterals, g.visibility_m) if passed else []
+        timer = self._timer_results()
+        latencies = []
+        for k, f in enumerate(fits):
+            latency_s = f.latency_m / (g.speed_kmh / 3.6) if math.isfinite(f.latency_m) else math.nan
+            if math.isfinite(latency_s):
+                latencies.append(latency_s)
+            out[f"sign{k:02d}_latency_s"] = latency_s
+            out[f"sign{k:02d}_reached"] = float(f.reached_target)
+            out[f"sign{k:02d}_timer_result"] = float(timer.get(k, 0))
+        correct = sum(1 for f in fits if f.reached_target)
+        out["lane_changes"] = float(len(fits))
+        out["lane_changes_correct"] = float(correct)
+        out["lane_change_errors"] = float(len(fits) - correct)
+        out["mean_lane_change_latency_s"] = float(np.mean(latencies)) if latencies else math.nan
+        return out
+
+    def _timer_results(self) -> dict[int, int]:
+        """OpenDS lane-change timer results by sign index (parsed from the timer comment)."""
+        out: dict[int, int] = {}
+        for r in getattr(self.world.triggers, "reactions", ()):
+            m = re.match(r"sign (\d+):", getattr(r, "comment", "") or "")
+            if m:
+                out[int(m.group(1))] = int(r.result)
+        return out
