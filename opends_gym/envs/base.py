@@ -6,13 +6,15 @@ calls small hooks that task envs override (`_make_task`, `_setup`, `_reset_task`
 `_on_physics_step`, `_stimulus`, `_reward`, `_task_terminated`, `_task_info`,
 `_episode_metrics`).
 
-Info keys (numbers, so they batch in vector envs; NaN when not applicable):
+Info keys (finite numbers or inf, never NaN, so they batch in vector envs and compare
+equal across seeded runs):
   sim_time_s, speed_kmh, lateral_offset_m (from the lane centre, + left), lane_index
   (-1 off the lanes), fuel_used_l, collisions (count so far), reaction_result (1 correct,
-  -1 failure, -2 missed, 0 none this step), reaction_time_s (of that reaction),
-  mean_deviation_m (running; the final OpenDS/ISO value is in episode_metrics),
-  sdlp_m (running, lane-keeping samples), headway_s (front-to-front to the lead, inf
-  without one), ttc_s (inf unless closing in).
+  -1 failure, -2 missed, 0 none this step), reaction_time_s (of that reaction; 0 when
+  none; misses are 10 s as OpenDS's 10000 ms), mean_deviation_m (running; the final
+  OpenDS/ISO value is in episode_metrics), sdlp_m (running over lane-keeping samples, 0
+  until there are two), headway_s (front-to-front to the lead, inf without one), ttc_s
+  (inf unless closing in).
   `events`: tuple of event dicts emitted this step (the documented non-numeric key).
   `episode_metrics`: dict of the task's summary, present only on the last step.
 """
@@ -189,7 +191,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
     def _new_reaction(self) -> tuple[float, float]:
         reactions = getattr(self.world.triggers, "reactions", ())
         if len(reactions) <= self._reaction_cursor:
-            return 0.0, math.nan
+            return 0.0, 0.0
         last = reactions[-1]
         self._reaction_cursor = len(reactions)
         return float(last.result), float(last.reaction_time_s)
@@ -298,7 +300,7 @@ class RunningLateral:
 
     @property
     def sdlp_m(self) -> float:
-        return math.sqrt(self.m2 / self.n) if self.n >= 2 else math.nan
+        return math.sqrt(self.m2 / self.n) if self.n >= 2 else 0.0
 
     @property
     def mean_deviation_m(self) -> float:

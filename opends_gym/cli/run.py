@@ -1,0 +1,143 @@
+"""`opends-gym run ENV_OR_TASK --agent ...`: drive episodes and print the metrics.
+
+ENV_OR_TASK is an env id (`OpenDS/LaneChangeTest-v0`, or just `LaneChangeTest`) or a
+task (folder, entry file, bundled name), which runs in `OpenDS/DrivingTask-v0`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import sys
+import time
+from typing import Any
+
+import gymnasium as gym
+
+from ..metrics.stats import mean_ci
+
+PER_ITEM = re.compile(r"^sign\d+_|\[")  # per-sign / per-track keys stay in the JSON only
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("target", nargs="?", default="OpenDS/LaneChangeTest-v0", help="env id or task (default: the lane change test)")
+    p.add_argument("--agent", default="random", help="random | constant[:STEER,PEDAL] | rule | distracted[:LEVEL] | ppo:PATH")
+    p.add_argument("--episodes", type=int, default=1)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--physics", choices=("fast", "bullet"), default="fast")
+    p.add_argument("--max-seconds", type=float, default=None, help="simulated seconds per episode (truncates)")
+    p.add_argument("--record", default=None, help="record each episode to this MCAP file (episode number appended)")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
+    p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
+
+
+def resolve_env_id(target: str) -> tuple[str, dict[str, Any]]:
+    import opends_gym  # noqa: F401  (registers the ids)
+
+    if target in gym.registry:
+        return target, {}
+    for candidate in (f"OpenDS/{target}", f"OpenDS/{target}-v0"):
+        if candidate in gym.registry:
+            return candidate, {}
+    return "OpenDS/DrivingTask-v0", {"task": target}
+
+
+def _parse_value(text: str) -> Any:
+    for conv in (int, float):
+        try:
+            return conv(text)
+        except ValueError:
+            pass
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
+    return text
+
+
+def run_episodes(args: argparse.Namespace) -> dict[str, Any]:
+    from ..drivers.agents import make_agent
+
+    env_id, kwargs = resolve_env_id(args.target)
+    kwargs["physics"] = args.physics
+    if args.max_seconds is not None:
+        kwargs["max_episode_s"] = args.max_seconds
+    for item in args.env_arg:
+        key, _, value = item.partition("=")
+        kwargs[key] = _parse_value(value)
+    agent = make_agent(args.agent)
+    env = gym.make(env_id, **kwargs)
+    episodes = []
+    try:
+        for k in range(args.episodes):
+            seed = args.seed + k
+            recorder = None
+            if args.record:
+                from ..record import attach_recorder
+
+                recorder = attach_recorder(
+                    env.unwrapped, args.record, episode=k, seed=seed, config={"env_id": env_id, **kwargs, "agent": args.agent}
+                )
+            obs, info = env.reset(seed=seed)
+            agent.reset(env, seed)
+            steps, ret, start = 0, 0.0, time.perf_counter()
+            while True:
+                obs, reward, terminated, truncated, info = env.step(agent.act(obs, info))
+                ret += float(reward)
+                steps += 1
+                if terminated or truncated:
+                    break
+            row = {
+                "episode": k,
+                "seed": seed,
+                "return": ret,
+                "steps": steps,
+                "terminated": bool(terminated),
+                "wall_s": time.perf_counter() - start,
+            }
+            row.update(info.get("episode_metrics", {}))
+            if recorder is not None:
+                row["recording"] = str(recorder.close())
+            episodes.append(row)
+    finally:
+        env.close()
+    keys = [k for k in episodes[0] if k not in ("episode", "seed", "terminated", "recording") and not PER_ITEM.search(k)]
+    summary = {}
+    for key in keys:
+        ci = mean_ci(float(e[key]) for e in episodes if isinstance(e.get(key), (int, float)))
+        summary[key] = {"mean": ci.mean, "low": ci.low, "high": ci.high, "n": ci.n}
+    return {"env_id": env_id, "env_kwargs": kwargs, "agent": args.agent, "episodes": episodes, "summary": summary}
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return "nan" if math.isnan(v) else f"{v:.4g}"
+    return str(v)
+
+
+def print_tables(result: dict[str, Any]) -> None:
+    eps = result["episodes"]
+    keys = list(result["summary"])
+    print(f"{result['env_id']}  agent={result['agent']}  episodes={len(eps)}")
+    width = max(len(k) for k in keys) + 2
+    header = "metric".ljust(width) + "".join(f"ep{e['episode']}".rjust(12) for e in eps) + "   mean [95% CI]"
+    print(header)
+    print("-" * len(header))
+    for k in keys:
+        s = result["summary"][k]
+        ci = (
+            ""
+            if s["n"] == 0
+            else (_fmt(s["mean"]) if s["n"] < 2 or math.isnan(s["low"]) else f"{_fmt(s['mean'])} [{_fmt(s['low'])}, {_fmt(s['high'])}]")
+        )
+        print(k.ljust(width) + "".join(_fmt(e.get(k, "")).rjust(12) for e in eps) + "   " + ci)
+
+
+def run(args: argparse.Namespace) -> int:
+    result = run_episodes(args)
+    if args.json:
+        json.dump(result, sys.stdout, default=lambda o: None if isinstance(o, float) and math.isnan(o) else str(o))
+        sys.stdout.write("\n")
+    else:
+        print_tables(result)
+    return 0

@@ -1,0 +1,71 @@
+"""Agents that `opends-gym run` (and benchmarks) can drive an env with, by spec string.
+
+Why: one place turns `--agent random`, `constant:0,0.5`, `rule`, `distracted:heavy` or
+`ppo:PATH` into an object with `reset(env, seed)` and `act(obs, info)`, so the CLI, the
+benchmarks and the tests run every driver the same way.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, Protocol
+
+import gymnasium as gym
+import numpy as np
+
+
+class Agent(Protocol):
+    name: str
+
+    def reset(self, env: gym.Env[Any, Any], seed: int) -> None: ...
+
+    def act(self, obs: Any, info: dict[str, Any]) -> Any: ...
+
+
+class RandomAgent:
+    """Uniform random actions from the env's action space, seeded per episode."""
+
+    name = "random"
+
+    def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
+        self.space = env.action_space
+        self.space.seed(seed)
+
+    def act(self, obs: Any, info: dict[str, Any]) -> Any:
+        return self.space.sample()
+
+
+class ConstantAgent:
+    """The same action every step (`constant:STEER,PEDAL`, default straight at half throttle)."""
+
+    name = "constant"
+
+    def __init__(self, values: tuple[float, ...] = (0.0, 0.5)) -> None:
+        self.values = values
+
+    def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
+        space = env.action_space
+        if isinstance(space, gym.spaces.Discrete):
+            self.action: Any = int(self.values[0]) if self.values else 0
+            return
+        a = np.zeros(space.shape, dtype=np.float32)
+        a[: len(self.values)] = self.values[: a.size]
+        self.action = a
+
+    def act(self, obs: Any, info: dict[str, Any]) -> Any:
+        return self.action
+
+
+AGENT_FACTORIES: dict[str, Callable[[str], Agent]] = {
+    "random": lambda arg: RandomAgent(),
+    "constant": lambda arg: ConstantAgent(tuple(float(v) for v in arg.split(",")) if arg else (0.0, 0.5)),
+}
+
+
+def make_agent(spec: str) -> Agent:
+    """`name[:argument]` -> agent; raises ValueError listing the known names."""
+    name, _, arg = spec.partition(":")
+    factory = AGENT_FACTORIES.get(name)
+    if factory is None:
+        raise ValueError(f"unknown agent {name!r}; choose from {', '.join(sorted(AGENT_FACTORIES))}")
+    return factory(arg)
