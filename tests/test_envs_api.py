@@ -116,7 +116,7 @@ def test_vector_envs_batch_infos(mode: str) -> None:
     obs, infos = envs.reset(seed=[1, 2])
     assert obs.shape[0] == 2
     for _ in range(5):
-        obs, rewards, term, trunc, infos = envs.step(envs.action_space.sample())
+        obs, _, _, _, infos = envs.step(envs.action_space.sample())
     for key in (
         "sim_time_s",
         "speed_kmh",

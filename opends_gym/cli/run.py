@@ -28,7 +28,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--physics", choices=("fast", "bullet"), default="fast")
     p.add_argument("--max-seconds", type=float, default=None, help="simulated seconds per episode (truncates)")
-    p.add_argument("--record", default=None, help="record each episode to this MCAP file (episode number appended)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
     p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
 
@@ -96,8 +95,6 @@ def run_episodes(args: argparse.Namespace) -> dict[str, Any]:
                 "wall_s": time.perf_counter() - start,
             }
             row.update(info.get("episode_metrics", {}))
-            if recorder is not None:
-                row["recording"] = str(recorder.close())
             episodes.append(row)
     finally:
         env.close()

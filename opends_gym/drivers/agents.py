@@ -48,7 +48,7 @@ class ConstantAgent:
         if isinstance(space, gym.spaces.Discrete):
             self.action: Any = int(self.values[0]) if self.values else 0
             return
-        a = np.zeros(space.shape, dtype=np.float32)
+        a = np.zeros(tuple(space.shape or ()), dtype=np.float32)
         a[: len(self.values)] = self.values[: a.size]
         self.action = a
 

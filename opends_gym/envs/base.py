@@ -47,7 +47,7 @@ LANE_KEEPING_OFFSET_M = 1.0  # |offset from lane centre| below which a sample co
 class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
     """Base class; see the module docstring for the shared info keys."""
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+    metadata: dict[str, Any] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}  # noqa: RUF012
     config_class: ClassVar[type[EnvConfig]] = EnvConfig
     stimulus_names: ClassVar[tuple[str, ...]] = ()
 
@@ -189,7 +189,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         tr.append((w.t_s, s.x, s.z, s.yaw, s.u, p.lateral_m, offset, float(lane), inp.steering, inp.accelerator, inp.brake, headway, ttc))
 
     def _new_reaction(self) -> tuple[float, float]:
-        reactions = getattr(self.world.triggers, "reactions", ())
+        reactions: Any = getattr(self.world.triggers, "reactions", ())
         if len(reactions) <= self._reaction_cursor:
             return 0.0, 0.0
         last = reactions[-1]
@@ -230,7 +230,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         finite_h = headway[np.isfinite(headway)]
         ttc = tr.col("ttc_s")
         finite_t = ttc[np.isfinite(ttc)]
-        reactions = getattr(self.world.triggers, "reactions", ())
+        reactions: Any = getattr(self.world.triggers, "reactions", ())
         correct = [r for r in reactions if r.result == 1]
         out: dict[str, float] = {
             "duration_s": self.world.t_s,

@@ -79,7 +79,7 @@ class DetectionResponseTask(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordCon
         info["drt_stimulus_on"] = 1.0 if (t_now - last) < self.stimulus_s and not answered else 0.0
         if "episode_metrics" in info:
             info["episode_metrics"].update(self.drt_metrics())
-        return obs, reward, terminated, truncated, info
+        return obs, float(reward), terminated, truncated, info
 
     def drt_metrics(self) -> dict[str, float]:
         s = score_drt(self.onsets, self.responses)
