@@ -70,13 +70,6 @@ def run_episodes(args: argparse.Namespace) -> dict[str, Any]:
     try:
         for k in range(args.episodes):
             seed = args.seed + k
-            recorder = None
-            if args.record:
-                from ..record import attach_recorder
-
-                recorder = attach_recorder(
-                    env.unwrapped, args.record, episode=k, seed=seed, config={"env_id": env_id, **kwargs, "agent": args.agent}
-                )
             obs, info = env.reset(seed=seed)
             agent.reset(env, seed)
             steps, ret, start = 0, 0.0, time.perf_counter()

@@ -47,7 +47,7 @@ LANE_KEEPING_OFFSET_M = 1.0  # |offset from lane centre| below which a sample co
 class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
     """Base class; see the module docstring for the shared info keys."""
 
-    metadata: dict[str, Any] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}  # noqa: RUF012
+    metadata: dict[str, Any] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
     config_class: ClassVar[type[EnvConfig]] = EnvConfig
     stimulus_names: ClassVar[tuple[str, ...]] = ()
 
