@@ -69,6 +69,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         self.action_space = self.act_type.space()
         self.trace = Trace()
         self._run = RunningLateral()
+        self.controls = DriverControls()
         self._renderer: Any = None
         self._window: Any = None
         self._episode_over = False
@@ -83,8 +84,12 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
     def _reset_task(self, options: dict[str, Any] | None) -> None:
         """After the World is reset, before the first observation."""
 
+    def _transform_controls(self, controls: DriverControls) -> DriverControls:
+        """What actually drives the car (ConTRe drives it itself and keeps the agent's)."""
+        return controls
+
     def _on_physics_step(self) -> None:
-        """After every physics step (accumulate task measures)."""
+        """After every physics step (accumulate task measures); `self.controls` is current."""
 
     def _stimulus(self) -> list[float]:
         """Task stimulus features appended to vector observations (`stimulus_names`)."""
@@ -124,9 +129,10 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._episode_over:
             raise RuntimeError("step() called after the episode ended; call reset() first")
-        controls = self.act_type.to_controls(action)
+        controls = self._transform_controls(self.act_type.to_controls(action))
         world = self.world
         for k in range(self.config.action_repeat):
+            self.controls = controls
             world.step(controls)
             self._record_row()
             self._on_physics_step()

@@ -1,0 +1,97 @@
+"""`OpenDS/BrakeReaction-v0`: brake reactions to a lead vehicle and to signs."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..metrics.reaction import brake_reaction_time
+from ..task import DrivingTask
+from .platoon import PlatoonConfig, ThreeVehiclePlatoonEnv
+from .platoon_task import brake_geometry, build_platoon_task
+
+
+@dataclass(frozen=True)
+class BrakeReactionConfig(PlatoonConfig):
+    speed_kmh: float = 70.0
+    stimuli: int = 9
+    action: str = "continuous"
+
+
+class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
+    """Brake reaction test: follow a leading car (kept 20-50 m ahead) at ~70 km/h and brake
+    when (a) its brake light comes on, (b) it brakes hard (emergency brake to a stop), or
+    (c) a "Brake" sign is revealed over the lane (an OpenDS brake reaction timer: slow to
+    <= 40 km/h and hold 1 s within 7 s). Stimuli alternate in a seeded order
+    (`opends_gym.envs.platoon_task`).
+
+    ## Action space
+    Default `continuous`: Box(-1, 1, (2,)): [steering (+ left), pedal (+ gas, - brake)].
+
+    ## Observation space
+    `kinematics` plus the platoon stimulus slots (lead gap, relative speed, brake light,
+    turn signal; the follower slots stay 0) and `brake_sign_visible`.
+
+    ## Reward
+    +1 per correct reaction, -1 per miss or failure, -10 per collision.
+
+    ## Episode end
+    Terminated at the end of the track or on a collision; truncated after `max_episode_s`.
+
+    ## Info
+    `OpenDSEnv`'s keys; `episode_metrics` adds the platoon stimulus measures for the
+    lead-car stimuli, the brake-sign timer results (`BrakeSign_correct`,
+    `BrakeSign_misses`, `BrakeSign_mean_rt_s`) and, over all lead-car stimuli, the mean
+    accelerator-release time and brake-onset time after stimulus onset
+    (`accelerator_release_s`, `brake_onset_s`; the latter is the brake reaction time).
+
+    ## Version history
+    v0: initial release.
+    """
+
+    config_class = BrakeReactionConfig
+    stimulus_names = ThreeVehiclePlatoonEnv.stimulus_names + ("brake_sign_visible",)
+    with_follower = False
+
+    def _make_task(self) -> DrivingTask:
+        return build_platoon_task(brake_geometry(self.config.track_seed, self.config.stimuli), name="brakeReaction")  # type: ignore[attr-defined]
+
+    def _setup(self) -> None:
+        super()._setup()
+        self._signs = [objs[0] for oid, objs in self.world.objects.by_id.items() if oid.endswith("_Sign")]
+
+    def _stimulus(self) -> list[float]:
+        z = self.world.ego.state.z
+        visible = any(o.visible and o.position[2] < z for o in self._signs)
+        return super()._stimulus() + [1.0 if visible else 0.0]
+
+    def _reward(self, info: dict[str, Any]) -> float:
+        r = super()._reward(info)
+        if info["reaction_result"] == 1:
+            r += 1.0
+        elif info["reaction_result"] < 0:
+            r -= 1.0
+        return r
+
+    def _episode_metrics(self) -> dict[str, float]:
+        out = super()._episode_metrics()
+        reactions = [r for r in getattr(self.world.triggers, "reactions", ()) if r.group == "BrakeSign"]
+        rts = [r.reaction_time_s for r in reactions if r.result == 1]
+        out["BrakeSign_n"] = float(len(reactions))
+        out["BrakeSign_correct"] = float(sum(1 for r in reactions if r.result == 1))
+        out["BrakeSign_misses"] = float(sum(1 for r in reactions if r.result == -2))
+        out["BrakeSign_mean_rt_s"] = float(np.mean(rts)) if rts else math.nan
+        tr = self.trace
+        releases, onsets = [], []
+        for st in self.platoon.state.stimuli:
+            if st.kind in ("brakeLight", "emergencyBrake"):
+                b = brake_reaction_time(tr.col("t_s"), tr.col("accelerator"), tr.col("brake"), st.onset_s)
+                releases.append(b.accelerator_release_s)
+                onsets.append(b.brake_onset_s)
+        finite = [v for v in onsets if math.isfinite(v)]
+        out["accelerator_release_s"] = float(np.nanmean(releases)) if any(math.isfinite(v) for v in releases) else math.nan
+        out["brake_onset_s"] = float(np.mean(finite)) if finite else math.nan
+        return out

@@ -1,0 +1,131 @@
+"""`OpenDS/ThreeVehiclePlatoon-v0`: the Three-Vehicle Platoon Task (TVPT)."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..sim.perception import lead_vehicle
+from ..task import DrivingTask
+from .base import OpenDSEnv
+from .config import EnvConfig
+from .platoon_core import PlatoonCore
+from .platoon_task import PlatoonGeometry, build_platoon_task
+
+_GEOMETRY = {f.name for f in dataclasses.fields(PlatoonGeometry)} - {"kinds", "follower"}
+
+
+@dataclass(frozen=True)
+class PlatoonConfig(EnvConfig):
+    max_episode_s: float = 300.0
+    lane_width_m: float = 3.75
+    speed_kmh: float = 80.0
+    stimuli: int = 10
+    spacing_min_m: float = 250.0
+    spacing_max_m: float = 400.0
+    lead_in_m: float = 300.0
+    lead_out_m: float = 300.0
+    lead_gap_m: float = 30.0
+    follower_gap_m: float = 10.0
+    track_seed: int = 1
+    action: str = "continuous_buttons"
+
+
+class ThreeVehiclePlatoonEnv(OpenDSEnv):
+    """The Three-Vehicle Platoon Task: drive between a leading car (kept 20-50 m ahead) and
+    a follower (5-15 m behind) on a two-lane road at ~80 km/h, hold the longitudinal
+    (20-35 m to the lead) and lateral (-2..3 m) tolerance bands, and react within 5 s to
+    stimuli: the lead's brake light (brake), a turn signal of the lead or the follower
+    (press the reaction button or indicate), a speed reduction of the lead to 50 km/h
+    (slow down) and an emergency brake of the lead (brake). Parameters come from the
+    task's `task.xml` (the defaults are OpenDS-CTS's TVPT values); the stimulus rules are
+    documented in `opends_gym.envs.platoon_core`.
+
+    ## Action space
+    Default `continuous_buttons`: Box(-1, 1, (6,)): steering, pedal, then buttons
+    reaction, horn, left and right indicator (> 0 = held).
+
+    ## Observation space
+    `kinematics` plus `lead_gap_m`, `lead_rel_speed_mps`, `lead_brake_light`,
+    `lead_turn_signal`, `follower_gap_m`, `follower_turn_signal` (turn signal codes
+    0 off, 1 left, 2 right, 3 both).
+
+    ## Reward
+    +1 per correct reaction, -1 per miss, -0.1 x (longitudinal + lateral deviation
+    outside the bands, m) per step, -10 per collision.
+
+    ## Episode end
+    Terminated at the end of the track (the task pauses the simulation) or on a
+    collision; truncated after `max_episode_s` (300 s).
+
+    ## Info
+    `OpenDSEnv`'s keys; `episode_metrics` adds longitudinal/lateral deviation (mean m,
+    max m, fraction of time outside the band), per stimulus kind `<kind>_n`,
+    `<kind>_misses`, `<kind>_mean_rt_s`, and `stimuli`, `stimulus_misses`,
+    `stimulus_mean_rt_s`.
+
+    ## Version history
+    v0: initial release.
+    """
+
+    config_class = PlatoonConfig
+    stimulus_names = ("lead_gap_m", "lead_rel_speed_mps", "lead_brake_light", "lead_turn_signal", "follower_gap_m", "follower_turn_signal")
+    with_follower = True
+
+    def geometry(self) -> PlatoonGeometry:
+        return PlatoonGeometry(**{k: getattr(self.config, k) for k in _GEOMETRY})
+
+    def _make_task(self) -> DrivingTask:
+        return build_platoon_task(self.geometry())
+
+    def _setup(self) -> None:
+        spec = self.task.task.three_vehicle_platoon if self.task.task else None
+        assert spec is not None, "the task has no threeVehiclePlatoon block"
+        self.platoon = PlatoonCore(self.world, spec, None, with_follower=self.with_follower)
+        self.world.triggers.add_action_handler("setTVPTStimulus", lambda args: self.platoon.handle_action(args))
+        self._reward_acc = 0.0
+
+    def _reset_task(self, options: dict[str, Any] | None) -> None:
+        self.platoon.reset(np.random.default_rng(int(self.np_random.integers(0, 2**31 - 1))))
+        self._reward_acc = 0.0
+        self._seen_results = 0
+
+    def _on_physics_step(self) -> None:
+        c = self.controls
+        inp = self.world.ego.inputs
+        pressed = bool(c.keys or c.buttons)
+        self.platoon.step(inp.accelerator, inp.brake, pressed, inp.turn_signal, self.trace.last("lane_offset_m"))
+        st = self.platoon.state
+        if st.lon_dev:
+            self._reward_acc -= 0.1 * (st.lon_dev[-1] + (st.lat_dev[-1] if st.lat_dev else 0.0)) / self.config.action_repeat
+
+    def _stimulus(self) -> list[float]:
+        traffic = self.world.traffic
+        assert traffic is not None
+        lead = lead_vehicle(self.world)
+        li = traffic.index_of(self.platoon.lead)
+        fi = traffic.index_of(self.platoon.follower)
+        follower_gap = -(self.platoon._distance_to(self.platoon.follower) or 0.0) if self.with_follower else 0.0
+        return [
+            lead.gap_m if lead is not None else 0.0,
+            (lead.speed_mps - self.world.ego.state.u) if lead is not None else 0.0,
+            float(traffic.brake_light[li]),
+            float(traffic.turn_signal[li]),
+            follower_gap,
+            float(traffic.turn_signal[fi]) if self.with_follower else 0.0,
+        ]
+
+    def _reward(self, info: dict[str, Any]) -> float:
+        r = self._reward_acc
+        self._reward_acc = 0.0
+        results = [s.result for s in self.platoon.state.stimuli if s.result != 0]
+        for res in results[self._seen_results :]:
+            r += 1.0 if res == 1 else -1.0
+        self._seen_results = len(results)
+        return r - 10.0 * float(info["new_collisions"])
+
+    def _episode_metrics(self) -> dict[str, float]:
+        return self.platoon.metrics()
