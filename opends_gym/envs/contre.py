@@ -87,7 +87,8 @@ class ConTReEnv(OpenDSEnv):
     def _setup(self) -> None:
         st = self.task.task.steering_task if self.task.task else None
         assert st is not None and st.target_object is not None and st.steering_object is not None, "the task has no ConTRe steeringTask"
-        self.spec: SteeringTask = st
+        self.contre: SteeringTask = st
+        self.target_speed: float = 0.0
         flight = self.task.scenario.driver.camera_flight
         points = {g.id: g.translation_m for g in self.task.scene.geometries if isinstance(g, Point)}
         track = [p.translation_m or points[p.ref] for p in (flight.track if flight else ())]
@@ -101,14 +102,14 @@ class ConTReEnv(OpenDSEnv):
 
     def _reset_task(self, options: dict[str, Any] | None) -> None:
         self.rng = np.random.default_rng(int(self.np_random.integers(0, 2**31 - 1)))
-        t, s = self.spec.target_object, self.spec.steering_object
+        t, s = self.contre.target_object, self.contre.steering_object
         assert t is not None and s is not None
         self.target_speed = t.speed
         self.target_l = 0.0
         self.steer_l = 0.0
         self.goal_l = self._new_goal()
         self.pause_until = 0.0
-        p = self.spec.primary_task
+        p = self.contre.primary_task
         self.light = LIGHT_OFF
         self.light_on_s = 0.0
         self.next_light_s = self._pause(p)
@@ -119,7 +120,7 @@ class ConTReEnv(OpenDSEnv):
         self._reward_acc = 0.0
 
     def _new_goal(self) -> float:
-        t = self.spec.target_object
+        t = self.contre.target_object
         assert t is not None
         return float(self.rng.uniform(-t.max_right_m, t.max_left_m))
 
@@ -142,7 +143,7 @@ class ConTReEnv(OpenDSEnv):
     def _on_physics_step(self) -> None:
         w = self.world
         dt = w.dt_s
-        t, so = self.spec.target_object, self.spec.steering_object
+        t, so = self.contre.target_object, self.contre.steering_object
         assert t is not None and so is not None
         # steering bar
         self.steer_l = min(so.max_left_m, max(-so.max_right_m, self.steer_l + self._agent.steering * so.speed * dt))
@@ -153,12 +154,12 @@ class ConTReEnv(OpenDSEnv):
             if abs(d) <= step:
                 self.target_l = self.goal_l
                 self.goal_l = self._new_goal()
-                self.pause_until = w.t_s + (self.spec.pause_after_target_set_s or 0.0)
+                self.pause_until = w.t_s + (self.contre.pause_after_target_set_s or 0.0)
             else:
                 self.target_l += math.copysign(step, d)
         dev = abs(self.steer_l - self.target_l)
-        if self.spec.max_deviation_m is not None:
-            dev = min(dev, self.spec.max_deviation_m)
+        if self.contre.max_deviation_m is not None:
+            dev = min(dev, self.contre.max_deviation_m)
         self.deviations.append(dev)
         self._reward_acc -= self.config.deviation_reward_scale * dev / self.config.action_repeat  # type: ignore[attr-defined]
         self._lights()
@@ -166,7 +167,7 @@ class ConTReEnv(OpenDSEnv):
 
     def _lights(self) -> None:
         w = self.world
-        p = self.spec.primary_task
+        p = self.contre.primary_task
         gas = self._agent.accelerator >= PEDAL_THRESHOLD
         brake = self._agent.brake >= PEDAL_THRESHOLD
         rising_gas, rising_brake = gas and not self._held[0], brake and not self._held[1]
@@ -195,16 +196,16 @@ class ConTReEnv(OpenDSEnv):
     def _place_objects(self) -> None:
         """Keep the bars and the light box `distanceToObjects` ahead of the car for the viewer."""
         s = self.world.ego.state
-        z = s.z - self.spec.distance_to_objects_m
+        z = s.z - self.contre.distance_to_objects_m
         for oid, lat in (
-            (self.spec.steering_object.id if self.spec.steering_object else "", self.steer_l),
-            (self.spec.target_object.id if self.spec.target_object else "", self.target_l),
+            (self.contre.steering_object.id if self.contre.steering_object else "", self.steer_l),
+            (self.contre.target_object.id if self.contre.target_object else "", self.target_l),
         ):
             for o in self.world.objects.by_id.get(oid, ()):
                 o.position = (self.track_x - lat, o.position[1], z)
-        light_id = self.spec.traffic_light_object_id or ""
+        light_id = self.contre.traffic_light_object_id or ""
         for o in self.world.objects.by_id.get(light_id, ()):
-            o.position = (self.track_x - self.target_l, self.spec.height_offset_m, z)
+            o.position = (self.track_x - self.target_l, self.contre.height_offset_m, z)
             o.visible = self.light != LIGHT_OFF
 
     def _stimulus(self) -> list[float]:

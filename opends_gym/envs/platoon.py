@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -72,7 +72,14 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
     """
 
     config_class = PlatoonConfig
-    stimulus_names = ("lead_gap_m", "lead_rel_speed_mps", "lead_brake_light", "lead_turn_signal", "follower_gap_m", "follower_turn_signal")
+    stimulus_names: ClassVar[tuple[str, ...]] = (
+        "lead_gap_m",
+        "lead_rel_speed_mps",
+        "lead_brake_light",
+        "lead_turn_signal",
+        "follower_gap_m",
+        "follower_turn_signal",
+    )
     with_follower = True
 
     def geometry(self) -> PlatoonGeometry:

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..task.entry import EntryFile
 from ..task.model_car import Car, CruiseControl, Engine
-from ..task.model_interaction import Activity, Interaction
+from ..task.model_interaction import Action, Activity, Interaction
 from ..task.model_road import Lane, Road
 from ..task.model_scenario import Driver, Scenario
 from ..task.model_scene import Box, Scene, Sound
@@ -110,7 +110,7 @@ def build_platoon_task(g: PlatoonGeometry = PlatoonGeometry(), name: str = "thre
         if kind == "brakeSign":
             sign = f"{tag}_Sign"
             models.append(_model(sign, lane_x, -d - 60.0, key="Models/sign_panels/Brake/panel_sign.scene", visible=False))
-            actions = (
+            actions: tuple[Action, ...] = (
                 _action("manipulateObject", id=sign, visible="true"),
                 _action(
                     "setupBrakeReactionTimer",
