@@ -29,7 +29,7 @@ class EventLog:
     def __init__(self) -> None:
         self._events: list[Event] = []
 
-    def emit(self, t_s: float, kind: str, source: str, **params: Any) -> Event:
+    def emit(self, t_s: float, kind: str, source: str, /, **params: Any) -> Event:
         ev = Event(t_s, kind, source, params)
         self._events.append(ev)
         return ev

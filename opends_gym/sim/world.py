@@ -42,6 +42,8 @@ class WorldConfig:
     dt_s: float = 1.0 / 60.0
     traffic: bool = True
     collision_stops_car: bool = True
+    # openInstructionsScreen: close at once (RL); False pauses until Return/Space (human mode)
+    auto_close_instructions: bool = True
 
 
 class World:

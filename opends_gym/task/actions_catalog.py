@@ -285,3 +285,22 @@ ACTIONS: dict[str, ActionSpec] = {s.name: s for s in _SPECS}
 def action_spec(name: str) -> ActionSpec | None:
     """The spec of a known action, or None (OpenDS logs unknown actions and skips them)."""
     return ACTIONS.get(name)
+
+
+def typed_args(spec: ActionSpec, params: Any) -> dict[str, Any]:
+    """The action's parameters as SI-typed values under their keys, defaults filled in.
+
+    `params` are the file's `Parameter`s (name, value). Values the codec rejects raise
+    ValueError naming the parameter; the loader has already reported those with file and
+    line, so at run time this only fails for tasks built in code.
+    """
+    out = spec.defaults()
+    for p in params:
+        ps = spec.by_name.get(p.name)
+        if ps is None or not str(p.value).strip():
+            continue
+        try:
+            out[ps.key] = ps.codec.parse(str(p.value))
+        except (ValueError, TypeError):
+            raise ValueError(f"parameter '{p.name}' of {spec.name}: '{p.value}' is not a valid {ps.codec.kind}") from None
+    return out

@@ -1,26 +1,7 @@
-"""Trigger core (interaction.xml at run time). TRANSITIONAL: replaced by the full core."""
+"""The shared trigger core: conditions, actions, reaction timers (see `core`)."""
 
-from __future__ import annotations
+from .core import TriggerCore
+from .hud import HudState
+from .reactions import CORRECT, FAILURE, MISSED, ReactionResult
 
-from typing import Any
-
-
-class TriggerCore:
-    def __init__(self, world: Any) -> None:
-        self.world = world
-        self.paused = False
-
-    def reset(self) -> None:
-        self.paused = False
-
-    def before_physics(self, controls: Any) -> None:
-        return None
-
-    def after_physics(self, controls: Any) -> None:
-        return None
-
-    def get_state(self) -> Any:
-        return self.paused
-
-    def set_state(self, state: Any) -> None:
-        self.paused = state
+__all__ = ["CORRECT", "FAILURE", "MISSED", "HudState", "ReactionResult", "TriggerCore"]
