@@ -11,13 +11,15 @@ Step order (one physics tick of `dt_s`):
    whose delay has elapsed;
 2. unless the simulation is paused: the ego car, traffic lights and traffic advance;
 3. contacts: trigger volumes touched, obstacles and traffic hit (collision events);
-4. the trigger core fires `collideWith` triggers and updates reaction timers.
+4. the trigger core fires `collideWith` triggers and updates reaction timers;
+5. `observers` (the drive recorder, viewers) see the finished step and the applied inputs.
 """
 
 from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -72,6 +74,8 @@ class World:
         self.traffic = _make_traffic(self)
         self.triggers = _make_triggers(self)
         self._idle = DriverControls()
+        # called as fn(world, applied_controls) after every step; kept across resets
+        self.observers: list[Callable[[World, DriverControls], None]] = []
         self.reset(seed)
 
     # ------------------------------------------------------------------ lifecycle
@@ -123,6 +127,8 @@ class World:
                 self.traffic.step(self.dt_s)
             self._contacts(prev_x, prev_z)
         self.triggers.after_physics(c)
+        for observe in self.observers:
+            observe(self, c)
 
     def run(self, seconds: float, controls: DriverControls | None = None) -> None:
         """Step for `seconds` of simulation time with constant inputs."""
