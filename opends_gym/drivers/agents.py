@@ -56,9 +56,38 @@ class ConstantAgent:
         return self.action
 
 
+def _rule(arg: str) -> Agent:
+    from .rule import RuleDriver
+
+    if arg:
+        raise ValueError("the rule driver takes no argument")
+    return RuleDriver()
+
+
+def _distracted(arg: str) -> Agent:
+    from .distracted import DistractedDriver
+
+    return DistractedDriver(arg or "moderate")
+
+
+def _policy(algorithm: str) -> Callable[[str], Agent]:
+    def make(arg: str) -> Agent:
+        from .policy import PolicyDriver
+
+        if not arg:
+            raise ValueError(f"give the saved model: {algorithm}:PATH")
+        return PolicyDriver(algorithm, arg)
+
+    return make
+
+
 AGENT_FACTORIES: dict[str, Callable[[str], Agent]] = {
     "random": lambda arg: RandomAgent(),
     "constant": lambda arg: ConstantAgent(tuple(float(v) for v in arg.split(",")) if arg else (0.0, 0.5)),
+    "rule": _rule,
+    "distracted": _distracted,
+    "ppo": _policy("ppo"),
+    "sac": _policy("sac"),
 }
 
 

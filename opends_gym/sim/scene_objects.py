@@ -93,10 +93,16 @@ class SceneObjects:
 
     # ------------------------------------------------------------------ lifecycle
     def reset(self) -> None:
-        self.objects = [replace(o) for o in self._initial]
-        self.by_id = {}
-        for o in self.objects:
-            self.by_id.setdefault(o.id, []).append(o)
+        """Back to the scene's initial poses and flags. The SceneObject instances keep their
+        identity across resets, so envs may hold references to the models they watch."""
+        if not self.objects:
+            self.objects = [replace(o) for o in self._initial]
+            self.by_id = {}
+            for o in self.objects:
+                self.by_id.setdefault(o.id, []).append(o)
+        else:
+            for o, init in zip(self.objects, self._initial):
+                o.position, o.yaw, o.scale, o.visible, o.collidable = init.position, init.yaw, init.scale, init.visible, init.collidable
         self._rebuild_grid()
 
     def get_state(self) -> list[tuple[Any, ...]]:

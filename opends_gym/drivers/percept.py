@@ -1,0 +1,153 @@
+"""What a driver model perceives of an env each policy step.
+
+Why: the rule driver and the distracted-driver model must see the same, explicit
+snapshot of the world -- lane position, the car ahead, the instruction on a sign, a
+light's colour -- so that distraction can be modelled as acting on an *old* snapshot
+(a glance away freezes it, a perception delay shifts it). Each env family has a small
+reader that fills in its task stimulus; the rest is read from the shared World.
+
+Lateral quantities are in the env's road frame (`sim.guide.RoadGuide`): metres, positive
+to the left of travel.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
+
+from ..sim.guide import wrap_angle
+from ..sim.perception import lead_vehicle
+
+DEFAULT_CRUISE_MPS = 50.0 / 3.6
+
+
+@dataclass(frozen=True)
+class LeadCar:
+    gap_m: float  # bumper to bumper
+    speed_mps: float  # along the ego's heading
+    brake_light: bool
+    turn_signal: int  # 0 off, 1 left, 2 right, 3 both
+
+
+@dataclass(frozen=True)
+class Percept:
+    """One snapshot of what the driver knows (see the module docstring for frames)."""
+
+    t_s: float
+    speed_mps: float
+    lateral_m: float
+    heading_error_rad: float
+    yaw_rate_radps: float
+    target_lateral_m: float  # where the driver means to be across the road
+    cruise_mps: float  # the speed the driver means to drive
+    lead: LeadCar | None = None
+    brake_to_mps: float | None = None  # a brake instruction: get below this speed and hold
+    brake_hard: bool = False  # a lead-car brake stimulus (brake light, emergency brake)
+    press_reaction: bool = False  # a stimulus answered with the reaction button
+    lane_change_pending: bool = False  # the target lane differs from the current one
+    sign_distance_m: float | None = None  # to the lane-change sign that set the target (LCT)
+    contre: tuple[float, float, float] | None = None  # (target bar m, steering bar m, light 0/1 red/2 green)
+    follow_gap_m: float | None = None  # the gap to keep to the lead (platoon band centre)
+
+
+Reader = Callable[[Any, Percept], Percept]
+
+
+def _base(env: Any) -> Percept:
+    world, guide = env.world, env.guide
+    s = world.ego.state
+    p = guide.locate(s.x, s.z)
+    lane = p.lane_index if p.lane_index >= 0 else guide.nearest_lane(p.lateral_m)
+    lead = lead_vehicle(world) if world.traffic is not None else None
+    engine = world.task.scenario.driver.car.engine
+    limit = world.road.current_limit_mps or DEFAULT_CRUISE_MPS
+    cruise = min(limit, engine.max_speed_mps)
+    return Percept(
+        t_s=world.t_s,
+        speed_mps=s.u,
+        lateral_m=p.lateral_m,
+        heading_error_rad=wrap_angle(s.yaw - p.heading_rad),
+        yaw_rate_radps=s.r,
+        target_lateral_m=guide.lane_laterals_m[lane],
+        cruise_mps=cruise,
+        lead=LeadCar(lead.gap_m, lead.speed_mps, lead.brake_light, int(world.traffic.turn_signal[lead.index])) if lead else None,
+    )
+
+
+def _read_lct(env: Any, p: Percept) -> Percept:
+    sign = env._active_sign()
+    speed = env.config.speed_kmh / 3.6
+    if sign is None:
+        return replace(p, cruise_mps=speed)
+    target = env.lane_laterals[sign.to_lane]
+    distance = max(0.0, env.world.ego.state.z - sign.z_m)
+    pending = abs(target - p.lateral_m) > 1.0
+    return replace(p, target_lateral_m=target, cruise_mps=speed, lane_change_pending=pending, sign_distance_m=distance)
+
+
+def _read_reaction_test(env: Any, p: Percept) -> Percept:
+    engine = env.world.task.scenario.driver.car.engine
+    start = env.world.task.start_pose.position_m
+    home = env.guide.lane_laterals_m[env.guide.nearest_lane(env.guide.locate(start[0], start[2]).lateral_m)]
+    p = replace(p, cruise_mps=engine.max_speed_mps, target_lateral_m=home)  # trials start in the centre lane
+    sign = env._active_sign()
+    if sign is None:
+        return p
+    if sign.kind == 2.0:
+        target = env.guide.lane_laterals_m[sign.lane]
+        return replace(p, target_lateral_m=target, lane_change_pending=True)
+    timer = next((t for t in env.world.triggers.center.timers.values() if t.kind == "brake"), None)
+    target_mps = timer.target_speed_mps if timer is not None else 40.0 / 3.6
+    return replace(p, brake_to_mps=target_mps) if timer is not None else p
+
+
+def _read_platoon(env: Any, p: Percept) -> Percept:
+    spec = env.platoon.spec
+    band = spec.longitudinal_tolerance
+    follow = 0.5 * (band.lower_bound_m + band.upper_bound_m) if band is not None else 27.5
+    active = env.platoon.state.active
+    kinds = {st.kind for st in active if st.result == 0}
+    brake = bool(kinds & {"brakeLight", "emergencyBrake"})
+    press = any(k.endswith("TurnSignal") for k in kinds)
+    slow = next((st.target_mps for st in active if st.kind == "speedReduction" and st.result == 0), None)
+    cruise = env.config.speed_kmh / 3.6
+    p = replace(p, cruise_mps=cruise, follow_gap_m=follow, brake_hard=brake, press_reaction=press)
+    if slow is not None:
+        p = replace(p, brake_to_mps=slow)
+    timer = next((t for t in env.world.triggers.center.timers.values() if t.kind == "brake" and t.armed), None)
+    if timer is not None:
+        p = replace(p, brake_to_mps=timer.target_speed_mps)
+    return p
+
+
+def _read_contre(env: Any, p: Percept) -> Percept:
+    return replace(p, contre=(env.target_l, env.steer_l, env.light))
+
+
+def _readers() -> list[tuple[type, Reader]]:
+    """Most specific env class first (the brake test is a platoon env)."""
+    from ..envs.contre import ConTReEnv
+    from ..envs.lct import LaneChangeTestEnv
+    from ..envs.platoon import ThreeVehiclePlatoonEnv
+    from ..envs.reaction_test import ReactionTestEnv
+
+    return [
+        (LaneChangeTestEnv, _read_lct),
+        (ReactionTestEnv, _read_reaction_test),
+        (ThreeVehiclePlatoonEnv, _read_platoon),
+        (ConTReEnv, _read_contre),
+    ]
+
+
+def perceive(env: Any, info: dict[str, Any] | None = None) -> Percept:
+    """The driver's snapshot of `env` (a gymnasium env or wrapper) now."""
+    base = env.unwrapped
+    p = _base(base)
+    for cls, reader in _readers():
+        if isinstance(base, cls):
+            p = reader(base, p)
+            break
+    if info and float(info.get("drt_stimulus_on", 0.0)) > 0.0:
+        p = replace(p, press_reaction=True)
+    return p

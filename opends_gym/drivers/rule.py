@@ -1,0 +1,146 @@
+"""A competent rule-based driver that works on every registered env.
+
+Why: researchers need a reference driver to compare human and learned drivers with,
+scored by the same metrics. It keeps its lane with Stanley's lateral law, changes lanes
+along a constant-gradient path when a sign says so (the shape of the LCT's basic
+normative model), holds its speed, follows a lead car with the Intelligent Driver Model
+(Treiber, Hennecke & Helbing 2000) or, in the platoon task, at the centre of the
+tolerance band, brakes for brake stimuli and brake signs, and presses the reaction
+button for turn-signal and DRT stimuli.
+
+It decides from a `Percept` (see `percept.py`), so the distracted-driver model can feed
+it stale or delayed percepts without knowing anything about the tasks.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+
+from .control import stanley_steering
+from .intent import Intent, to_action
+from .percept import Percept, perceive
+
+
+@dataclass(frozen=True)
+class RuleParams:
+    """Driving style. Units in the names; defaults describe an attentive, brisk driver."""
+
+    lane_change_m_per_lane: float = 40.0  # travel per lane width while changing lanes (LCT basic model: 40 m)
+    lane_change_start_before_sign_m: float = 30.0  # LCT: start moving this far before the sign (basic model: 30 m)
+    reaction_lane_change_m_per_lane: float = 20.0  # reaction tasks (no LCT sign distance): a swift change
+    lane_width_m: float = 3.75
+    brake_margin_mps: float = 3.0 / 3.6  # drive this much below a brake target
+    stimulus_brake: float = 0.35  # pedal while a lead-car brake stimulus lasts
+    throttle_accel_mps2: float = 3.0  # acceleration at full throttle (for pedal scaling)
+    brake_decel_mps2: float = 8.7  # deceleration at full brake (OpenDS default)
+    speed_gain_per_s: float = 0.8  # 1/s: acceleration asked per m/s of speed error
+    speed_deadband_mps: float = 0.3
+    idm_time_gap_s: float = 1.5
+    idm_min_gap_m: float = 2.0
+    idm_accel_mps2: float = 1.5
+    idm_comfort_decel_mps2: float = 2.0
+    band_gap_gain_per_s2: float = 0.08  # platoon: acceleration per metre of gap error
+    band_speed_gain_per_s: float = 0.6  # platoon: acceleration per m/s of relative speed
+    contre_response_s: float = 0.25  # ConTRe: time to close the bar gap
+    contre_bar_speed_mps: float = 1.0
+
+
+@dataclass
+class _Plan:
+    lateral_m: float | None = None  # the lane-change path's current lateral position
+    t_s: float | None = None
+
+
+class RuleDriver:
+    """Agent interface of `opends_gym.drivers.agents`: `reset(env, seed)`, `act(obs, info)`."""
+
+    name = "rule"
+
+    def __init__(self, params: RuleParams | None = None) -> None:
+        self.params = params or RuleParams()
+        self.env: Any = None
+        self._plan = _Plan()
+
+    def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
+        self.env = env
+        self._plan = _Plan()
+        base = env.unwrapped
+        so = getattr(getattr(base, "contre", None), "steering_object", None)
+        self._bar_speed = float(so.speed) if so is not None and so.speed > 0 else self.params.contre_bar_speed_mps
+
+    def act(self, obs: Any, info: dict[str, Any]) -> Any:
+        return to_action(self.env, self.decide(perceive(self.env, info)))
+
+    # ------------------------------------------------------------------ decisions
+    def decide(self, p: Percept) -> Intent:
+        """What to do given a percept (pure apart from the lane-change plan)."""
+        if p.contre is not None:
+            return self._contre(p)
+        steer = self._steer(p)
+        pedal = self._pedal(p)
+        return Intent(
+            steering=steer,
+            pedal=pedal,
+            reaction=p.press_reaction,
+            target_lateral_m=p.target_lateral_m,
+            target_speed_mps=p.brake_to_mps if p.brake_to_mps is not None else p.cruise_mps,
+        )
+
+    def _steer(self, p: Percept) -> float:
+        """Stanley onto a path that ramps to the target lateral at the lane-change gradient."""
+        prm = self.params
+        plan = self._plan
+        per_lane = prm.lane_change_m_per_lane if p.sign_distance_m is not None else prm.reaction_lane_change_m_per_lane
+        slope = prm.lane_width_m / per_lane
+        if plan.lateral_m is None or plan.t_s is None or p.t_s < plan.t_s:
+            plan.lateral_m, plan.t_s = p.lateral_m if p.lane_change_pending else p.target_lateral_m, p.t_s
+        ds = max(0.0, p.speed_mps) * (p.t_s - plan.t_s)
+        plan.t_s = p.t_s
+        target = p.target_lateral_m
+        if p.sign_distance_m is not None and p.sign_distance_m > prm.lane_change_start_before_sign_m:
+            target = plan.lateral_m  # sign seen; the move starts at the planned point
+        gap = target - plan.lateral_m
+        step = slope * ds
+        plan.lateral_m = target if abs(gap) <= step else plan.lateral_m + math.copysign(step, gap)
+        moving = abs(target - plan.lateral_m) > 1e-6
+        path_heading = math.copysign(math.atan(slope), gap) if moving else 0.0
+        return stanley_steering(p.heading_error_rad, path_heading, p.lateral_m, plan.lateral_m, p.speed_mps, p.yaw_rate_radps)
+
+    def _pedal(self, p: Percept) -> float:
+        prm = self.params
+        target = p.cruise_mps
+        if p.brake_to_mps is not None:
+            target = min(target, p.brake_to_mps - prm.brake_margin_mps)
+        err = target - p.speed_mps
+        accel = 0.0 if abs(err) < prm.speed_deadband_mps else prm.speed_gain_per_s * err
+        if p.lead is not None:
+            accel = min(accel, self._follow(p, target))
+        pedal = accel / prm.throttle_accel_mps2 if accel >= 0.0 else accel / prm.brake_decel_mps2
+        if p.brake_hard:
+            pedal = min(pedal, -prm.stimulus_brake)
+        return max(-1.0, min(1.0, pedal))
+
+    def _follow(self, p: Percept, v0: float) -> float:
+        """Acceleration behind the lead: platoon band centre, else the IDM."""
+        prm = self.params
+        lead = p.lead
+        assert lead is not None
+        dv = p.speed_mps - lead.speed_mps
+        if p.follow_gap_m is not None:
+            return prm.band_gap_gain_per_s2 * (lead.gap_m - p.follow_gap_m) - prm.band_speed_gain_per_s * dv
+        v = max(p.speed_mps, 0.0)
+        s_star = prm.idm_min_gap_m + v * prm.idm_time_gap_s + v * dv / (2.0 * math.sqrt(prm.idm_accel_mps2 * prm.idm_comfort_decel_mps2))
+        gap = max(lead.gap_m, 0.1)
+        free = 1.0 - (v / max(v0, 0.1)) ** 4
+        return prm.idm_accel_mps2 * (free - (max(s_star, 0.0) / gap) ** 2)
+
+    def _contre(self, p: Percept) -> Intent:
+        assert p.contre is not None
+        target, bar, light = p.contre
+        steer = (target - bar) / (self._bar_speed * self.params.contre_response_s)
+        pedal = -1.0 if light == 1.0 else 1.0 if light == 2.0 else 0.0
+        return Intent(steering=max(-1.0, min(1.0, steer)), pedal=pedal, target_lateral_m=p.target_lateral_m, target_speed_mps=p.cruise_mps)
