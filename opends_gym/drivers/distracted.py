@@ -183,7 +183,7 @@ class DistractedDriver:
         self._last_t: float | None = None
 
     def act(self, obs: Any, info: dict[str, Any]) -> Any:
-        t = float(self.env.unwrapped.world.t_s)
+        t = float(self.env.unwrapped.world.t_s)  # type: ignore[attr-defined]
         if hasattr(self.base, "decide"):
             now = perceive(self.env, info)
             settled = abs(now.target_lateral_m - now.lateral_m) < MANOEUVRE_OFFSET_M and abs(now.heading_error_rad) < MANOEUVRE_HEADING_RAD
