@@ -17,6 +17,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("validate", "opends_gym.cli.validate", "load and check OpenDS driving tasks"),
     ("list", "opends_gym.cli.listing", "list bundled tasks and registered environments"),
     ("run", "opends_gym.cli.run", "drive an environment with an agent and print its metrics"),
+    ("train", "opends_gym.cli.train", "train a baseline policy from a config in configs/"),
 )
 
 

@@ -38,6 +38,8 @@ class LaneChangeTestConfig(EnvConfig):
     normative_length_per_lane_m: float = 40.0
     off_road_margin_m: float = 1.5
     reward_scale: float = 0.1
+    reward_deviation_scale_m: float = 2.0
+    off_road_penalty: float = 10.0
 
     def geometry(self) -> LctGeometry:
         return LctGeometry(**{k: getattr(self, k) for k in _GEOMETRY_FIELDS})
@@ -65,8 +67,12 @@ class LaneChangeTestEnv(OpenDSEnv):
     sign ahead, 0 when none).
 
     ## Reward
-    -`reward_scale` x the area (m x m) between the driven and the basic normative lateral
-    path over the step, so the return is -reward_scale x MDEV x distance driven.
+    `reward_scale` x the metres driven in the step, each weighted by
+    max(0, 1 - deviation / `reward_deviation_scale_m`) where deviation is the lateral
+    distance from the basic normative path (so a perfect drive of the ~3200 m track earns
+    ~320 and leaving the normative path earns nothing); -`off_road_penalty` when the car
+    leaves the road, -10 per collision. Positive per-metre reward keeps "end the episode
+    early" from ever paying.
 
     ## Episode end
     Terminated when the car reaches the end of the track (the task pauses the simulation),
@@ -85,7 +91,8 @@ class LaneChangeTestEnv(OpenDSEnv):
     Every `EnvConfig` field (physics, policy_hz, observation, action, ...) and the track:
     lanes, lane_width_m, speed_kmh, signs, spacing_min_m, spacing_max_m, visibility_m,
     lead_in_m, lead_out_m, track_seed, hold_lane_s, normative_start_before_sign_m,
-    normative_length_per_lane_m, off_road_margin_m, reward_scale.
+    normative_length_per_lane_m, off_road_margin_m, reward_scale, reward_deviation_scale_m,
+    off_road_penalty.
 
     ## Version history
     v0: initial release.
@@ -123,7 +130,7 @@ class LaneChangeTestEnv(OpenDSEnv):
 
     def _reset_task(self, options: dict[str, Any] | None) -> None:
         self._area = 0.0
-        self._step_area = 0.0
+        self._step_reward = 0.0
         self._prev: tuple[float, float] | None = None
 
     def _on_physics_step(self) -> None:
@@ -132,9 +139,9 @@ class LaneChangeTestEnv(OpenDSEnv):
         dev = abs(tr.last("lateral_m") - self._norm_at(d))
         if self._prev is not None:
             d0, dev0 = self._prev
-            a = 0.5 * (dev + dev0) * (d - d0)
-            self._area += a
-            self._step_area += a
+            self._area += 0.5 * (dev + dev0) * (d - d0)
+            scale = self.config.reward_deviation_scale_m  # type: ignore[attr-defined]
+            self._step_reward += max(0.0, 1.0 - 0.5 * (dev + dev0) / scale) * (d - d0)
         self._prev = (d, dev)
 
     def _active_sign(self) -> LctSignSpec | None:
@@ -154,8 +161,10 @@ class LaneChangeTestEnv(OpenDSEnv):
         return [visible, self.lane_laterals[lane] - lat, distance]
 
     def _reward(self, info: dict[str, Any]) -> float:
-        r = -self.config.reward_scale * self._step_area  # type: ignore[attr-defined]
-        self._step_area = 0.0
+        r = self.config.reward_scale * self._step_reward  # type: ignore[attr-defined]
+        self._step_reward = 0.0
+        if self._task_terminated():
+            r -= self.config.off_road_penalty  # type: ignore[attr-defined]
         return r - 10.0 * float(info["new_collisions"])
 
     def _task_info(self, info: dict[str, Any]) -> None:

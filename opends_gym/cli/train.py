@@ -1,0 +1,48 @@
+"""`opends-gym train CONFIG.yaml`: train a baseline policy from a config in `configs/`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from .run import _parse_value
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("config", help="a training config (YAML), e.g. configs/lct_ppo.yaml")
+    p.add_argument("--total-steps", type=int, default=None, help="override total_steps")
+    p.add_argument("--output", default=None, help="run folder (default: the config's `output`)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a top-level config key (repeatable)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..training import load_train_config
+
+    overrides = {}
+    for item in args.set:
+        key, _, value = item.partition("=")
+        overrides[key] = _parse_value(value)
+    if args.total_steps is not None:
+        overrides["total_steps"] = args.total_steps
+    if args.no_progress:
+        overrides["progress_bar"] = False
+    try:
+        cfg, base = load_train_config(args.config, overrides)
+    except (OSError, ValueError) as e:
+        print(f"opends-gym train: {e}", file=sys.stderr)
+        return 2
+    out = Path(args.output).resolve() if args.output else None
+    if cfg.framework == "rllib":
+        from ..training.rllib import train as train_rllib
+
+        metrics = train_rllib(cfg, base, out)
+    else:
+        from ..training.sb3 import json_safe, train
+
+        metrics = json_safe(train(cfg, base, out))
+    json.dump({k: v for k, v in metrics.items() if k != "episodes"}, sys.stdout, indent=2)
+    sys.stdout.write("\n")
+    return 0
