@@ -135,7 +135,10 @@ def evaluate_policy_file(cfg: TrainConfig, model_path: Path, episodes: int = 3, 
     finally:
         env.close()
     keys = [k for k, v in per_episode[0].items() if isinstance(v, (int, float))]
-    summary = {k: float(np.nanmean([e[k] for e in per_episode])) if any(math.isfinite(e[k]) for e in per_episode) else math.nan for k in keys}
+    summary = {}
+    for k in keys:
+        values = [float(e[k]) for e in per_episode]
+        summary[k] = float(np.nanmean(values)) if any(math.isfinite(v) for v in values) else math.nan
     return {"env": cfg.env, "algorithm": cfg.algorithm, "total_steps": cfg.total_steps, "episodes": per_episode, "mean": summary}
 
 
