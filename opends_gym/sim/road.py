@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..task.model_scene import Point
-from ..task.model_task import DrivingTask
+from ..task.model_task import DrivingTask, Pose
+from .opendrive import OpenDriveMap, driver_start_pose
 
 LANE_MARGIN_M = 0.75  # OpenDS: inside a lane when this far inside both of its edges
 
@@ -101,6 +103,17 @@ class RoadModel:
                 self.ideal_tracks[track.id or f"idealTrack{i}"] = (Polyline(pts), track.road_width_m)
         self.current_limit_mps = 0.0
         self.upcoming_limit_mps = 0.0
+        self._task = task
+        path = task.open_drive_path  # a missing file is a load warning already; then there is no map
+        self.opendrive: OpenDriveMap | None = OpenDriveMap.load(path) if path is not None and path.is_file() else None
+        # (road id, lane id, s) of a world point; None (no OpenDRIVE) makes openDrivePos triggers warn once
+        self.road_position: Callable[[float, float], tuple[str, int, float] | None] | None = (
+            self.opendrive.locate if self.opendrive is not None else None
+        )
+
+    def driver_start_pose(self) -> Pose | None:
+        """The ego's start on the OpenDRIVE network (scenario driver/openDrive), if the task gives one."""
+        return driver_start_pose(self._task, self.opendrive)
 
     # ------------------------------------------------------------------ lanes
     def band_index(self, x: float) -> int:

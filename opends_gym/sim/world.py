@@ -63,7 +63,7 @@ class World:
         self.objects = SceneObjects(self.task, extra_trigger_ids=_light_trigger_ids(self.task))
         backend = make_backend(self.config.physics, self.task, objects=self.objects)
         self.ego = EgoCar(self.task, backend)
-        self.start_pose: Pose = self.task.start_pose
+        self.start_pose: Pose = self.road.driver_start_pose() or self.task.start_pose
         self.reset_poses = self.task.reset_poses()
         self.step_count = 0
         self.t_s = 0.0
