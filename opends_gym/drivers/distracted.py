@@ -138,8 +138,8 @@ class GlanceProcess:
                 self.busy, self.busy_until = True, self.idle_until + float(self.rng.exponential(p.task_episode_s))
                 self.off_road, self.glance_until = True, self.idle_until + _lognormal(self.rng, p.glance_mean_s, p.glance_sd_s)
                 continue
-            if t_s >= self.busy_until and not self.off_road:
-                self.busy = False
+            if t_s >= self.busy_until:  # the task is done: eyes back on the road
+                self.busy = self.off_road = False
                 self.idle_until = self._idle_duration(self.busy_until)
                 continue
             if t_s < self.glance_until:
