@@ -1,0 +1,349 @@
+"""OpenDS's settings-controller server: XML events over TCP, periodic value pushes.
+
+Why: experimenters' tools (OpenDS's `tools/settingscontroller_client`, dashboards,
+Wizard-of-Oz consoles) connect to the simulator, subscribe to car values, take over the
+ego or a traffic car (`SetVehicleControl`), and fire `remote:` triggers. This server
+speaks that protocol (OPENDS.md section 4): each request is `<Message><Event Name="...">
+value</Event>...</Message>`, answered by one `<Message>` with an `<Event>` per request;
+after `EstablishConnection` the subscribed values are pushed every update interval.
+
+It is off unless enabled and binds to 127.0.0.1 unless told otherwise. Each client has
+its own thread; requests are bounded (64 KiB) and parsed with entity expansion and
+network access off; anything malformed gets an `<Error>` reply and is logged, never
+raised. Values are read from the latest `VehicleSnapshot` (`publish`); commands that
+change the simulation are queued and applied by `poll` once per physics step, so the
+server is also an `InputSource`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import queue
+import socket
+import socketserver
+import threading
+from collections.abc import Callable, Iterable
+from typing import Any
+
+from lxml import etree
+
+from .inputs.base import InputFrame, InputStatus, TrafficControl
+from .snapshot import VehicleSnapshot
+from .value_tree import build_tree, matching_paths, schema_tree
+
+log = logging.getLogger(__name__)
+
+MAX_REQUEST_BYTES = 64 * 1024
+MIN_INTERVAL_MS = 10
+_PARSER = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
+
+
+class SettingsControllerServer:
+    """The server (see the module docstring). `start()` it; `close()` stops every thread."""
+
+    name = "settings-controller"
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 1000, remote_ids: Iterable[str] | Callable[[], Iterable[str]] = ()) -> None:
+        self.host, self.requested_port = host, int(port)
+        self._remote_ids = remote_ids
+        self.snapshot = VehicleSnapshot()
+        self._commands: queue.Queue[tuple[str, Any]] = queue.Queue(10000)
+        self._ego: tuple[float, float, float] | None = None
+        self._clients: set[_Client] = set()
+        self._lock = threading.Lock()
+        self.requests = 0
+        self.errors = 0
+        self._server: socketserver.ThreadingTCPServer | None = None
+        self._thread: threading.Thread | None = None
+
+    # ------------------------------------------------------------------ lifecycle
+    def start(self) -> SettingsControllerServer:
+        owner = self
+
+        class Handler(socketserver.BaseRequestHandler):
+            def handle(self) -> None:
+                _Client(owner, self.request).serve()
+
+        socketserver.ThreadingTCPServer.allow_reuse_address = True
+        server = socketserver.ThreadingTCPServer((self.host, self.requested_port), Handler)
+        server.daemon_threads = True
+        self._server = server
+        self._thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.1}, name="settings-controller", daemon=True)
+        self._thread.start()
+        log.info("settings-controller server listening on %s:%d", *self.address)
+        return self
+
+    @property
+    def address(self) -> tuple[str, int]:
+        if self._server is None:
+            return (self.host, self.requested_port)
+        h, p = self._server.server_address[:2]
+        return (str(h), int(p))
+
+    def close(self) -> None:
+        if self._server is not None:
+            self._server.shutdown()
+            self._server.server_close()
+            self._server = None
+        with self._lock:
+            clients = list(self._clients)
+        for c in clients:
+            c.stop()
+
+    # ------------------------------------------------------------------ simulation side
+    def publish(self, snapshot: VehicleSnapshot) -> None:
+        """The latest car state (called by the runner after each step)."""
+        self.snapshot = snapshot
+
+    def remote_ids(self) -> set[str]:
+        ids = self._remote_ids() if callable(self._remote_ids) else self._remote_ids
+        return set(ids)
+
+    def poll(self, t_s: float) -> InputFrame:
+        f = InputFrame()
+        remotes: list[str] = []
+        traffic: list[TrafficControl] = []
+        while True:
+            try:
+                kind, value = self._commands.get_nowait()
+            except queue.Empty:
+                break
+            if kind == "ego":
+                self._ego = value
+            elif kind == "remote":
+                remotes.append(value)
+            elif kind == "traffic":
+                traffic.append(value)
+        if self._ego is not None:
+            f.steering, f.accelerator, f.brake = self._ego
+        f.remote_triggers = tuple(remotes)
+        f.traffic_controls = tuple(traffic)
+        return f
+
+    def status(self) -> InputStatus:
+        with self._lock:
+            n = len(self._clients)
+        host, port = self.address
+        return InputStatus(self.name, connected=self._server is not None, message=f"settings controller on {host}:{port}, {n} client(s)")
+
+    def _queue(self, kind: str, value: Any) -> None:
+        try:
+            self._commands.put_nowait((kind, value))
+        except queue.Full:
+            self.errors += 1
+            log.warning("settings controller: command queue full; %s dropped", kind)
+
+    # ------------------------------------------------------------------ requests
+    def handle_message(self, client: _Client, root: etree._Element) -> bytes:
+        """Answer one `<Message>` (called on the client's thread)."""
+        reply = etree.Element("Message")
+        for ev in root.iter("Event"):
+            self.requests += 1
+            name = ev.get("Name", "")
+            value = (ev.text or "").strip()
+            try:
+                self._event(client, name, value, ev, reply)
+            except Exception as e:  # one bad event must not cost the reply to the others
+                self.errors += 1
+                log.warning("settings controller: event %r failed: %s", name, e)
+                err = etree.SubElement(reply, "Event", Name="Error")
+                err.text = f"{name}: {e}"
+        return b'<?xml version="1.0" encoding="UTF-8"?>\n' + etree.tostring(reply) + b"\n"
+
+    def _event(self, client: _Client, name: str, value: str, ev: etree._Element, reply: etree._Element) -> None:
+        def event(event_name: str, child: etree._Element | None = None, text: str | None = None) -> None:
+            e = etree.SubElement(reply, "Event", Name=event_name)
+            if child is not None:
+                e.append(child)
+            if text is not None:
+                e.text = text
+
+        snap = self.snapshot
+        if name == "EstablishConnection":
+            if value:
+                client.interval_ms = _interval(value)
+            client.start_pushing()
+            event("ConnectionEstablished")
+        elif name == "AbolishConnection":
+            event("ConnectionAbolished")
+            client.closing = True
+        elif name == "GetDataSchema":
+            event("DataSchema", schema_tree())
+        elif name in ("GetSubscriptions", "Subscribe", "Unsubscribe"):
+            if name == "Subscribe":
+                found = matching_paths(value)
+                if not found:
+                    raise ValueError(f"no value path matches {value!r}")
+                client.subscriptions = client.subscriptions | frozenset(found)  # replaced, never mutated: the pusher reads it
+            elif name == "Unsubscribe":
+                client.subscriptions = client.subscriptions - frozenset(matching_paths(value))
+            event("Subscriptions", build_tree(client.subscriptions, None, names_only=True))
+        elif name == "GetSubscribedValues":
+            event("SubscribedValues", build_tree(client.subscriptions, snap))
+        elif name == "GetValue":
+            found = matching_paths(value)
+            if not found:
+                raise ValueError(f"no value path matches {value!r}")
+            event(value, build_tree(found, snap))
+        elif name == "GetUpdateInterval":
+            event("UpdateInterval", text=str(client.interval_ms))
+        elif name == "SetUpdateInterval":
+            client.interval_ms = _interval(value)
+            event("UpdateInterval", text=str(client.interval_ms))
+        elif name == "SetVehicleControl":
+            self._vehicle_control(value)
+            event("UpdateVehicleControl", text=value)
+        elif name == "SetPedestrianControl":
+            raise ValueError("pedestrian control is not supported by this simulation")
+        elif name == "GetXMLRequest":
+            event("XMLRequest", self._live_data_request(ev, value))
+        else:
+            raise ValueError(f"unknown event {name!r}")
+
+    def _vehicle_control(self, value: str) -> None:
+        parts = value.split(";")
+        if len(parts) < 4:
+            raise ValueError("expected ID;steering;acceleration;brake")
+        vid = parts[0].strip()
+        try:
+            steer, acc, brk = (float(p) for p in parts[1:4])
+        except ValueError:
+            raise ValueError("steering, acceleration and brake must be numbers") from None
+        if not all(math.isfinite(v) for v in (steer, acc, brk)) or abs(steer) > 1 or not 0 <= acc <= 1 or not 0 <= brk <= 1:
+            raise ValueError("steering must be in [-1, 1], acceleration and brake in [0, 1]")
+        if vid.lower() == "drivingcar":
+            self._queue("ego", (steer, acc, brk))
+        elif vid:
+            self._queue("traffic", TrafficControl(vid, steer, acc, brk))
+        else:
+            raise ValueError("empty vehicle ID")
+
+    def _live_data_request(self, ev: etree._Element, value: str) -> etree._Element:
+        out = etree.Element("liveDataRequest")
+        requests = ev.findall("liveDataRequest")
+        if not requests and value.startswith("<"):
+            requests = [etree.fromstring(value.encode("utf-8"), _PARSER)]
+        if len(requests) != 1 or requests[0].tag != "liveDataRequest":
+            err = etree.SubElement(out, "error1" if not requests else "error2")
+            err.text = "The XML request is empty" if not requests else "The XML request contains more than one liveDataRequest element"
+            return out
+        known = self.remote_ids()
+        for loc in requests[0].findall("location"):
+            le = etree.SubElement(out, "location")
+            etree.SubElement(le, "id").text = (loc.findtext("id") or "").strip()
+            etree.SubElement(le, "error4").text = "location look-ups need an OpenDRIVE lane model; not available"
+        for te in requests[0].findall("triggerExecution"):
+            tid = (te.findtext("triggerId") or "").strip()
+            node = etree.SubElement(out, "triggerExecution")
+            etree.SubElement(node, "triggerId").text = tid
+            ok = tid in known
+            if ok:
+                self._queue("remote", tid)
+            etree.SubElement(node, "status").text = "success" if ok else "trigger ID does not exist"
+        return out
+
+
+def _interval(value: str) -> int:
+    try:
+        ms = int(float(value))
+    except ValueError:
+        raise ValueError(f"update interval must be a number of milliseconds, not {value!r}") from None
+    if ms < MIN_INTERVAL_MS:
+        raise ValueError(f"update interval must be at least {MIN_INTERVAL_MS} ms")
+    return ms
+
+
+class _Client:
+    """One connection: reads requests, answers them, pushes subscribed values."""
+
+    def __init__(self, server: SettingsControllerServer, sock: socket.socket) -> None:
+        self.server = server
+        self.sock = sock
+        self.interval_ms = 1000
+        self.subscriptions: frozenset[str] = frozenset()
+        self.closing = False
+        self._stop = threading.Event()
+        self._write_lock = threading.Lock()
+        self._pusher: threading.Thread | None = None
+
+    def serve(self) -> None:
+        srv = self.server
+        with srv._lock:
+            srv._clients.add(self)
+        buf = b""
+        self.sock.settimeout(0.1)
+        try:
+            while not self._stop.is_set() and not self.closing:
+                try:
+                    data = self.sock.recv(65536)
+                except TimeoutError:
+                    continue
+                if not data:
+                    break
+                buf += data
+                buf = self._consume(buf)
+        except OSError as e:
+            log.info("settings controller: client gone (%s)", e)
+        finally:
+            self.stop()
+            with srv._lock:
+                srv._clients.discard(self)
+            with contextlib.suppress(OSError):
+                self.sock.close()
+
+    def _consume(self, buf: bytes) -> bytes:
+        """Answer every complete `<Message>` in the buffer; return the rest."""
+        while True:
+            end = buf.find(b"</Message>")
+            if end < 0:
+                if len(buf) > MAX_REQUEST_BYTES:
+                    self.server.errors += 1
+                    log.warning("settings controller: request over %d bytes without </Message> dropped", MAX_REQUEST_BYTES)
+                    self.send(_error("request too large"))
+                    return b""
+                return buf
+            end += len(b"</Message>")
+            chunk, buf = buf[:end], buf[end:]
+            start = chunk.rfind(b"<Message")
+            if start < 0 or len(chunk) > MAX_REQUEST_BYTES:
+                self.server.errors += 1
+                self.send(_error("No valid XML data received"))
+                continue
+            try:
+                root = etree.fromstring(chunk[start:], _PARSER)
+            except etree.XMLSyntaxError as e:
+                self.server.errors += 1
+                log.warning("settings controller: malformed request: %s", e)
+                self.send(_error("No valid XML data received"))
+                continue
+            self.send(self.server.handle_message(self, root))
+
+    def send(self, data: bytes) -> None:
+        with self._write_lock:
+            try:
+                self.sock.sendall(data)
+            except OSError:
+                self._stop.set()
+
+    def start_pushing(self) -> None:
+        if self._pusher is None:
+            self._pusher = threading.Thread(target=self._push, name="settings-controller-push", daemon=True)
+            self._pusher.start()
+
+    def _push(self) -> None:
+        while not self._stop.wait(self.interval_ms / 1000.0):
+            reply = etree.Element("Message")
+            ev = etree.SubElement(reply, "Event", Name="SubscribedValues")
+            ev.append(build_tree(self.subscriptions, self.server.snapshot))
+            self.send(etree.tostring(reply) + b"\n")
+
+    def stop(self) -> None:
+        self._stop.set()
+
+
+def _error(text: str) -> bytes:
+    root = etree.Element("Message")
+    etree.SubElement(root, "Error").text = text
+    return b'<?xml version="1.0" encoding="UTF-8"?>\n' + etree.tostring(root) + b"\n"
