@@ -25,9 +25,23 @@ if [ ! -x "$VENV/bin/python" ]; then
   "$PY" -m venv "$VENV"
 fi
 
-STAMP="$VENV/.install-stamp"
-WANT="$(cat "$ROOT/pyproject.toml" "$ROOT/constraints.txt" | sha256sum | cut -c1-16)-$EXTRAS"
-if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$WANT" ]; then
+HASH="$(cat "$ROOT/pyproject.toml" "$ROOT/constraints.txt" | sha256sum | cut -c1-16)"
+# one stamp per installed set of extras; a request is satisfied by any stamp of the same
+# project hash whose extras include all the requested ones
+satisfied() {
+  local stamp want have
+  for stamp in "$VENV"/.install-stamp*; do
+    [ -f "$stamp" ] || continue
+    [ "$(head -n1 "$stamp")" = "$HASH" ] || continue
+    have=",$(sed -n 2p "$stamp"),"
+    for want in ${EXTRAS//,/ }; do
+      case "$have" in *",$want,"*) ;; *) continue 2 ;; esac
+    done
+    return 0
+  done
+  return 1
+}
+if ! satisfied; then
   "$VENV/bin/python" -m pip install --quiet --upgrade pip >/dev/null 2>&1 || true
   SPEC="$ROOT"
   [ -n "$EXTRAS" ] && SPEC="$ROOT[$EXTRAS]"
@@ -39,6 +53,7 @@ if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$WANT" ]; then
     echo "pip install failed; see $LOG" >&2
     exit 1
   fi
-  echo "$WANT" > "$STAMP"
+  rm -f "$VENV"/.install-stamp*
+  printf '%s\n%s\n' "$HASH" "$EXTRAS" > "$VENV/.install-stamp-${EXTRAS:-base}"
 fi
 export PATH="$VENV/bin:$PATH"

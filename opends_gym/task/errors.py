@@ -71,12 +71,16 @@ class Diagnostics:
         line: int | None = None,
         element: str | None = None,
         once_key: str | None = None,
+        log_level: int = logging.WARNING,
     ) -> None:
-        """Record a warning; with `once_key`, only the first of its kind is kept."""
+        """Record a warning; with `once_key`, only the first of its kind is kept.
+
+        Every warning lands in `DrivingTask.warnings`; `log_level` says how loudly it is
+        also logged (missing 3D models and sounds are routine, so they log at INFO)."""
         if once_key is not None:
             if once_key in self._seen:
                 return
             self._seen.add(once_key)
         w = TaskWarning(message, str(file) if file is not None else None, line, element)
         self.warnings.append(w)
-        log.warning("%s", w)
+        log.log(log_level, "%s", w)

@@ -77,13 +77,21 @@ def _warn_missing_assets(task: DrivingTask, files: dict[str, Path], diag: Diagno
                 m.line,
                 "model",
                 once_key=f"asset:{m.key}",
+                log_level=logging.INFO,
             )
     for s in task.scene.sounds:
         if s.key and not _asset_exists(task.folder, s.key):
-            diag.warn(f"sound '{s.key}' not found; it is logged but not played", scene_file, s.line, "sound", once_key=f"asset:{s.key}")
+            diag.warn(
+                f"sound '{s.key}' not found; it is logged but not played",
+                scene_file,
+                s.line,
+                "sound",
+                once_key=f"asset:{s.key}",
+                log_level=logging.INFO,
+            )
     for p in task.scene.pictures:
         if p.key and not _asset_exists(task.folder, p.key):
-            diag.warn(f"picture '{p.key}' not found", scene_file, p.line, "picture", once_key=f"asset:{p.key}")
+            diag.warn(f"picture '{p.key}' not found", scene_file, p.line, "picture", once_key=f"asset:{p.key}", log_level=logging.INFO)
     od = task.open_drive_path
     if od is not None and not od.is_file():
         diag.warn(f"OpenDRIVE file '{task.entry.open_drive}' not found", files["entry"], None, "entry")
