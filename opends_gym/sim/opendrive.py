@@ -127,33 +127,48 @@ class OpenDriveMap:
         x, z = self._world(road, s, self.lane_center_t(road, sec, lane_id, s))
         return np.column_stack([x, z])
 
+    def _lane_t(self, road: Road, sec: LaneSection, lane_id: int, s: float) -> float:
+        """Lateral offset of a lane's centre at one s (scalar twin of `lane_center_t`)."""
+        side, sign = (sec.left, 1.0) if lane_id > 0 else (sec.right, -1.0)
+        ds = s - sec.s0
+        cum = 0.0
+        for lane in side:
+            w = max(lane.width.at(ds) if not lane.width.empty else abs(lane.border.at(ds)) - cum, 0.0)
+            if lane.id == lane_id:
+                return road.lane_offset.at(s) + sign * (cum + 0.5 * w)
+            cum += w
+        raise ValueError(f"{self.path.name}: road '{road.id}' has no lane {lane_id} at s={s:.2f}")
+
+    def _point(self, road: Road, s: float, t: float) -> tuple[float, float]:
+        x, y, h, _ = road.reference.point(s)
+        return x - t * math.sin(h), -(y + t * math.cos(h))
+
     def lane_center(self, road_id: str, lane_id: int, s: float) -> tuple[float, float, float]:
         """World (x, z, yaw) of a lane's centre at s; yaw faces the lane's driving direction."""
         road = self.road(road_id)
         s = self._check_s(road, s)
+        lane_id = int(lane_id)
         sec = road.sections[self.section_index(road, s, lane_id)]
-        eps = 0.05
-        a, b = max(sec.s0, s - eps), min(sec.s1, s + eps)
-        pts = self.lane_points(road, sec, int(lane_id), np.array([s, a, b]))
-        dx, dz = pts[2] - pts[1]
+        x, z = self._point(road, s, self._lane_t(road, sec, lane_id, s))
+        a, b = max(sec.s0, s - 0.05), min(sec.s1, s + 0.05)
+        xa, za = self._point(road, a, self._lane_t(road, sec, lane_id, a))
+        xb, zb = self._point(road, b, self._lane_t(road, sec, lane_id, b))
+        dx, dz = xb - xa, zb - za
         if lane_id > 0:  # left lanes drive towards decreasing s
             dx, dz = -dx, -dz
-        return float(pts[0, 0]), float(pts[0, 1]), math.atan2(-dx, -dz)
+        return x, z, math.atan2(-dx, -dz)
 
     def position_to_world(self, road_id: str, s: float, lateral_offset: float = 0.0) -> tuple[float, float, float]:
         """World (x, z, yaw) of a model placed by `openDrivePosition` (see module docstring)."""
         road = self.road(road_id)
         s = self._check_s(road, s)
-        ref = road.reference.evaluate(s)
-        h = float(ref.hdg[0])
-        x = float(ref.x[0]) + lateral_offset * math.sin(h)
-        z = -float(ref.y[0]) + lateral_offset * math.cos(h)
-        return x, z, yaw_from_od_heading(h)
+        x, y, h, _ = road.reference.point(s)
+        return x + lateral_offset * math.sin(h), -y + lateral_offset * math.cos(h), yaw_from_od_heading(h)
 
     def elevation_m(self, road_id: str, s: float) -> float:
         """Height of the road's reference line at s (world Y)."""
         road = self.road(road_id)
-        return float(road.elevation(self._check_s(road, s)))
+        return road.elevation.at(self._check_s(road, s))
 
     # ------------------------------------------------------------------ world -> road
     def _build_index(self) -> None:

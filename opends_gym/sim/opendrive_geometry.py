@@ -26,7 +26,7 @@ FloatArray = np.ndarray
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 _GL_X = 0.5 * (_GL_X + 1.0)  # nodes on [0, 1]
 _GL_W = 0.5 * _GL_W
-_ARC_TABLE_STEP_M = 0.05  # resolution of the arc-length tables of poly3 / paramPoly3
+_ARC_TABLE_STEP_M = 0.25  # resolution of the arc-length tables of poly3 / paramPoly3
 
 
 @dataclass(frozen=True)
@@ -171,19 +171,33 @@ class Spiral(Geometry):
         super().__init__(s0, x0, y0, hdg0, length)
         self.k0 = curv_start
         self.rate = (curv_end - curv_start) / length if length > 0 else 0.0
+        # composite Gauss-Legendre on [0, 1]: one 8-node panel per half radian of turning
+        turn = abs(curv_start) * length + 0.5 * abs(self.rate) * length**2
+        panels = int(min(400, max(1, math.ceil(turn / 0.5))))
+        edges = np.linspace(0.0, 1.0, panels + 1)
+        self._nodes = (edges[:-1, None] + (edges[1:] - edges[:-1])[:, None] * _GL_X[None, :]).ravel()
+        self._weights = np.repeat(np.diff(edges), len(_GL_X)) * np.tile(_GL_W, panels)
+        self._quad = list(zip(self._nodes.tolist(), self._weights.tolist(), strict=True))
+
+    def point(self, ds: float) -> tuple[float, float, float, float]:
+        ds = min(max(ds, 0.0), self.length)
+        k0, c = self.k0, self.rate
+        u = v = 0.0
+        for xi, w in self._quad:
+            t = ds * xi
+            th = t * (k0 + 0.5 * c * t)
+            u += w * math.cos(th)
+            v += w * math.sin(th)
+        u, v = u * ds, v * ds
+        ch, sh = math.cos(self.hdg0), math.sin(self.hdg0)
+        return self.x0 + ch * u - sh * v, self.y0 + sh * u + ch * v, self.hdg0 + k0 * ds + 0.5 * c * ds * ds, k0 + c * ds
 
     def local(self, ds: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         k0, c = self.k0, self.rate
-        turn = abs(k0) * self.length + 0.5 * abs(c) * self.length**2
-        panels = int(min(400, max(1, math.ceil(turn / 0.5), math.ceil(self.length / 50.0))))
-        # composite Gauss-Legendre nodes on [0, 1], scaled by each ds
-        edges = np.linspace(0.0, 1.0, panels + 1)
-        nodes = (edges[:-1, None] + (edges[1:] - edges[:-1])[:, None] * _GL_X[None, :]).ravel()
-        weights = np.repeat(np.diff(edges), len(_GL_X)) * np.tile(_GL_W, panels)
-        t = ds[..., None] * nodes  # (..., P*G)
+        t = ds[..., None] * self._nodes  # (..., P*G)
         theta = k0 * t + 0.5 * c * t * t
-        u = (np.cos(theta) * weights).sum(axis=-1) * ds
-        v = (np.sin(theta) * weights).sum(axis=-1) * ds
+        u = (np.cos(theta) * self._weights).sum(axis=-1) * ds
+        v = (np.sin(theta) * self._weights).sum(axis=-1) * ds
         return u, v, k0 * ds + 0.5 * c * ds * ds, k0 + c * ds
 
 
@@ -207,6 +221,27 @@ class _ArcLengthCurve(Geometry):
             scale = self.length / arc[-1]  # the curve's end is the geometry's end
             arc, dp_ds = arc * scale, dp_ds / scale
         self._p_table, self._s_table, self._dp_ds = p, arc, dp_ds
+        self._s_list = arc.tolist()
+
+    def point(self, ds: float) -> tuple[float, float, float, float]:
+        s_tab = self._s_list
+        ds = min(max(ds, 0.0), s_tab[-1])
+        i = min(max(bisect.bisect_right(s_tab, ds) - 1, 0), len(s_tab) - 2)
+        h = s_tab[i + 1] - s_tab[i]
+        t = (ds - s_tab[i]) / h if h > 0 else 0.0
+        t2, t3 = t * t, t * t * t
+        pp = self._p_table
+        p = (2 * t3 - 3 * t2 + 1) * float(pp[i]) + (t3 - 2 * t2 + t) * float(self._dp_ds[i]) * h
+        p += (-2 * t3 + 3 * t2) * float(pp[i + 1]) + (t3 - t2) * float(self._dp_ds[i + 1]) * h
+        u, v, du, dv, ddu, ddv = self._curve(p)  # type: ignore[arg-type]
+        sp2 = max(du * du + dv * dv, 1e-18)
+        ch, sh = math.cos(self.hdg0), math.sin(self.hdg0)
+        return (
+            self.x0 + ch * u - sh * v,
+            self.y0 + sh * u + ch * v,
+            self.hdg0 + math.atan2(dv, du),
+            (du * ddv - dv * ddu) / sp2**1.5,
+        )
 
     def _param(self, ds: FloatArray) -> FloatArray:
         """p at arc length ds: cubic Hermite through the table (slopes dp/ds = 1/speed)."""
@@ -241,8 +276,8 @@ class Poly3(_ArcLengthCurve):
 
     def _curve(self, p: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
         a, b, c, d = self.abcd
-        one = np.ones_like(p)
-        return p, a + p * (b + p * (c + p * d)), one, b + p * (2 * c + 3 * d * p), 0 * p, 2 * c + 6 * d * p
+        # plain arithmetic: works for arrays and for the scalar path alike
+        return p, a + p * (b + p * (c + p * d)), 0 * p + 1.0, b + p * (2 * c + 3 * d * p), 0 * p, 2 * c + 6 * d * p
 
 
 class ParamPoly3(_ArcLengthCurve):
