@@ -92,6 +92,13 @@ def test_pickle_round_trip(env_id: str) -> None:
     o1, _ = env.reset(seed=3)
     o2, _ = clone.reset(seed=3)
     np.testing.assert_array_equal(o1, o2)
+    env.action_space.seed(3)
+    for _ in range(20):  # the clone observes its own world, not the original's
+        a = env.action_space.sample()
+        o1 = env.step(a)[0]
+        o2 = clone.step(a)[0]
+        np.testing.assert_array_equal(o1, o2)
+    assert clone.world is not env.world and clone.world.t_s == env.world.t_s
 
 
 def _make_in_child(env_id: str) -> tuple[int, ...]:

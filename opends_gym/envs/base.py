@@ -276,6 +276,12 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         self._window.show(frame, fps=self.metadata["render_fps"])
         return None
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Rebuild from the constructor arguments on *this* object. (EzPickle copies the
+        attributes of a second instance, whose observation type would keep calling that
+        instance's stimulus hooks and read its world.)"""
+        self.__init__(*state["_ezpickle_args"], **state["_ezpickle_kwargs"])  # type: ignore[misc]
+
     def close(self) -> None:
         if self._window is not None:
             self._window.close()

@@ -13,6 +13,7 @@ ENVS: dict[str, str] = {
     "OpenDS/DrivingTask-v0": "opends_gym.envs.driving_task:DrivingTaskEnv",
     "OpenDS/LaneChangeTest-v0": "opends_gym.envs.lct:LaneChangeTestEnv",
     "OpenDS/ReactionTest-v0": "opends_gym.envs.reaction_test:ReactionTestEnv",
+    "OpenDS/ConTRe-v0": "opends_gym.envs.contre:ConTReEnv",
 }
 
 
