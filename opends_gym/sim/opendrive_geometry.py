@@ -18,6 +18,7 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -204,8 +205,8 @@ class Spiral(Geometry):
 class _ArcLengthCurve(Geometry):
     """A curve given by a parameter p in [0, p_end]; s is mapped to p by arc length."""
 
-    def _curve(self, p: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-        """(u, v, du/dp, dv/dp, d2u/dp2, d2v/dp2) at parameters p."""
+    def _curve(self, p: Any) -> tuple[Any, Any, Any, Any, Any, Any]:
+        """(u, v, du/dp, dv/dp, d2u/dp2, d2v/dp2) at parameters p (an array, or one float)."""
         raise NotImplementedError
 
     def _build_table(self, p_end: float, scale_to_length: bool) -> None:
@@ -233,7 +234,7 @@ class _ArcLengthCurve(Geometry):
         pp = self._p_table
         p = (2 * t3 - 3 * t2 + 1) * float(pp[i]) + (t3 - 2 * t2 + t) * float(self._dp_ds[i]) * h
         p += (-2 * t3 + 3 * t2) * float(pp[i + 1]) + (t3 - t2) * float(self._dp_ds[i + 1]) * h
-        u, v, du, dv, ddu, ddv = self._curve(p)  # type: ignore[arg-type]
+        u, v, du, dv, ddu, ddv = (float(c) for c in self._curve(p))
         sp2 = max(du * du + dv * dv, 1e-18)
         ch, sh = math.cos(self.hdg0), math.sin(self.hdg0)
         return (
@@ -274,7 +275,7 @@ class Poly3(_ArcLengthCurve):
         # arc length >= u, so the end parameter lies in [0, length]: tabulate there; s = length is the end
         self._build_table(max(length, 1e-9), scale_to_length=False)
 
-    def _curve(self, p: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    def _curve(self, p: Any) -> tuple[Any, Any, Any, Any, Any, Any]:
         a, b, c, d = self.abcd
         # plain arithmetic: works for arrays and for the scalar path alike
         return p, a + p * (b + p * (c + p * d)), 0 * p + 1.0, b + p * (2 * c + 3 * d * p), 0 * p, 2 * c + 6 * d * p
@@ -300,7 +301,7 @@ class ParamPoly3(_ArcLengthCurve):
         self.u_abcd, self.v_abcd, self.normalized = u_abcd, v_abcd, normalized
         self._build_table(1.0 if normalized else length, scale_to_length=True)
 
-    def _curve(self, p: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    def _curve(self, p: Any) -> tuple[Any, Any, Any, Any, Any, Any]:
         au, bu, cu, du_ = self.u_abcd
         av, bv, cv, dv_ = self.v_abcd
         u = au + p * (bu + p * (cu + p * du_))
