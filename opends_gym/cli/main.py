@@ -17,6 +17,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("validate", "opends_gym.cli.validate", "load and check OpenDS driving tasks"),
     ("list", "opends_gym.cli.listing", "list bundled tasks and registered environments"),
     ("run", "opends_gym.cli.run", "drive an environment with an agent and print its metrics"),
+    ("drive", "opends_gym.cli.drive", "drive a task yourself in real time (keyboard, wheel, CAN) and print the metrics"),
     ("train", "opends_gym.cli.train", "train a baseline policy from a config in configs/"),
 )
 
