@@ -343,3 +343,28 @@ def test_without_opendrive_file_open_drive_pos_triggers_warn(task_copy) -> None:
     assert w.start_pose == w.task.start_pose  # the scene pose of the car model
     w.step()
     assert [e.source for e in w.events.of_kind("warning")] == ["openDrivePos"]
+
+
+def test_scene_models_placed_by_opendrive_position(task_copy) -> None:
+    box = (
+        '<model id="roadBlock" ref="blockBox"><mass>0</mass><visible>true</visible><collisionShape>boxShape</collisionShape>'
+        '<rotation quaternion="false"><vector jtype="java_lang_Float" size="3"><entry>0</entry><entry>0</entry><entry>0</entry>'
+        '</vector></rotation><openDrivePosition roadID="s001" s="50" lateralOffset="2.5" verticalOffset="0.3"/></model>\n'
+        '\t\t<model id="grassPlane"'
+    )
+    folder = task_copy("opends2023-annegretj/init_drive", "scene.xml", '<model id="grassPlane"', box)
+    scene = folder / "scene.xml"
+    text = scene.read_text(encoding="utf-8")
+    geometry = '<geometries><box id="blockBox"><width>1</width><depth>1</depth><height>1</height></box>'
+    if "<geometries>" in text:
+        text = text.replace("<geometries>", geometry, 1)
+    else:
+        text = text.replace("</models>", "</models>\n" + geometry + "</geometries>", 1)
+    scene.write_text(text, encoding="utf-8")
+    w = World(load_task(folder))
+    od = w.road.opendrive
+    assert od is not None
+    (obj,) = w.objects.by_id["roadBlock"]
+    x, z, yaw = od.position_to_world("s001", 50.0, 2.5)
+    assert obj.position == pytest.approx((x, od.elevation_m("s001", 50.0) + 0.3, z))
+    assert obj.yaw == pytest.approx(yaw)

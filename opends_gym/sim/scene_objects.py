@@ -8,6 +8,7 @@ per-step queries touch only the few objects near the car.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -17,6 +18,8 @@ from ..task.conditions import CollideWith
 from ..task.model_task import DrivingTask
 from .assets import AssetShape, shape_of
 from .geometry2d import Obb, obb_overlap
+
+log = logging.getLogger(__name__)
 
 CELL_M = 50.0
 
@@ -54,7 +57,10 @@ class SceneObject:
 class SceneObjects:
     """All scene models except the ego car, indexed by a grid for nearby queries."""
 
-    def __init__(self, task: DrivingTask, folder: Path | None = None, extra_trigger_ids: set[str] | None = None) -> None:
+    def __init__(
+        self, task: DrivingTask, folder: Path | None = None, extra_trigger_ids: set[str] | None = None, opendrive: Any = None
+    ) -> None:
+        """`opendrive` (an `OpenDriveMap`) places models given by `openDrivePosition`."""
         self.task = task
         trigger_ids = {c.model_id for t in task.interaction.triggers for c in t.condition.items if isinstance(c, CollideWith)}
         trigger_ids |= extra_trigger_ids or set()
@@ -70,12 +76,22 @@ class SceneObjects:
             if shape.kind == "ground" and not is_trigger:
                 continue
             pos = m.translation_m or (0.0, 0.0, 0.0)
+            yaw = m.rotation.yaw_rad
+            odp = m.open_drive_position
+            if odp is not None and m.translation_m is None:
+                if opendrive is None:
+                    msg = "model '%s' (scene.xml line %s) is placed on OpenDRIVE road '%s' but the task has no road file"
+                    log.warning(msg, m.id, m.line, odp.road_id)
+                else:
+                    x, z, road_yaw = opendrive.position_to_world(odp.road_id, odp.s_m, odp.lateral_offset_m)
+                    y = opendrive.elevation_m(odp.road_id, odp.s_m) + odp.vertical_offset_m
+                    pos, yaw = (x, y, z), road_yaw + yaw
             self._initial.append(
                 SceneObject(
                     index=i,
                     id=m.id,
                     position=pos,
-                    yaw=m.rotation.yaw_rad,
+                    yaw=yaw,
                     scale=m.scale,
                     base_half=shape.half_extents,
                     kind="trigger" if is_trigger else shape.kind,

@@ -60,7 +60,7 @@ class World:
         self.events = EventLog()
         self.rng = np.random.default_rng(seed)
         self.road = RoadModel(self.task)
-        self.objects = SceneObjects(self.task, extra_trigger_ids=_light_trigger_ids(self.task))
+        self.objects = SceneObjects(self.task, extra_trigger_ids=_light_trigger_ids(self.task), opendrive=self.road.opendrive)
         backend = make_backend(self.config.physics, self.task, objects=self.objects)
         self.ego = EgoCar(self.task, backend)
         self.start_pose: Pose = self.road.driver_start_pose() or self.task.start_pose
