@@ -1,0 +1,110 @@
+"""Training from configs: SB3 runs improve, save, and load back as agents."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+import opends_gym  # noqa: F401
+from opends_gym.cli.main import main as cli
+from opends_gym.envs import ENVS
+from opends_gym.training import load_train_config
+from opends_gym.training.sb3 import train
+
+ROOT = Path(__file__).resolve().parent.parent
+
+QUICK = """
+env: OpenDS/LaneChangeTest-v0
+env_kwargs: {signs: 3, lead_in_m: 100, lead_out_m: 100, policy_hz: 5}
+total_steps: 12000
+n_envs: 4
+hyperparameters: {n_steps: 256, batch_size: 256, n_epochs: 5, learning_rate: 0.001}
+policy_kwargs: {net_arch: [32, 32]}
+checkpoint_every_steps: 6000
+eval_every_steps: 6000
+eval_episodes: 1
+progress_bar: false
+"""
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("train")
+    (folder / "quick.yaml").write_text(QUICK, encoding="utf-8")
+    cfg, base = load_train_config(folder / "quick.yaml")
+    train(cfg, base, folder / "run")
+    return folder / "run"
+
+
+def test_short_ppo_run_improves_its_return(quick_run: Path) -> None:
+    rows = list(csv.DictReader((quick_run / "curve.csv").open(encoding="utf-8")))
+    returns = [float(r["mean_return_last_10"]) for r in rows]
+    assert len(returns) > 20
+    assert np.mean(returns[-5:]) > np.mean(returns[:5]) + 2.0
+    for name in ("model.zip", "model.vecnormalize.pkl", "evaluations.npz", "metrics.json"):
+        assert (quick_run / name).is_file(), name
+    assert list((quick_run / "checkpoints").glob("model_*_steps.zip"))
+    metrics = json.loads((quick_run / "metrics.json").read_text(encoding="utf-8"))
+    assert metrics["mean"]["duration_s"] > 0 and "mdev_basic_m" in metrics["mean"]
+
+
+def test_saved_policy_runs_through_the_cli(quick_run: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["run", "OpenDS/LaneChangeTest-v0", "--agent", f"ppo:{quick_run / 'model.zip'}", "--json", "--episodes", "1"]
+    args += ["--env-arg", "signs=3", "--env-arg", "lead_in_m=100", "--env-arg", "lead_out_m=100", "--env-arg", "policy_hz=5"]
+    assert cli(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["agent"].startswith("ppo:")
+    assert out["episodes"][0]["steps"] > 10
+
+
+def test_policy_rejects_an_env_with_other_observations(quick_run: Path) -> None:
+    from opends_gym.drivers.policy import PolicyDriver
+
+    driver = PolicyDriver("ppo", quick_run / "model.zip")
+    with pytest.raises(ValueError, match="expects observations of shape"):
+        driver.reset(gym.make("OpenDS/ConTRe-v0"), 0)
+
+
+def test_config_typos_are_errors_naming_the_file(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("env: OpenDS/LaneChangeTest-v0\ntotal_stepz: 10\n", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"bad\.yaml: unknown key\(s\) total_stepz"):
+        load_train_config(bad)
+    bad.write_text("env: OpenDS/LaneChangeTest-v0\nalgorithm: dqn\n", encoding="utf-8")
+    with pytest.raises(ValueError, match="algorithm must be one of"):
+        load_train_config(bad)
+    assert cli(["train", str(bad)]) == 2
+
+
+def _training_configs() -> list[str]:
+    """The YAML files in configs/ that are training configs (they name an env and an algorithm)."""
+    out = []
+    for p in sorted((ROOT / "configs").glob("*.yaml")):
+        data = yaml.safe_load(p.read_text(encoding="utf-8"))
+        if isinstance(data, dict) and "env" in data and "algorithm" in data:
+            out.append(p.name)
+    return out
+
+
+@pytest.mark.parametrize("name", _training_configs())
+def test_shipped_configs_load(name: str) -> None:
+    cfg, _ = load_train_config(ROOT / "configs" / name)
+    assert cfg.env in ENVS
+
+
+@pytest.mark.parametrize("env_id", sorted(ENVS))
+def test_every_env_trains_with_ppo(env_id: str) -> None:
+    from stable_baselines3 import PPO
+
+    env = gym.make(env_id, max_episode_s=20.0)
+    model = PPO("MlpPolicy", env, n_steps=256, batch_size=64, n_epochs=1, seed=0, device="cpu")
+    model.learn(total_timesteps=512)
+    action, _ = model.predict(env.reset(seed=0)[0], deterministic=True)
+    assert env.action_space.contains(action)
+    env.close()
