@@ -13,6 +13,7 @@ values, and writes a plot.
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 import sys
 from collections.abc import Callable
@@ -97,7 +98,7 @@ def table(results: dict[tuple[str, str], list[dict[str, float]]]) -> list[tuple[
         means = [c.mean for c in cis]
         falling = m.key == "drt_hit_rate"
         finite = [v for v in means if math.isfinite(v)]
-        pairs = list(zip(finite, finite[1:]))
+        pairs = list(itertools.pairwise(finite))
         monotonic = len(finite) == len(means) and all((b <= a) if falling else (b >= a) for a, b in pairs)
         rows.append((m, cis, monotonic))
     return rows
