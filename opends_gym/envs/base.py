@@ -265,7 +265,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         from ..render import make_renderer
 
         if self._renderer is None:
-            self._renderer = make_renderer(str(self.config.extra.get("render_view", "topdown")), self.world)
+            self._renderer = make_renderer(self.config.extra.get("render_view", "topdown"), self.world, hud=self.render_mode == "human")
         frame = self._renderer.render(self.config.render_width, self.config.render_height)
         if self.render_mode == "rgb_array":
             return frame

@@ -5,29 +5,44 @@ Why: `render_mode="rgb_array"`, image observations and the human viewer all draw
 `sim.World` without a display or a GL context (pygame Surfaces and numpy only). pygame is
 imported on first use, never when this package is imported.
 
-`make_renderer(view, world, **options)` -> an object with `render(width, height)`
-returning uint8 (height, width, 3). Views: "topdown" (`TopDownRenderer`), "driver_view"
-(the driver's eye), "chase", "static_back" and "top" (`DriverViewRenderer` camera modes).
+`make_renderer(view, world, hud=False, **options)` -> an object with
+`render(width, height)` returning uint8 (height, width, 3). Views: "topdown"
+(`TopDownRenderer`), "driver_view" (the driver's eye, or any `camera_mode=`), "chase",
+"static_back" and "top" (`DriverViewRenderer` camera modes), and "human" (the human
+viewer's composition per the task's settings: screens, mirrors, top view and HUD).
+`hud=True` draws the HUD (`hud.HudOverlay`) over any view.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-RENDER_VIEWS = ("topdown", "driver_view", "chase", "static_back", "top")
+RENDER_VIEWS = ("topdown", "driver_view", "chase", "static_back", "top", "human")
 
 
-def make_renderer(view: str, world: Any, **options: Any) -> Any:
+def make_renderer(view: str, world: Any, hud: bool = False, **options: Any) -> Any:
     """A renderer for `view` (one of RENDER_VIEWS) over `world`; options go to its constructor."""
+    renderer: Any
     if view == "topdown":
         from .topdown import TopDownRenderer
 
-        return TopDownRenderer(world, **options)
-    if view in ("driver_view", "chase", "static_back", "top"):
+        renderer = TopDownRenderer(world, **options)
+    elif view in ("driver_view", "chase", "static_back", "top"):
         from .driver_view import DriverViewRenderer
 
-        return DriverViewRenderer(world, camera_mode="ego" if view == "driver_view" else view, **options)
-    raise ValueError(f"unknown render view {view!r}; choose from {', '.join(RENDER_VIEWS)}")
+        mode = options.pop("camera_mode", "ego") if view == "driver_view" else view
+        renderer = DriverViewRenderer(world, camera_mode=mode, **options)
+    elif view == "human":
+        from .compose import ViewComposer
+
+        return ViewComposer(world, options.pop("settings", None), hud=True, **options)
+    else:
+        raise ValueError(f"unknown render view {view!r}; choose from {', '.join(RENDER_VIEWS)}")
+    if hud:
+        from .hud import WithHud
+
+        return WithHud(renderer, world)
+    return renderer
 
 
 def compose_view(world: Any, settings: Any, width: int, height: int) -> Any:

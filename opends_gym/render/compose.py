@@ -82,10 +82,14 @@ class ViewComposer:
         self._surface: Any = None
 
     def render(self, width: int, height: int) -> np.ndarray:
+        return _pg.to_array(self.render_surface(width, height))
+
+    def render_surface(self, width: int, height: int) -> Any:
+        """Draw a frame onto this renderer's own offscreen surface and return that surface."""
         if self._surface is None or self._surface.get_size() != (width, height):
             self._surface = _pg.new_surface(width, height)
         self.draw(self._surface)
-        return _pg.to_array(self._surface)
+        return self._surface
 
     def draw(self, surface: Any) -> None:
         self.draw_screens(surface)

@@ -149,6 +149,7 @@ class HudOverlay:
             rect = _pg.text(surface, letter, (x - 0.6 * r, cy + 0.62 * r), fsize, (80, 230, 80) if on else (130, 130, 130), "midleft")
             x += rect.width + 3
         _pg.text(surface, self._gear_text(), (left + r + 5, cy + 0.35 * r), fsize, (80, 230, 80), "center")
+        _pg.text(surface, f"fuel {pt.fuel_left_l:.1f} l", (left + 3 * r + 20, cy + 0.68 * r), fsize, (190, 190, 190), "center")
 
     def _gear_letter(self) -> str:
         pt = self.world.ego.powertrain.state
@@ -288,3 +289,19 @@ class HudOverlay:
             max(14, sh // 20),
             230,
         )
+
+
+class WithHud:
+    """A renderer whose frames carry the HUD (what `render_mode="human"` shows)."""
+
+    def __init__(self, renderer: Any, world: Any) -> None:
+        self.renderer = renderer
+        self.hud = HudOverlay(world)
+
+    def render(self, width: int, height: int) -> Any:
+        return _pg.to_array(self.render_surface(width, height))
+
+    def render_surface(self, width: int, height: int) -> Any:
+        surface = self.renderer.render_surface(width, height)
+        self.hud.draw(surface)
+        return surface
