@@ -8,7 +8,6 @@ offscreen Surfaces (no display, no GL context).
 from __future__ import annotations
 
 import os
-from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -47,14 +46,20 @@ def from_array(frame: np.ndarray) -> Any:
     return pg.image.frombuffer(frame.tobytes(), (w, h), "RGB")
 
 
-@lru_cache(maxsize=32)
+_FONTS: dict[tuple[int, bool], Any] = {}
+
+
 def font(size_px: int, bold: bool = False) -> Any:
-    """pygame's bundled default font at a pixel size (cached; works headless)."""
+    """pygame's bundled default font at a pixel size (cached; works headless; survives pygame.quit())."""
     pg = pygame()
     if not pg.font.get_init():
+        _FONTS.clear()
         pg.font.init()
-    f = pg.font.Font(None, max(6, int(size_px)))
-    f.set_bold(bold)
+    key = (max(6, int(size_px)), bool(bold))
+    f = _FONTS.get(key)
+    if f is None:
+        f = _FONTS[key] = pg.font.Font(None, key[0])
+        f.set_bold(bold)
     return f
 
 
