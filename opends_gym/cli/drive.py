@@ -44,6 +44,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--server-host", default="127.0.0.1", help="settings-controller bind address (default 127.0.0.1)")
     p.add_argument("--server-port", type=int, help="settings-controller port (default: settings.xml)")
     p.add_argument("--no-audio", action="store_true", help="log sounds without playing them")
+    p.add_argument("--screenshot", metavar="OUT.png", help="save the last frame of the window as PNG")
     p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
 
@@ -82,6 +83,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         server_host=args.server_host,
         server_port=args.server_port,
         audio=not args.no_audio,
+        screenshot_path=args.screenshot,
         env_kwargs=env_kwargs,
     )
 

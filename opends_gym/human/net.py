@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import queue
 import socket
 import threading
 from collections.abc import Callable
@@ -19,7 +18,6 @@ from collections.abc import Callable
 log = logging.getLogger(__name__)
 
 READ_CHUNK = 10000  # OpenDS reads at most 10000 characters per socket read
-MAX_OUTBOX = 256
 
 
 class ReconnectingClient:
@@ -47,7 +45,8 @@ class ReconnectingClient:
         self.state = "connecting"
         self.connections = 0
         self.errors = 0
-        self._outbox: queue.Queue[bytes] = queue.Queue(MAX_OUTBOX)
+        self.dropped = 0
+        self._send_lock = threading.Lock()
         self._stop = threading.Event()
         self._sock: socket.socket | None = None
         self._thread = threading.Thread(target=self._run, name=f"{name}-client", daemon=True)
@@ -57,14 +56,19 @@ class ReconnectingClient:
         return self
 
     def send(self, data: str | bytes) -> bool:
-        """Queue data for sending; False (dropped) when not connected or the queue is full."""
-        if not self.connected:
+        """Send now from the caller's thread; False (dropped) when not connected or the peer is stuck."""
+        sock = self._sock
+        if sock is None or not self.connected:
             return False
-        try:
-            self._outbox.put_nowait(data.encode("utf-8") if isinstance(data, str) else data)
-            return True
-        except queue.Full:
-            return False
+        payload = data.encode("utf-8") if isinstance(data, str) else data
+        with self._send_lock:
+            try:
+                sock.sendall(payload)
+            except OSError as e:  # a full buffer or a dying connection: the reader thread notices the loss
+                self.dropped += 1
+                log.debug("%s: send failed: %s", self.name, e)
+                return False
+        return True
 
     def close(self, timeout_s: float = 1.0) -> None:
         self._stop.set()
@@ -93,13 +97,10 @@ class ReconnectingClient:
         self.connections += 1
         self.state = f"connected to {self.host}:{self.port}"
         log.info("%s: %s", self.name, self.state)
-        while not self._outbox.empty():  # data queued for an old connection is stale
-            self._outbox.get_nowait()
         if self.on_connect is not None:
             self._call(self.on_connect)
         try:
             while not self._stop.is_set():
-                self._flush(sock)
                 try:
                     data = sock.recv(READ_CHUNK)
                 except TimeoutError:
@@ -109,7 +110,7 @@ class ReconnectingClient:
                 if self.on_data is not None:
                     self._call(self.on_data, data)
             if self.goodbye:
-                with contextlib.suppress(OSError):
+                with self._send_lock, contextlib.suppress(OSError):
                     sock.sendall(self.goodbye)
         except (OSError, ConnectionError) as e:
             self.errors += 1
@@ -120,14 +121,6 @@ class ReconnectingClient:
             self._sock = None
             with contextlib.suppress(OSError):
                 sock.close()
-
-    def _flush(self, sock: socket.socket) -> None:
-        while True:
-            try:
-                data = self._outbox.get_nowait()
-            except queue.Empty:
-                return
-            sock.sendall(data)
 
     def _call(self, fn: Callable[..., None], *args: object) -> None:
         try:

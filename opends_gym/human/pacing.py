@@ -77,6 +77,7 @@ class PacingClock:
     def wait(self, max_wait_s: float = 0.05) -> None:
         """Sleep until the next step is due (at most `max_wait_s`, to stay responsive)."""
         if self.fast:
+            self._sleep(0)  # lets device threads (sockets, buses) run between steps
             return
         delay = self.origin + (self.done + 1) * self.dt_s - self._now()
         if delay > 0:

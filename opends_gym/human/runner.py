@@ -42,6 +42,7 @@ from .view_state import ViewState
 
 log = logging.getLogger(__name__)
 CLOSE_KEYS = frozenset({"KEY_RETURN", "KEY_SPACE"})
+HOLD_POLL_S = 1.0 / 60.0  # how often a held drive looks at its devices
 PAUSE_COMMANDS = {"toggle_pause": None, "start_pause": True, "stop_pause": False}
 
 
@@ -59,6 +60,7 @@ class SessionResult:
     recordings: list[str]
     sounds: list[SoundLogEntry]
     reactions: list[dict[str, Any]]
+    holds: list[tuple[float, str]] = field(default_factory=list)
     input_problems: int = 0
     warnings: list[str] = field(default_factory=list)
 
@@ -124,6 +126,7 @@ class DriveSession:
         self.stop_reason = ""
         self.frames = 0
         self.frame_times: list[float] = []
+        self.holds: list[tuple[float, str]] = []  # (simulation time, reason) each time the drive was held
         self._event_cursor = 0
         self._warned: set[str] = set()
         self._stop = threading.Event()
@@ -166,14 +169,20 @@ class DriveSession:
         started = time.perf_counter()
         previous = _install_sigterm(self)
         done = False
+        last_hold = ""
         try:
             while not done and not self._stop.is_set():
                 t0 = time.perf_counter()
                 self._pump_events()
                 hold = self._hold_reason()
+                if hold and hold != last_hold:
+                    self.holds.append((self.world.t_s, hold))
+                    log.info("drive held at %.3f s: %s", self.world.t_s, hold)
+                last_hold = hold
                 if hold:
                     clock.hold()
                     self._poll_while_held()
+                    time.sleep(HOLD_POLL_S)
                 else:
                     for _ in range(clock.steps_due()):
                         done = self._step()
@@ -191,6 +200,11 @@ class DriveSession:
             if previous is not None:
                 signal.signal(signal.SIGTERM, previous)
         wall = time.perf_counter() - started
+        if self.viewer is not None and cfg.screenshot_path:
+            try:
+                self.viewer.save_png(cfg.screenshot_path)
+            except Exception as e:  # a screenshot must not cost the session its results
+                self._warn_once("screenshot", f"screenshot not saved: {e}")
         return self._result(wall, clock.stats)
 
     def _hold_reason(self) -> str:
@@ -343,6 +357,7 @@ class DriveSession:
             recordings=recordings,
             sounds=list(self.sound.log),
             reactions=reactions,
+            holds=list(self.holds),
             input_problems=problems,
             warnings=sorted(self._warned),
         )

@@ -77,6 +77,7 @@ class DriveConfig:
     server_port: int | None = None  # None: settings.xml port
     audio: bool = True
     max_catch_up_steps: int = 6
+    screenshot_path: str | None = None  # save the last frame as PNG when the drive ends
     hold_on_instructions: bool | None = None  # None: only when a window shows them
     env_kwargs: dict[str, Any] = field(default_factory=dict)
 

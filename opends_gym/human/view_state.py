@@ -38,7 +38,7 @@ class ViewState:
     def from_settings(cls, settings: Any) -> ViewState:
         g = settings.general
         mode = g.camera_mode if g.camera_mode in CAMERA_MODES else "ego"
-        return cls(camera_mode=mode, mirror=(g.mirror_mode or "all") in ("all", "back_only"), top_view=False, show_stats=bool(g.show_stats))
+        return cls(camera_mode=mode, mirror=(g.mirror_mode or "off") != "off", top_view=False, show_stats=bool(g.show_stats))
 
     def command(self, cmd: str) -> bool:
         """Apply a display function; False when it is not a display function."""

@@ -83,6 +83,7 @@ class CanBusSource:
         self.state = "opening"
         self.problems = 0
         self.frames = 0
+        self.opened = 0
         self._next_feedback_t = 0.0
         self._thread = threading.Thread(target=self._run, name="can-bus", daemon=True)
         if start:
@@ -109,6 +110,7 @@ class CanBusSource:
             with self._lock:
                 self._bus = bus
             self.connected = True
+            self.opened += 1
             self.state = f"open on {self.interface}:{self.channel}"
             try:
                 while not self._stop.is_set():
@@ -196,8 +198,8 @@ class CanBusSource:
             f.horn = bool(lv[m.horn])
         if m.turn_signal in lv and lv.get(m.turn_signal) != prev.get(m.turn_signal):
             f.turn_signal = TURN_SIGNALS.get(int(lv[m.turn_signal]), "off")
-        if m.gear in lv and lv.get(m.gear) != prev.get(m.gear):
-            f.gear = int(lv[m.gear])
+        if m.gear in lv and lv.get(m.gear) != prev.get(m.gear) and int(lv[m.gear]) != 0:
+            f.gear = int(lv[m.gear])  # 0 = no request: the gearbox (automatic) decides
         f.buttons = tuple(buttons)
         f.keys = tuple(f"JOY_{b}" for b in buttons)
         f.commands = tuple(commands)
@@ -239,7 +241,10 @@ class CanBusSource:
             log.warning("CAN bus: feedback not sent: %s", e)
 
     def status(self) -> InputStatus:
-        return InputStatus(self.name, connected=self.connected, message="" if self.connected else f"CAN bus: {self.state}")
+        """Until the bus has opened once, the drive waits (blocking); later failures are shown."""
+        if self.connected:
+            return InputStatus(self.name)
+        return InputStatus(self.name, connected=False, message=f"CAN bus: {self.state}", blocking=self.opened == 0)
 
     def close(self) -> None:
         self._stop.set()

@@ -62,7 +62,10 @@ class CanGatewaySource:
 
     # ------------------------------------------------------------------ I/O thread
     def _on_data(self, data: bytes) -> None:
-        for chunk in self.framer.feed(data):
+        dropped = self.framer.dropped
+        chunks = self.framer.feed(data)
+        self.problems += self.framer.dropped - dropped  # oversized or unterminated input
+        for chunk in chunks:
             update, problems = parse_chunk(chunk, self.max_steering_deg)
             for p in problems:
                 self.problems += 1
@@ -109,8 +112,12 @@ class CanGatewaySource:
         self.client.send(f"$SimCarState#{snapshot.speed_kmh:.2f}#{snapshot.heading_deg:.2f}#{snapshot.x_m:.3f}#{snapshot.z_m:.3f}%")
 
     def status(self) -> InputStatus:
+        """Until the gateway has connected once, the drive waits (blocking); later losses are shown."""
         c = self.client
-        return InputStatus(self.name, connected=c.connected, message="" if c.connected else f"CAN gateway: {c.state}")
+        if c.connected:
+            return InputStatus(self.name)
+        waiting = c.connections == 0
+        return InputStatus(self.name, connected=False, message=f"CAN gateway: {c.state}", blocking=waiting)
 
     def close(self) -> None:
         self.client.close()

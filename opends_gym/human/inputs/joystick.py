@@ -50,7 +50,7 @@ class AxisMap:
 
 
 DEFAULT_STEERING = AxisMap(0, 0)
-RESCAN_PERIOD_S = 0.25  # how often a missing controller is looked for (simulation time)
+RESCAN_EVERY_POLLS = 15  # a missing controller is looked for every 15 polls (a quarter second at 60 Hz)
 DEFAULT_COMBINED = AxisMap(0, 1)
 
 
@@ -162,7 +162,7 @@ class JoystickSource:
         self.devices: dict[int, JoystickDevice] = {}
         self._buttons_down: dict[int, set[int]] = {}
         self._message = ""
-        self._next_scan_t = 0.0
+        self._polls_missing = 0
         self.rescan()
         if dump_list:
             for i, d in self.devices.items():
@@ -233,8 +233,8 @@ class JoystickSource:
     def poll(self, t_s: float) -> InputFrame:
         f = InputFrame()
         if any(c not in self.devices for c in self.needed):
-            if t_s >= self._next_scan_t:  # a backend without hot-plug events still recovers
-                self._next_scan_t = t_s + RESCAN_PERIOD_S
+            self._polls_missing += 1  # a backend without hot-plug events still recovers
+            if self._polls_missing % RESCAN_EVERY_POLLS == 1:
                 self.rescan()
             if any(c not in self.devices for c in self.needed):
                 return f
@@ -259,6 +259,7 @@ class JoystickSource:
         self._poll_buttons(f)
         if not any(c not in self.devices for c in self.needed):
             self._message = ""
+            self._polls_missing = 0
         return f
 
     def _poll_buttons(self, f: InputFrame) -> None:
