@@ -130,7 +130,8 @@ def test_gateway_survives_hostile_input_and_reconnects() -> None:
 def test_gateway_loopback_drives_the_reaction_test() -> None:
     """The test plays the gateway: from the feedback channel it steers, brakes and accelerates."""
     gw = ScriptedGateway(ReactionTestDriver())
-    cfg = DriveConfig(target="ReactionTest", inputs=(parse_input_spec(f"can-tcp:127.0.0.1:{gw.port}"),), window=False, fast=True, duration_s=48.0)
+    spec = parse_input_spec(f"can-tcp:127.0.0.1:{gw.port}")
+    cfg = DriveConfig(target="ReactionTest", inputs=(spec,), window=False, fast=True, duration_s=48.0)
     try:
         with DriveSession(cfg) as session:
             result = session.run()
@@ -200,7 +201,8 @@ def test_can_bus_session_moves_the_car() -> None:
     channel = f"opends-session-{time.monotonic_ns()}"
     peer = can.Bus(interface="virtual", channel=channel)
     db = cantools.database.load_file(str(DBC))
-    cfg = DriveConfig(target="ReactionTest", inputs=(parse_input_spec(f"can-bus:virtual:{channel}"),), window=False, fast=True, duration_s=4.0)
+    spec = parse_input_spec(f"can-bus:virtual:{channel}")
+    cfg = DriveConfig(target="ReactionTest", inputs=(spec,), window=False, fast=True, duration_s=4.0)
     try:
         with DriveSession(cfg) as session:
             wait_for(lambda: session.sources.combiner.sources[0].connected)
@@ -210,5 +212,6 @@ def test_can_bus_session_moves_the_car() -> None:
         feedback = [m for m in iter(lambda: peer.recv(0.2), None) if m.arbitration_id == 0x200]
     finally:
         peer.shutdown()
+    assert result.end_reason == "time limit"
     assert final_speed > 40.0, final_speed  # full throttle; the engine's minSpeed alone holds about 20 km/h
     assert len(feedback) >= 0.9 * 4 * 20
