@@ -4,6 +4,16 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 source "$ROOT/scripts/_env.sh" "dev,rl"
 cd "$ROOT"
+# The drive-window test (tests/test_human_window.py) runs a real window under Xvfb.
+# Install it once if missing (root, or sudo without a password); quiet, never fatal here.
+if ! command -v Xvfb >/dev/null 2>&1; then
+  SUDO=""; [ "$(id -u)" -ne 0 ] && command -v sudo >/dev/null 2>&1 && SUDO="sudo -n"
+  if command -v apt-get >/dev/null 2>&1; then
+    echo "== installing xvfb (for the window test)"
+    { $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq xvfb; } >/dev/null 2>&1 \
+      || echo "could not install xvfb; tests/test_human_window.py will fail" >&2
+  fi
+fi
 echo "== ruff"; ruff check .
 ruff format --check .
 echo "== mypy"; mypy
