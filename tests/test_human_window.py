@@ -58,7 +58,8 @@ def xvfb_display():  # type: ignore[no-untyped-def]
         n = random.randint(100, 999)
         if not Path(f"/tmp/.X{n}-lock").exists():
             break
-    proc = subprocess.Popen([exe, f":{n}", "-screen", "0", "1024x768x24", "-nolisten", "tcp"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    cmd = [exe, f":{n}", "-screen", "0", "1024x768x24", "-nolisten", "tcp"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         end = time.monotonic() + 15.0
         while not Path(f"/tmp/.X11-unix/X{n}").exists():
