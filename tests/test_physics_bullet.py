@@ -17,7 +17,8 @@ from opends_gym.sim.controls import DriverControls
 from opends_gym.sim.physics_bullet import BulletVehicle
 from opends_gym.sim.world import World, WorldConfig
 from opends_gym.task import DrivingTask, load_task
-from opends_gym.task.model_scene import Box, Model, Terrain
+from opends_gym.task.model_scene import Box, Model, ResetPoint, Terrain
+from opends_gym.task.values import Rotation
 
 from .conftest import corpus_task_dirs
 from .test_physics_conformance import open_road
@@ -78,6 +79,27 @@ def test_dynamic_box_is_pushed_and_its_pose_follows() -> None:
     assert s.u > 5.0  # the car pushes a 100 kg box along
     assert z < -30.0 and z < s.z - FRONT_M  # the box moved ahead of the bumper
     assert w.events.of_kind("collision")
+
+
+def test_reset_point_moves_only_the_car() -> None:
+    task = with_models(open_road(30.0), crate("box", -20.0, 100.0), geometries=(CRATE,))
+    task = replace(
+        task,
+        scene=replace(
+            task.scene,
+            reset_points=(ResetPoint(id="back", translation_m=(3.0, 0.0, 10.0), rotation=Rotation.from_euler_deg(0.0, 90.0, 0.0)),),
+        ),
+    )
+    w = bullet_world(task)
+    w.run(4.0, DriverControls(accelerator=0.3))
+    w.step(DriverControls(reset_to="back"))
+    s = w.ego.state
+    assert (s.x, s.z) == pytest.approx((3.0, 10.0), abs=0.02)
+    assert s.yaw == pytest.approx(math.pi / 2, abs=1e-3)
+    assert abs(s.u) < 0.05
+    assert w.objects.by_id["box"][0].position[2] < -30.0  # the scene is not reset: the pushed box stays pushed
+    w.run(2.0, DriverControls(accelerator=1.0))
+    assert s.x < 0.0 and abs(s.z - 10.0) < 0.05  # facing -X, it drives off from the reset point
 
 
 def test_missing_model_warns_once_and_a_box_stands_in(caplog) -> None:

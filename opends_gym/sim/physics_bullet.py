@@ -6,23 +6,12 @@ rebuilds that model on pybullet, so the car pitches, rolls, climbs terrain and p
 stops at solid scene objects, while taking the same steer angle and powertrain forces as
 `physics="fast"` (the `VehicleBackend` protocol).
 
-Mapping of OpenDS's parameters (OPENDS.md section 5; btRaycastVehicle's formulas):
-- spring force per wheel = stiffness x compression x chassis mass (Bullet's mass-normalised
-  stiffness), on the contact normal, capped at 10000 N (OpenDS's `setMaxSuspensionForce`);
-- damping = c x (suspension speed) x chassis mass, with c = `compression` x 2 sqrt(stiffness)
-  while compressing and `damping` x 2 sqrt(stiffness) while extending, as OpenDS's
-  `CarModelLoader` feeds jME;
-- tyres: Bullet's `frictionSlip` is a raw impulse limit (50 would mean mu = 50, a car that
-  never slides), so the friction circle uses `VehicleSpec.mu` (frictionSlip / 50, mu 1.0 on
-  dry asphalt), with the fast backend's saturating cornering stiffness per unit load;
-- drive force on all four wheels (OpenDS accelerates both axles), brake force opposing
-  each wheel's motion and never reversing it; both split by wheel load.
-Assumed geometry (the car's `.properties` file is an asset we do not have): wheel radius
-0.32 m, suspension rest length 0.3 m, chassis box from 0.25 m above the road to the car's
-height; hard points are set so the car rests level with its centre of gravity at
-`cog_height_m`. `BodyState.y` is the ground level under the centre of gravity (its height
-minus `cog_height_m`), like the fast backend's. Euler angles are jME's (pitch about X, yaw
-about Y, roll about Z; positive pitch raises the nose).
+The wheels (`physics_bullet_wheels.py`) map OpenDS's suspension and tyre parameters; the
+chassis is a box from 0.25 m above the road to the car's height, with the yaw inertia of
+`VehicleSpec` (as the fast backend). `BodyState.y` is the ground level under the centre of
+gravity (its height minus `cog_height_m`), like the fast backend's. Euler angles are jME's
+(pitch about X, yaw about Y, roll about Z; positive pitch raises the nose, positive roll
+lowers the left side).
 
 Determinism: one private DIRECT client per instance, a fixed time step, sorted overlapping
 pairs, no randomness. `get_state()` serialises the whole Bullet world (contact caches
@@ -38,6 +27,7 @@ import math
 import shutil
 import tempfile
 import weakref
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -48,18 +38,13 @@ from ..task.model_task import DrivingTask
 from ..task.values import yaw_from_quat
 from .geometry2d import Obb
 from .physics_bullet_scene import G_CAR, MASK_CAR, RAY_MASK, Placement, SceneBuilder, quat_mul, yaw_quat
+from .physics_bullet_wheels import RaycastWheels
 from .scene_objects import SceneObjects
 from .vehicle import BodyState, VehicleSpec
 
-WHEEL_RADIUS_M = 0.32
-SUSPENSION_REST_M = 0.30
-MAX_SUSPENSION_FORCE_N = 10000.0
-MIN_STIFFNESS = 20.0  # softer springs would sink through the 0.3 m suspension at rest
 CHASSIS_CLEARANCE_M = 0.25
 MOVED_M = 1e-3  # a pushed scene model's pose is written back once it moved this far
 TWO_PI = 2.0 * math.pi
-KINEMATIC_BELOW = 1.0  # m/s: below this the tyres hold sideways like Bullet's constraint; as physics_fast
-DYNAMIC_ABOVE = 3.0  # m/s: above this the slip-angle tyre model alone
 RESTORES_PER_CLIENT = 200  # set_state calls before the client is renewed (bounds pybullet's file cache)
 
 
@@ -74,8 +59,18 @@ class BulletVehicle:
     """The ego car and its world in one private pybullet client. See the module docstring."""
 
     def __init__(
-        self, spec: VehicleSpec, task: DrivingTask, objects: SceneObjects | None = None, ground_height: float | None = None
+        self,
+        spec: VehicleSpec,
+        task: DrivingTask,
+        objects: SceneObjects | None = None,
+        ground_height: float | Callable[[float, float], float] | None = None,
     ) -> None:
+        """`objects`: the World's scene models (None: this backend's own copy, reset on every reset).
+
+        `ground_height`: the flat ground's height; a callable (x, z) -> y, as the fast backend
+        takes, is read at the start position. Default: the start pose's height. A terrain
+        height map in the scene replaces the flat ground.
+        """
         self.spec = spec
         self.state = BodyState()
         self.task = task
@@ -87,7 +82,10 @@ class BulletVehicle:
         self.objects = objects if objects is not None else SceneObjects(task)
         self._objects_list = self.objects.objects
         start = task.start_pose.position_m
-        ground_y = float(ground_height) if ground_height is not None else float(start[1])
+        if callable(ground_height):
+            ground_y = float(ground_height(start[0], start[2]))
+        else:
+            ground_y = float(ground_height) if ground_height is not None else float(start[1])
         self._gravity = task.scene.gravity_mps2 if task.scene.gravity_mps2 > 0.0 else 9.81
         self.scene = SceneBuilder(self._cid, task, self.objects, ground_y)
         self._initial = {k: self.scene.placement_of(k) for k in self.scene.physical}
@@ -95,7 +93,9 @@ class BulletVehicle:
         self._dt = 1.0 / 60.0
         self._restores = 0
         self._yaw = task.start_pose.yaw_rad
-        self._setup_car()
+        self.wheels = RaycastWheels(spec, self._gravity)
+        w = self.wheels
+        self.state.extra = {"suspension_m": w.suspension_m, "wheel_load_n": w.load_n, "wheel_spin_rad": w.spin_rad}
         self._build(self._initial)
         self.reset(start[0], start[1], start[2], task.start_pose.yaw_rad, 0.0)
 
@@ -110,31 +110,6 @@ class BulletVehicle:
         return self.scene.warnings
 
     # ------------------------------------------------------------------ construction
-    def _setup_car(self) -> None:
-        spec = self.spec
-        m = spec.mass_kg
-        k = max(MIN_STIFFNESS, spec.suspension_stiffness)
-        root_k = 2.0 * math.sqrt(k)
-        self._k = k
-        self._c_compress = max(0.0, spec.suspension_compression) * root_k
-        self._c_relax = max(0.0, spec.suspension_damping) * root_k
-        self._max_susp = max(MAX_SUSPENSION_FORCE_N, 0.75 * m * self._gravity)
-        self._ray_len = SUSPENSION_REST_M + WHEEL_RADIUS_M
-        lf, lr, wb, h = spec.cog_to_front_m, spec.cog_to_rear_m, spec.wheelbase_m, spec.cog_height_m
-        half_track = 0.5 * spec.track_m
-        # static compression per wheel: k x m x c = m g share / 2, so the car rests level
-        sag_f = self._gravity * (lr / wb) / (2.0 * k)
-        sag_r = self._gravity * (lf / wb) / (2.0 * k)
-        y_f = -h + WHEEL_RADIUS_M + SUSPENSION_REST_M - sag_f
-        y_r = -h + WHEEL_RADIUS_M + SUSPENSION_REST_M - sag_r
-        # body frame: origin at the centre of gravity, forward -Z, left -X, up +Y (FL, FR, RL, RR)
-        self._hardpoints = ((-half_track, y_f, -lf), (half_track, y_f, -lf), (-half_track, y_r, lr), (half_track, y_r, lr))
-        self._steered = (True, True, False, False)
-        self.suspension_m = [SUSPENSION_REST_M] * 4
-        self.wheel_load_n = [0.0] * 4
-        self.wheel_spin_rad = [0.0] * 4
-        self.state.extra = {"suspension_m": self.suspension_m, "wheel_load_n": self.wheel_load_n, "wheel_spin_rad": self.wheel_spin_rad}
-
     def _build(self, placements: dict[int, Placement]) -> None:
         """A fresh Bullet world: ground, scene bodies in index order, then the car."""
         cid = self._cid
@@ -190,8 +165,7 @@ class BulletVehicle:
         pb.resetBaseVelocity(self._car, (-math.sin(yaw) * speed_mps, 0.0, -math.cos(yaw) * speed_mps), (0.0, 0.0, 0.0), physicsClientId=cid)
         self._yaw = yaw
         self.state.steer_rad = 0.0
-        for i in range(4):
-            self.suspension_m[i], self.wheel_load_n[i], self.wheel_spin_rad[i] = SUSPENSION_REST_M, 0.0, 0.0
+        self.wheels.reset()
         self._read()
 
     def close(self) -> None:
@@ -206,127 +180,19 @@ class BulletVehicle:
             pb.setPhysicsEngineParameter(fixedTimeStep=dt_s, physicsClientId=cid)
         if self._bodies:
             self._sync_objects()
-        spec = self.spec
-        m = spec.mass_kg
-        px, py, pz = self._pos
-        lx, ly, lz = self._lin
-        wx, wy, wz = self._ang
-        r00, r01, r02, r10, r11, r12, r20, r21, r22 = self._rot
-        dx, dy, dz = -r01, -r11, -r21  # the suspension's down axis
-        ray = self._ray_len
-        froms = []
-        tos = []
-        for hx, hy, hz in self._hardpoints:
-            ax = px + r00 * hx + r01 * hy + r02 * hz
-            ay = py + r10 * hx + r11 * hy + r12 * hz
-            az = pz + r20 * hx + r21 * hy + r22 * hz
-            froms.append((ax, ay, az))
-            tos.append((ax + dx * ray, ay + dy * ray, az + dz * ray))
+        wheels = self.wheels
+        froms, tos = wheels.rays(self._pos, self._rot)
         hits = pb.rayTestBatch(froms, tos, numThreads=1, collisionFilterMask=RAY_MASK, physicsClientId=cid)
-        # pass 1: suspension forces (btRaycastVehicle::updateSuspension)
-        k, c_in, c_out, cap = self._k, self._c_compress, self._c_relax, self._max_susp
-        loads = self.wheel_load_n
-        contacts: list[Any] = [None, None, None, None]
-        total_load = 0.0
-        for i, hit in enumerate(hits):
-            if hit[0] < 0:
-                loads[i] = 0.0
-                self.suspension_m[i] = SUSPENSION_REST_M
-                continue
-            length = hit[2] * ray - WHEEL_RADIUS_M
-            if length < 0.0:
-                length = 0.0
-            cx, cy, cz = hit[3]
-            nx, ny, nz = hit[4]
-            rx, ry, rz = cx - px, cy - py, cz - pz
-            vx = lx + wy * rz - wz * ry
-            vy = ly + wz * rx - wx * rz
-            vz = lz + wx * ry - wy * rx
-            denom = nx * dx + ny * dy + nz * dz
-            if denom >= -0.1:
-                inv, rel_v = 10.0, 0.0
-            else:
-                inv = -1.0 / denom
-                rel_v = (nx * vx + ny * vy + nz * vz) * inv
-            force = (k * (SUSPENSION_REST_M - length) * inv - (c_in if rel_v < 0.0 else c_out) * rel_v) * m
-            force = 0.0 if force < 0.0 else cap if force > cap else force
-            loads[i] = force
-            self.suspension_m[i] = length
-            total_load += force
-            contacts[i] = (rx, ry, rz, nx, ny, nz, vx, vy, vz)
-        # pass 2: tyre forces, friction circle mu x load, then one force and torque at the CoG
-        fx_t = fy_t = fz_t = tx_t = ty_t = tz_t = 0.0
-        if total_load > 0.0:
-            dt = dt_s
-            g = self._gravity
-            mu = spec.mu
-            corner = spec.cornering_stiffness_per_rad / mu
-            s_d, c_d = math.sin(steer_rad), math.cos(steer_rad)
-            for i in range(4):
-                ct = contacts[i]
-                if ct is None:
-                    continue
-                rx, ry, rz, nx, ny, nz, vx, vy, vz = ct
-                load = loads[i]
-                if self._steered[i]:
-                    hx, hy, hz = -r00 * s_d - r02 * c_d, -r10 * s_d - r12 * c_d, -r20 * s_d - r22 * c_d
-                else:
-                    hx, hy, hz = -r02, -r12, -r22
-                dot = hx * nx + hy * ny + hz * nz
-                hx, hy, hz = hx - nx * dot, hy - ny * dot, hz - nz * dot
-                norm = math.sqrt(hx * hx + hy * hy + hz * hz)
-                fx_w = fy_w = 0.0
-                if norm > 1e-6:
-                    hx, hy, hz = hx / norm, hy / norm, hz / norm
-                    sx, sy, sz = ny * hz - nz * hy, nz * hx - nx * hz, nx * hy - ny * hx  # left
-                    v_long = hx * vx + hy * vy + hz * vz
-                    v_lat = sx * vx + sy * vy + sz * vz
-                    share = load / total_load
-                    m_w = m * share
-                    drive = drive_force_n * share
-                    brake = brake_force_n * share
-                    # brakes: up to `brake` against the motion (and gravity's pull), never past a stop
-                    b = -m_w * (v_long / dt - g * hy) - drive
-                    fx_w = drive + (brake if b > brake else -brake if b < -brake else b)
-                    f_max = mu * load
-                    speed = v_long if v_long >= 0.0 else -v_long
-                    # sideways: the force that stops sliding this step (a parked car holds on a slope)
-                    hold = -m_w * (v_lat / dt - g * sy)
-                    if speed > KINEMATIC_BELOW:
-                        # slip-angle tyre, never pushing past zero slip
-                        grip = abs(f_max * math.tanh(corner * math.atan2(v_lat, speed)))
-                        stop = m_w * abs(v_lat) / dt
-                        if grip > stop:
-                            grip = stop
-                        fy_w = -grip if v_lat > 0.0 else grip
-                        if speed < DYNAMIC_ABOVE:
-                            blend = (speed - KINEMATIC_BELOW) / (DYNAMIC_ABOVE - KINEMATIC_BELOW)
-                            fy_w = blend * fy_w + (1.0 - blend) * hold
-                    else:
-                        fy_w = hold
-                    total = math.sqrt(fx_w * fx_w + fy_w * fy_w)
-                    if total > f_max:
-                        fx_w *= f_max / total
-                        fy_w *= f_max / total
-                    self.wheel_spin_rad[i] = (self.wheel_spin_rad[i] + v_long / WHEEL_RADIUS_M * dt) % TWO_PI
-                else:
-                    sx = sy = sz = 0.0
-                gx = nx * load + hx * fx_w + sx * fy_w
-                gy = ny * load + hy * fx_w + sy * fy_w
-                gz = nz * load + hz * fx_w + sz * fy_w
-                fx_t += gx
-                fy_t += gy
-                fz_t += gz
-                tx_t += ry * gz - rz * gy
-                ty_t += rz * gx - rx * gz
-                tz_t += rx * gy - ry * gx
+        (fx_t, fy_t, fz_t), torque = wheels.forces(
+            hits, self._pos, self._rot, self._lin, self._ang, steer_rad, drive_force_n, brake_force_n, dt_s
+        )
         if side_force_n:
             yaw = self._yaw
             fx_t -= math.cos(yaw) * side_force_n
             fz_t += math.sin(yaw) * side_force_n
         car = self._car
         pb.applyExternalForce(car, -1, (fx_t, fy_t, fz_t), self._pos, pb.WORLD_FRAME, physicsClientId=cid)
-        pb.applyExternalTorque(car, -1, (tx_t, ty_t, tz_t), pb.WORLD_FRAME, physicsClientId=cid)
+        pb.applyExternalTorque(car, -1, torque, pb.WORLD_FRAME, physicsClientId=cid)
         pb.stepSimulation(physicsClientId=cid)
         self._dirty = True
         self.state.steer_rad = steer_rad
@@ -468,7 +334,7 @@ class BulletVehicle:
             "dt": self._dt,
             "yaw": self._yaw,
             "steer": s.steer_rad,
-            "wheels": (tuple(self.suspension_m), tuple(self.wheel_load_n), tuple(self.wheel_spin_rad)),
+            "wheels": self.wheels.get_state(),
             "pose": (s.x, s.y, s.z, s.yaw, s.pitch, s.roll),
             "vel": (s.u, s.v, s.r),
         }
@@ -483,5 +349,5 @@ class BulletVehicle:
         self._dirty = True
         self._yaw = float(state["yaw"])
         self.state.steer_rad = float(state["steer"])
-        self.suspension_m[:], self.wheel_load_n[:], self.wheel_spin_rad[:] = (list(v) for v in state["wheels"])
+        self.wheels.set_state(state["wheels"])
         self._read()
