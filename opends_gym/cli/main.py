@@ -18,6 +18,8 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("list", "opends_gym.cli.listing", "list bundled tasks and registered environments"),
     ("run", "opends_gym.cli.run", "drive an environment with an agent and print its metrics"),
     ("drive", "opends_gym.cli.drive", "drive a task yourself in real time (keyboard, wheel, CAN) and print the metrics"),
+    ("replay", "opends_gym.cli.replay", "re-simulate a recorded drive and check it is exact"),
+    ("analyze", "opends_gym.cli.analyze", "drive measures, CSV and PDF report of a recording or OpenDS carData.txt"),
     ("train", "opends_gym.cli.train", "train a baseline policy from a config in configs/"),
 )
 

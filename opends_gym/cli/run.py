@@ -30,6 +30,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-seconds", type=float, default=None, help="simulated seconds per episode (truncates)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
     p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
+    p.add_argument("--record", default=None, metavar="PATH.mcap", help="record each episode to MCAP (never overwrites: name(2).mcap, ...)")
+    p.add_argument("--record-rate", type=float, default=None, metavar="HZ", help="ego state rate in the recording (default: physics rate)")
 
 
 def resolve_env_id(target: str) -> tuple[str, dict[str, Any]]:
@@ -66,6 +68,10 @@ def run_episodes(args: argparse.Namespace) -> dict[str, Any]:
         kwargs[key] = _parse_value(value)
     agent = make_agent(args.agent)
     env = gym.make(env_id, **kwargs)
+    if getattr(args, "record", None):
+        from ..record import RecordDrive
+
+        env = RecordDrive(env, args.record, rate_hz=getattr(args, "record_rate", None))
     episodes = []
     try:
         for k in range(args.episodes):
@@ -88,6 +94,9 @@ def run_episodes(args: argparse.Namespace) -> dict[str, Any]:
                 "wall_s": time.perf_counter() - start,
             }
             row.update(info.get("episode_metrics", {}))
+            recorded = getattr(env, "paths", None)  # RecordDrive's files so far
+            if recorded:
+                row["recording"] = str(recorded[-1])
             episodes.append(row)
     finally:
         env.close()
@@ -130,4 +139,7 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write("\n")
     else:
         print_tables(result)
+        for e in result["episodes"]:
+            if "recording" in e:
+                print(f"recorded episode {e['episode']}: {e['recording']}")
     return 0

@@ -120,6 +120,9 @@ class McapSink:
         self._seq += 1
         self._writer.add_message(channel_id=self._channel(topic), log_time=t_ns, publish_time=t_ns, data=encode(msg), sequence=self._seq)
         self.messages += 1
+
+    def flush_if_due(self, t_ns: int) -> None:
+        """Flush when `flush_interval_s` of simulation time has passed (called after whole steps)."""
         if t_ns - self._last_flush_ns >= self.flush_interval_ns:
             self.flush(t_ns)
 
@@ -167,6 +170,9 @@ class MemorySink:
             self.messages.append((topic, t_ns, json.loads(encode(msg))))
 
     def flush(self, t_ns: int | None = None) -> None:
+        pass
+
+    def flush_if_due(self, t_ns: int) -> None:
         pass
 
     def close(self) -> None:

@@ -64,6 +64,8 @@ class Sink(Protocol):
 
     def flush(self, t_ns: int | None = None) -> None: ...
 
+    def flush_if_due(self, t_ns: int) -> None: ...
+
     def close(self) -> None: ...
 
 
@@ -323,6 +325,11 @@ class DriveRecorder:
             self._publish_scene()
         if stopping:
             self._close_segment()
+        elif self.sink is not None:
+            try:
+                self.sink.flush_if_due(t_ns)
+            except OSError as e:
+                self._fail(e)
 
     def _publish_scene(self) -> None:
         sig = M.scene_signature(self.world)
@@ -332,8 +339,12 @@ class DriveRecorder:
 
     # ------------------------------------------------------------------ end
     def flush(self) -> None:
+        """Push everything recorded so far to the OS now."""
         if self.sink is not None:
-            self.sink.flush(M.sim_ns(self.world.t_s))
+            try:
+                self.sink.flush(M.sim_ns(self.world.t_s))
+            except OSError as e:
+                self._fail(e)
 
     def close(self) -> None:
         """Finish the file (summary, footer) and stop observing the World."""

@@ -52,7 +52,16 @@ def lct_info(base: Any) -> dict[str, Any] | None:
         "visibility_m": geometry.visibility_m,
         "start_z_m": float(base.world.task.start_pose.position_m[2]),
         "speed_kmh": geometry.speed_kmh,
+        "track_end_m": _lct_track_end(base, float(signs[-1].d_m + geometry.lead_out_m) if signs else 0.0),
     }
+
+
+def _lct_track_end(base: Any, default: float) -> float:
+    """Where the drive ends: 10 m before the end trigger that pauses the simulation."""
+    objs = getattr(base.world.objects, "by_id", {}).get("LCT_End_Trigger")
+    if not objs:
+        return default
+    return float(base.world.task.start_pose.position_m[2]) - float(objs[0].position[2]) - 10.0
 
 
 def _check_no_action_wrappers(env: gym.Env[Any, Any]) -> None:
