@@ -68,8 +68,14 @@ class PathBank:
     def __init__(self) -> None:
         self._paths: list[np.ndarray] = []
         self._dirty = True
-        self.length = np.zeros(0)
+        self._length = np.zeros(0)
         self._build()
+
+    @property
+    def length(self) -> np.ndarray:
+        """Length (m, in the ground plane) of every path."""
+        self._build()
+        return self._length
 
     def add(self, points: np.ndarray) -> int:
         """Add a sampled path (M,3), M >= 2; returns its id."""
@@ -120,7 +126,7 @@ class PathBank:
         self._first = np.asarray(first, dtype=np.int64)
         self._last = np.asarray(last, dtype=np.int64)
         self._off = np.asarray(off)
-        self.length = np.asarray(length)
+        self._length = np.asarray(length)
         dx = np.diff(self._x) if len(self._x) > 1 else np.zeros(0)
         dz = np.diff(self._z) if len(self._z) > 1 else np.zeros(0)
         seg = np.hypot(dx, dz)
@@ -146,7 +152,7 @@ class PathBank:
         """(x, y, z, yaw) at arc length s (clamped to the path) on each path id, vectorised."""
         self._build()
         pid = np.asarray(pid, dtype=np.int64)
-        g = self._off[pid] + np.clip(s, 0.0, self.length[pid])
+        g = self._off[pid] + np.clip(s, 0.0, self._length[pid])
         k = np.searchsorted(self._s, g, side="right") - 1
         k = np.clip(k, self._first[pid], np.maximum(self._first[pid], self._last[pid] - 1))
         L = self._seg_len[k]
