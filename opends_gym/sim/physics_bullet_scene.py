@@ -5,11 +5,12 @@ ground is what the wheels' suspension rays hit, and a model with mass can be pus
 module turns a task's scene (and the run-time `SceneObjects`) into bodies of one private
 pybullet client; `physics_bullet.BulletVehicle` owns the client and the car.
 
-- Ground: an infinite plane at the start pose's height, or an image height-map for a
-  `terrain` geometry whose image is found (jME's ImageBasedHeightMap: height = grey level
-  0..255 times `heightScale`, grid centred on the model, one cell per metre times the
-  model's scale; image row 0 is -Z, column 0 is -X: our reading). Without the image the
-  ground stays flat, as the loader already warned.
+- Ground: an infinite plane at the start pose's height (or the backend's `ground_height`),
+  or an image height-map for a `terrain` geometry whose image is found (jME's
+  ImageBasedHeightMap: height = grey level 0..255 times `heightScale`, grid centred on the
+  model, one cell per metre times the model's scale; image row 0 is -Z, column 0 is -X:
+  our reading), over a plane at its lowest level. Without the image the ground stays flat,
+  as the loader already warned.
 - Scene models: geometries (box, sphere, cylinder; jME sizes, cylinders along local Z)
   become shapes; `.obj` keys (a triangle mesh when static, its convex hull when dynamic)
   and `.urdf` keys are loaded when the file lies beside the task or at the asset root

@@ -139,6 +139,7 @@ class RaycastWheels:
             dt = dt_s
             g = self.gravity
             mu = spec.mu
+            mu = mu if mu > 1e-3 else 1e-3
             corner = spec.cornering_stiffness_per_rad / mu
             s_d, c_d = math.sin(steer_rad), math.cos(steer_rad)
             for i in range(4):
