@@ -6,6 +6,7 @@ import functools
 import math
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -43,10 +44,12 @@ def _world(task: DrivingTask | Path, seed: int = 0, ego_at: tuple[float, float, 
     return w
 
 
-def _car(vid: str, points: list[tuple[float, float]], kmh: list[float], cyclic: bool = False, **wp: dict) -> TrafficVehicle:
-    """A Gen A car on its own waypoints (x, z); `wp` maps waypoint index -> extra fields."""
+def _car(
+    vid: str, points: list[tuple[float, float]], kmh: list[float], cyclic: bool = False, extra: dict[int, dict[str, Any]] | None = None
+) -> TrafficVehicle:
+    """A Gen A car on its own waypoints (x, z); `extra` maps a waypoint index to more fields."""
     wps = tuple(
-        VehicleWayPoint(id=f"{vid}_wp{k}", translation_m=(x, 0.0, z), speed_mps=v * KMH, **wp.get(f"w{k}", {}))
+        VehicleWayPoint(id=f"{vid}_wp{k}", translation_m=(x, 0.0, z), speed_mps=v * KMH, **(extra or {}).get(k, {}))
         for k, ((x, z), v) in enumerate(zip(points, kmh))
     )
     return TrafficVehicle(
@@ -54,9 +57,10 @@ def _car(vid: str, points: list[tuple[float, float]], kmh: list[float], cyclic: 
     )
 
 
-def _straight(vid: str, x: float = 0.0, kmh: float = 50.0, length: float = 1000.0, **wp: dict) -> TrafficVehicle:
+def _straight(vid: str, x: float = 0.0, kmh: float = 50.0, extra: dict[int, dict[str, Any]] | None = None) -> TrafficVehicle:
+    length = 1000.0
     n = 11
-    return _car(vid, [(x, -length * k / (n - 1)) for k in range(n)], [kmh] * n, **wp)
+    return _car(vid, [(x, -length * k / (n - 1)) for k in range(n)], [kmh] * n, extra=extra)
 
 
 def _wp(wid: str, x: float, z: float, **kw) -> RoadWayPoint:
@@ -85,7 +89,7 @@ def test_gen_a_car_follows_its_waypoints_and_reaches_their_speeds() -> None:
     wps = np.array([(p.translation_m[0], p.translation_m[2]) for p in task_car.way_points])
     speeds = np.array([p.speed_mps for p in task_car.way_points])
     seg_a, seg_b = wps[:-1], wps[1:] - wps[:-1]
-    worst, at_wp = 0.0, {}
+    worst, at_wp = 0.0, dict[int, float]()
     for _ in range(int(60 / w.dt_s)):
         w.step()
         p = tr.positions[i, [0, 2]]
@@ -124,7 +128,7 @@ def test_open_path_restarts_at_waypoint_0_and_cyclic_path_closes() -> None:
 
 def test_waiting_time_pauses_the_car_at_its_waypoint() -> None:
     def arrival(waiting_s: float | None) -> tuple[float, float]:
-        car = _straight("c", **({"w2": {"waiting_time_s": waiting_s}} if waiting_s else {}))
+        car = _straight("c", extra={2: {"waiting_time_s": waiting_s}} if waiting_s else None)
         w = _world(_task((car,)))
         tr, stopped, t_pass = w.traffic, 0.0, None
         while t_pass is None and w.t_s < 60.0:
