@@ -80,7 +80,7 @@ class BulletVehicle:
         self._finalizer = weakref.finalize(self, _cleanup, self._client, self._folder)
         self._owns_objects = objects is None
         self.objects = objects if objects is not None else SceneObjects(task)
-        self._objects_list = self.objects.objects
+        self._objects_generation = self.objects.generation
         start = task.start_pose.position_m
         if callable(ground_height):
             ground_y = float(ground_height(start[0], start[2]))
@@ -152,10 +152,10 @@ class BulletVehicle:
     # ------------------------------------------------------------------ lifecycle
     def reset(self, x: float, y: float, z: float, yaw: float, speed_mps: float) -> None:
         """A World reset (its scene objects were reset) restarts the whole world; else a teleport."""
-        if self._owns_objects or self.objects.objects is not self._objects_list:
+        if self._owns_objects or self.objects.generation != self._objects_generation:
             if self._owns_objects:
                 self.objects.reset()
-            self._objects_list = self.objects.objects
+            self._objects_generation = self.objects.generation
             if self._dirty or self._placed != self._initial:
                 self._build(self._initial)
         cid = self._cid

@@ -105,6 +105,7 @@ class SceneObjects:
         self.objects: list[SceneObject] = []
         self.by_id: dict[str, list[SceneObject]] = {}
         self._grid: dict[tuple[int, int], list[int]] = {}
+        self.generation = 0  # counts resets, so physics backends can tell a World reset from a teleport
         self.reset()
 
     # ------------------------------------------------------------------ lifecycle
@@ -119,6 +120,7 @@ class SceneObjects:
         else:
             for o, init in zip(self.objects, self._initial):
                 o.position, o.yaw, o.scale, o.visible, o.collidable = init.position, init.yaw, init.scale, init.visible, init.collidable
+        self.generation += 1
         self._rebuild_grid()
 
     def get_state(self) -> list[tuple[Any, ...]]:
