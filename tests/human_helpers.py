@@ -181,3 +181,20 @@ EXTRA_TRIGGERS = """
 def reaction_test_with_extra_triggers(task_copy: Any) -> Any:
     """The corpus ReactionTest plus pressKey:KEY_G, pressButton:3 and remote:honk triggers."""
     return task_copy("opends-cts/ReactionTest", "interaction.xml", "      </triggers>", EXTRA_TRIGGERS)
+
+
+def _point(pid: str, x: float, z: float) -> str:
+    entries = "".join(f"<entry>{v}</entry>" for v in (x, 0.0, z))
+    return f'<point id="{pid}"><translation><vector jtype="java_lang_Float" size="3">{entries}</vector></translation></point>'
+
+
+IDEAL_TRACK = (
+    '<driver>\n<idealTracks><idealTrack id="centreLine" roadWidth="15">'
+    + "".join(_point(f"ip{i}", 1.0, 24500.0 - 40.0 * i) for i in range(12))
+    + "</idealTrack></idealTracks>"
+)
+
+
+def reaction_test_with_ideal_track(task_copy: Any) -> Any:
+    """The corpus ReactionTest with an ideal track along the road at x = 1 m."""
+    return task_copy("opends-cts/ReactionTest", "scenario.xml", "<driver>", IDEAL_TRACK)

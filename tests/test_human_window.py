@@ -100,3 +100,48 @@ def test_window_shows_road_and_hud(xvfb_display: str, tmp_path: Path) -> None:
     face = (np.abs(dials - np.array([20, 20, 24])).max(axis=2) <= 8).mean()
     bright = (dials.min(axis=2) > 200).mean()
     assert face > 0.15 and bright > 0.002, f"no speedometer/rpm dials (face {face:.3f}, marks {bright:.4f})"
+
+
+REPLAY_SCRIPT = r"""
+import sys
+import pygame
+from opends_gym.cli.main import main
+from opends_gym.human.runner import DriveSession
+from opends_gym.human.session_config import DriveConfig
+from opends_gym.render import window as W
+
+cfg = DriveConfig(target="ReactionTest", window=False, fast=True, duration_s=4.0, record_path=sys.argv[1])
+with DriveSession(cfg) as s:
+    s.sources.keyboard.handle_key("KEY_UP", True)
+    s.sources.keyboard.handle_key("KEY_LEFT", True)
+    s.run()
+calls = [0]
+original = W.FrameWindow.pump
+
+def pump(self):
+    calls[0] += 1
+    if calls[0] == 3:
+        pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_RETURN, mod=0, unicode="\r", scancode=40))
+    if calls[0] == 40:
+        pygame.image.save(self.screen, sys.argv[2])
+        pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_ESCAPE, mod=0, unicode="", scancode=41))
+    return original(self)
+
+W.FrameWindow.pump = pump
+sys.exit(main(["replay", sys.argv[1], "--view"]))
+"""
+
+
+def test_replay_view_window(xvfb_display: str, tmp_path: Path) -> None:
+    rec, shot = tmp_path / "drive.mcap", tmp_path / "replay.png"
+    env = {**os.environ, "DISPLAY": xvfb_display, "SDL_VIDEODRIVER": "x11", "SDL_AUDIODRIVER": "dummy"}
+    proc = subprocess.run(
+        [sys.executable, "-c", REPLAY_SCRIPT, str(rec), str(shot)], env=env, cwd=ROOT, capture_output=True, text=True, timeout=180
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    import pygame
+
+    from opends_gym.human.replay_view import PATH_COLOUR
+
+    rgb = pygame.surfarray.array3d(pygame.image.load(str(shot))).transpose(1, 0, 2).astype(int)
+    assert (np.abs(rgb - np.array(PATH_COLOUR)).max(axis=2) <= 10).mean() > 0.001, "the driven path is not drawn"

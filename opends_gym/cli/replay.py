@@ -20,6 +20,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--check", action="store_true", help="assert every recorded state is reproduced exactly (the default)")
     p.add_argument("--at", type=float, default=None, metavar="SECONDS", help="stop at this simulation time and print the world state")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument(
+        "--view",
+        action="store_true",
+        help="play it in a window with the driven path and ideal track (Return plays, arrows step, Esc quits)",
+    )
 
 
 def _plain(v: Any) -> Any:
@@ -30,6 +35,15 @@ def _plain(v: Any) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     from ..record.replay import ReplayError, describe_state, replay
+
+    if args.view:  # keys: opends_gym.human.replay_view
+        from ..human.replay_view import view_recording
+
+        try:
+            return view_recording(args.recording, start_s=args.at or 0.0)
+        except (ReplayError, ValueError, OSError) as e:
+            print(f"replay: {e}", file=sys.stderr)
+            return 2
 
     try:
         result = replay(args.recording, check=True, until_s=args.at)
