@@ -31,7 +31,6 @@ from opends_gym.record.opends_logs import read_driving_task_log, read_reaction_d
 from opends_gym.record.report import write_report
 
 FIX = Path(__file__).parent / "fixtures" / "opends_analyzer"
-logging.getLogger("opends_gym").setLevel(logging.ERROR)
 
 
 def jme_yaw(qx: float, qy: float, qz: float, qw: float) -> float:

@@ -9,7 +9,6 @@ from /controls; a file cut short reads back as a prefix and still replays; the C
 from __future__ import annotations
 
 import json
-import logging
 from pathlib import Path
 from typing import Any
 
@@ -23,8 +22,6 @@ from opends_gym.record import DriveRecorder, RecordDrive, attach_recorder, read_
 from opends_gym.record.replay import ReplayError, replay, replay_to
 from opends_gym.sim.controls import DriverControls
 from opends_gym.sim.world import World
-
-logging.getLogger("opends_gym").setLevel(logging.ERROR)
 
 
 def drive(env: gym.Env, seed: int, steps: int | None = None, buttons: bool = False, steer: float = 0.04) -> int:

@@ -172,29 +172,31 @@ def path_pages(a: Analysis) -> list[Figure]:
     guide = d.analysis.get("guide") or {}
     if guide.get("kind") == "lanes":
         return _road_path_pages(a, guide)
-    fig, ax = plt.subplots(figsize=A4_LANDSCAPE)
-    for tr in a.deviations:
-        ax.plot(
-            tr.ideal[:, 0],
-            tr.ideal[:, 1],
-            "-",
-            color="0.3",
-            linewidth=1.2,
-            label=f"ideal track {tr.track_id} ({_fmt(tr.result.mean_deviation_m)} m, {tr.result.status})",
-        )
-        for ip, dp in zip(tr.ideal, tr.result.driven_points):
-            if dp is not None:
-                ax.plot([ip[0], dp[0]], [ip[1], dp[1]], "-", color="red", linewidth=0.8)
-    ax.plot(d.col("x_m"), d.col("z_m"), "-", color="#1f77b4", linewidth=1.0, label="driven path")
-    ax.plot(d.col("x_m")[:1], d.col("z_m")[:1], "o", color="#1f77b4")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("world X (m)")
-    ax.set_ylabel("world Z (m)")
-    ax.set_title(
-        "Driven path"
-        + (" over the ideal track(s), red: deviation lines (OpenDS Drive Analyzer)" if a.deviations else " (no ideal track in this task)")
-    )
-    ax.legend(fontsize=8, loc="best")
+    panels = 2 if a.deviations else 1
+    fig, axes = plt.subplots(1, panels, figsize=A4_LANDSCAPE, squeeze=False)
+    for k, ax in enumerate(axes[0]):
+        for tr in a.deviations:
+            label = f"ideal track {tr.track_id} ({_fmt(tr.result.mean_deviation_m)} m, {tr.result.status})"
+            ax.plot(tr.ideal[:, 0], tr.ideal[:, 1], "-", color="0.3", linewidth=1.2, label=label)
+            for ip, dp in zip(tr.ideal, tr.result.driven_points):
+                if dp is not None:
+                    ax.plot([ip[0], dp[0]], [ip[1], dp[1]], "-", color="red", linewidth=0.8)
+        ax.plot(d.col("x_m"), d.col("z_m"), "-", color="#1f77b4", linewidth=1.0, label="driven path")
+        ax.plot(d.col("x_m")[:1], d.col("z_m")[:1], "o", color="#1f77b4")
+        if k == 1:  # zoom on the ideal tracks
+            pts = np.vstack([tr.ideal for tr in a.deviations])
+            pad = 15.0
+            ax.set_xlim(pts[:, 0].min() - pad, pts[:, 0].max() + pad)
+            ax.set_ylim(pts[:, 1].min() - pad, pts[:, 1].max() + pad)
+            ax.set_title("ideal track(s), red: deviation lines (OpenDS Drive Analyzer)", fontsize=10)
+        else:
+            ax.set_title("whole drive" if panels == 2 else "Driven path (no ideal track in this task)", fontsize=10)
+            ax.legend(fontsize=8, loc="best")
+        ax.set_aspect("equal", adjustable="datalim" if k == 0 else "box")
+        ax.invert_yaxis()  # seen from above: X to the right, -Z (OpenDS's forward) up
+        ax.set_xlabel("world X (m)")
+        ax.set_ylabel("world Z (m)")
+    fig.suptitle("Driven path")
     fig.tight_layout()
     return [fig]
 
