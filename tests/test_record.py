@@ -19,6 +19,8 @@ import pytest
 import opends_gym  # noqa: F401  (registers the ids)
 from opends_gym.cli.main import main
 from opends_gym.record import DriveRecorder, RecordDrive, attach_recorder, read_recording
+from opends_gym.record.analyze import analyze
+from opends_gym.record.drive import load_drive
 from opends_gym.record.replay import ReplayError, replay, replay_to
 from opends_gym.sim.controls import DriverControls
 from opends_gym.sim.world import World
@@ -180,6 +182,9 @@ def test_cut_short_file_reads_back_as_a_prefix_and_replays(tmp_path: Path) -> No
     result = replay(part)
     assert result.ok, str(result.mismatch)
     assert result.checked["/ego"] == n
+    d = load_drive(cut)  # the analyzer reads it too, and says so
+    assert not d.complete and d.n == n and "cut short" in d.notes[0]
+    assert analyze(d).summary["duration_s"] == pytest.approx(d.col("t_s")[-1] - d.col("t_s")[0])
 
 
 def test_not_an_mcap_file_is_a_clear_error(tmp_path: Path) -> None:

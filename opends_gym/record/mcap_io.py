@@ -93,7 +93,7 @@ class McapSink:
             log.warning("mcap.Writer has no chunk finalizer; writing unchunked so every record is flushed")
             self._writer = Writer(self._file, use_chunking=False, compression=CompressionType.NONE)
         self._writer.start(profile="", library=f"opends_gym {meta.get('software_version', '')}".strip())
-        self._writer.add_metadata(META_NAME, {k: v if isinstance(v, str) else json.dumps(v) for k, v in meta.items()})
+        self._writer.add_metadata(META_NAME, {k: v if isinstance(v, str) else json.dumps(v, default=str) for k, v in meta.items()})
         config = json.dumps(meta, indent=1, sort_keys=True, default=str).encode()
         self._writer.add_attachment(create_time=0, log_time=start_ns, name=CONFIG_ATTACHMENT, media_type="application/json", data=config)
         self._channels: dict[str, int] = {}
