@@ -369,6 +369,11 @@ def test_pedestrians_walk_their_paths_and_disabled_ones_stand() -> None:
     tr.set_enabled("idle", True)
     _run(w, 2.0)
     assert tr.positions[1, 0] > start[1, 0] + 2.0
+    # on the road network a pedestrian walks at the segment speed, capped by its maxSpeed
+    net = _network([_wp("A", 0, 0), _wp("B", 0, -100)], [_seg("AB", "A", "B")])
+    w = _world(_task((Pedestrian(id="p", start_way_point="A", max_speed_mps=6.0 * KMH),), net))
+    _run(w, 5.0)
+    assert w.traffic.speed[0] == pytest.approx(6.0 * KMH) and w.traffic.positions[0, 2] == pytest.approx(-6.0 * KMH * 5.0, abs=0.01)
 
 
 def test_reset_when_stuck_puts_an_object_back_on_its_start_waypoint() -> None:

@@ -118,46 +118,53 @@ def carrot_speed(st: MotionState, sp: Specs, d: np.ndarray, ang: np.ndarray) -> 
     dc = np.clip(d, sp.min_dist, sp.max_dist)
     factor = np.where(span > 1e-6, 1.0 - (dc - sp.min_dist) / np.where(span > 1e-6, span, 1.0), (d < sp.max_dist).astype(float))
     factor = np.where(np.abs(ang) >= 0.5 * np.pi, 1.0, factor)
-    return np.where(sp.is_car, (np.maximum(st.v_leg, st.speed) + CARROT_LEAD_MPS) * factor, st.v_leg)
+    return np.where(sp.is_car, (np.maximum(st.v_leg, st.speed) + CARROT_LEAD_MPS) * factor, np.minimum(st.v_leg, sp.max_speed))
 
 
 def obstacles(st: MotionState, rows: np.ndarray, ego_xz: tuple[float, float]) -> np.ndarray:
     """Which objects (of `rows`) have an obstacle (traffic, the ego car) within their safety distance.
 
     Only pairs closer than the reach of the safety box are examined, so the cost grows with
-    the number of close pairs, not with N squared.
+    the number of close pairs; the N x (N+1) distance test is the only quadratic part.
     """
     n = len(st.speed)
     out = np.zeros(n, dtype=bool)
     idx = np.flatnonzero(rows)
     if idx.size == 0:
         return out
-    ox = np.append(st.pos[:, 0], ego_xz[0])
-    oz = np.append(st.pos[:, 2], ego_xz[1])
-    fsafe = np.maximum(st.min_fwd, np.where(st.speed_dep, 0.5 * 3.6 * st.speed, 0.0))
-    rx, rz = ox[None, :] - st.pos[idx, 0][:, None], oz[None, :] - st.pos[idx, 2][:, None]
+    ox, oz = np.empty(n + 1), np.empty(n + 1)  # every object, then the ego car
+    ox[:n], oz[:n] = st.pos[:, 0], st.pos[:, 2]
+    ox[n], oz[n] = ego_xz
+    fsafe = np.maximum(st.min_fwd, 0.5 * 3.6 * st.speed * st.speed_dep)
     reach = fsafe[idx] + st.lat_safe[idx]
-    near = (rx * rx + rz * rz < (reach * reach)[:, None]) & np.append(st.enabled, True)[None, :]
+    rx, rz = ox - ox[idx, None], oz - oz[idx, None]
+    near = rx * rx + rz * rz < (reach * reach)[:, None]
+    near[:, :n] &= st.enabled
     near[np.arange(idx.size), idx] = False
-    a, b = np.nonzero(near)
+    a, b = near.nonzero()
     if a.size == 0:
         return out
     rxa, rza, i = rx[a, b], rz[a, b], idx[a]
     fx, fz = -np.sin(st.yaw[i]), -np.cos(st.yaw[i])
-    ux, uz = st.end_xz[i, 0] - st.pos[i, 0], st.end_xz[i, 1] - st.pos[i, 2]
+    ux, uz = st.end_xz[i, 0] - ox[i], st.end_xz[i, 1] - oz[i]
     un = np.hypot(ux, uz)
     ok = un > 1e-6
-    ux, uz = np.where(ok, ux / np.where(ok, un, 1.0), fx), np.where(ok, uz / np.where(ok, un, 1.0), fz)
+    inv = np.divide(1.0, un, out=np.zeros_like(un), where=ok)
+    ux, uz = np.where(ok, ux * inv, fx), np.where(ok, uz * inv, fz)
     lat_safe, fs = st.lat_safe[i], fsafe[i]
-    hit = np.zeros(a.size, dtype=bool)
-    for ax, az in ((fx, fz), (ux, uz)):  # along the heading, and toward the next waypoint
-        fwd = rxa * ax + rza * az
-        hit |= (np.abs(rxa * az - rza * ax) < lat_safe) & (fwd > 0.0) & (fwd < fs)
-    hi, hj = i[hit], b[hit]
+    f1, f2 = rxa * fx + rza * fz, rxa * ux + rza * uz  # along the heading, and toward the next waypoint
+    hit = (np.abs(rxa * fz - rza * fx) < lat_safe) & (f1 > 0.0) & (f1 < fs)
+    hit |= (np.abs(rxa * uz - rza * ux) < lat_safe) & (f2 > 0.0) & (f2 < fs)
+    near[a, b] = hit
     # two cars that wait for each other (crossing paths) would wait forever: the one listed
     # first goes (OpenDS has no such rule; its stuck cars were reset by `resetWhenStuck`)
-    mutual = np.isin(hj * (n + 1) + hi, hi * (n + 1) + hj) & (hi < hj)
-    out[hi[~mutual]] = True
+    row_of = np.full(n + 1, -1)
+    row_of[idx] = np.arange(idx.size)
+    ha, hb = a[hit], b[hit]
+    rb = row_of[hb]
+    mutual = (rb >= 0) & (idx[ha] < hb)
+    mutual[mutual] = near[rb[mutual], idx[ha[mutual]]]
+    out[idx[ha[~mutual]]] = True
     return out
 
 
