@@ -482,3 +482,20 @@ def test_od_vehicle_without_an_opendrive_map_stays_disabled_with_a_warning(caplo
     w.traffic.set_enabled("lost", True)
     assert not w.traffic.enabled[0]
     assert w.traffic.road_position_of("lost") is None
+
+
+def test_unusable_paths_disable_their_object_with_a_warning_and_the_rest_runs() -> None:
+    lonely = TrafficVehicle(id="lonely", way_points=(VehicleWayPoint(id="only", translation_m=(0.0, 0.0, 0.0), speed_mps=10.0),))
+    stray = TrafficVehicle(id="stray", start_way_point="nowhere")
+    dead_end = TrafficVehicle(id="dead_end", start_way_point="B")
+    net = _network([_wp("A", 0, 0), _wp("B", 0, -50)], [_seg("AB", "A", "B")])
+    w = _world(_task((lonely, stray, dead_end, _straight("ok", x=30.0)), net))
+    tr = w.traffic
+    warned = {e.source: e.params["message"] for e in w.events.of_kind("warning")}
+    assert {"lonely", "stray", "dead_end"} <= set(warned)
+    assert "two waypoints" in warned["lonely"] and "nowhere" in warned["stray"] and "end point" in warned["dead_end"]
+    assert tr.enabled.tolist() == [False, False, False, True]
+    _run(w, 3.0)
+    assert tr.speed[3] > 5.0
+    w.reset(1, start=Pose(FAR))
+    assert len([e for e in w.events.of_kind("warning") if e.source == "lonely"]) == 1  # once per run

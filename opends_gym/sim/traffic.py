@@ -148,6 +148,8 @@ class TrafficManager(TrafficControls):
         n = len(self.ids)
         self.st = st = MotionState.empty(n)
         self.light_queue = [[] for _ in range(n)]
+        for source, message in self._warnings:  # setup problems, repeated in every run's event log
+            self.world.events.emit(self.world.t_s, "warning", source, message=message)
         for i, o in enumerate(self.objects):
             st.enabled[i] = bool(getattr(o, "enabled", True)) and self.kind[i] != KIND_NONE
             st.engine_on[i] = bool(getattr(o, "engine_on", True))
@@ -155,13 +157,11 @@ class TrafficManager(TrafficControls):
                 self._place_own(i, self.own[i].start)  # type: ignore[union-attr]
             elif self.kind[i] == KIND_NET:
                 if not self._place_net(i, str(o.start_way_point)):  # type: ignore[union-attr]
-                    self._warn(o.id, f"'{o.id}': start waypoint '{o.start_way_point}' is an end point; it stays disabled")  # type: ignore[union-attr]
+                    self._event_warning(o.id, f"'{o.id}': its start waypoint is an end point; it stays disabled")
                     st.enabled[i] = False
             elif self.kind[i] == KIND_OD:
                 cap = float(self.sp.max_speed[i])
                 self._start_route(i, self._od_route[i], cap if math.isfinite(cap) else OD_SPEED_MPS)
-        for source, message in self._warnings:
-            self.world.events.emit(self.world.t_s, "warning", source, message=message)
         self._refresh_outputs()
 
     def get_state(self) -> dict[str, Any]:
