@@ -142,7 +142,6 @@ def test_gateway_loopback_drives_the_reaction_test() -> None:
     assert 0.0 < result.reactions[0]["reaction_time_s"] < 3.0
     assert result.metrics["Brake_correct"] == 1.0 and result.metrics["LaneChange_correct"] == 1.0
     assert len(gw.feedback) >= 0.9 * 48 * 20  # feedback at updateRate (20 Hz)
-    assert any("CAN gateway" in reason for _, reason in result.holds)  # waited for the connection
 
 
 # ---------------------------------------------------------------------- python-can + DBC
