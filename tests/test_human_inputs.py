@@ -221,3 +221,25 @@ def test_session_with_wheel_keys_and_unplug(task_copy) -> None:  # type: ignore[
     assert ("trigger", "ReportKeyTrigger") in events and ("trigger", "WheelButtonTrigger") in events
     assert any("disconnected" in reason for _, reason in result.holds), result.holds
     assert result.metrics["mean_speed_kmh"] > 20.0  # the wheel's throttle drove the car
+
+
+# ---------------------------------------------------------------------- toggles become explicit controls
+def test_controls_builder_resolves_toggles_against_the_car() -> None:
+    from opends_gym.human.controls_builder import ControlsBuilder
+    from opends_gym.sim.world import World
+
+    world = World("ReactionTest")
+    b = ControlsBuilder(world)
+    c = b.build(InputFrame(accelerator=1.0, reverse=True))  # standing still: reverse is engaged
+    assert c.gear == -1 and c.accelerator == 1.0
+    world.ego.state.u = 10.0
+    c = b.build(InputFrame(accelerator=1.0, reverse=True))  # rolling forward: the reverse pedal brakes first
+    assert c.gear is None and c.brake == 1.0 and c.accelerator == 0.0
+    c = b.build(InputFrame(toggle_cruise=True, toggle_engine=True, automatic=False, toggle_hand_brake=True))
+    assert c.cruise_control is (not world.ego.cruise_active) and c.engine_on is False
+    assert c.toggle_automatic is True and c.hand_brake is True  # automatic=False on an automatic gearbox: switch
+    assert b.build(InputFrame()).hand_brake is True  # the hand brake stays on until toggled again
+    first = b.build(InputFrame(commands=("reset_car",))).reset_to
+    assert first == b.reset_ids[0] and b.build(InputFrame(commands=("reset_car_pos1",))).reset_to == b.reset_ids[0]
+    assert b.build(InputFrame(commands=("reset_car_pos9",))).reset_to is None  # the task has fewer reset points
+    world.close()

@@ -164,6 +164,8 @@ class DriveSession:
         self.env.reset(seed=cfg.seed)
         self._event_cursor = 0
         self._after_step()
+        if self.viewer is not None:  # the first frame loads fonts and builds caches: not on the clock
+            self.viewer.draw(self._overlay(self._hold_reason()))
         batch = 1 if self.viewer is None else 4  # --fast with a window: a frame every 4 steps
         clock = PacingClock(self.world.dt_s, fast=cfg.fast, max_catch_up_steps=cfg.max_catch_up_steps, fast_batch=batch)
         started = time.perf_counter()

@@ -91,6 +91,7 @@ class DriveViewer:
             s = overlay.snapshot
             _pg.text(surface, f"t {s.t_s:7.2f} s  fps {self.window.clock.get_fps():5.1f}", (8, sh - size - 4), size, (230, 230, 230))
         pg.display.flip()
+        self.window.clock.tick()  # measures the frame rate for the stats line; never waits
 
     def save_png(self, path: str) -> None:
         from ..render import _pg
