@@ -119,9 +119,15 @@ def _fmt(v: Any) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from ..human.runner import DriveSession
+    from ..task.errors import TaskError
 
     config = config_from_args(args)
-    with DriveSession(config) as session:
+    try:
+        session = DriveSession(config)
+    except (TaskError, ValueError, OSError) as e:  # a bad task, calibration file or port: say so, no traceback
+        print(f"drive: {e}", file=sys.stderr)
+        return 2
+    with session:
         result = session.run()
     out = summary(result)
     if args.json:

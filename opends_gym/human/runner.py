@@ -118,6 +118,8 @@ class DriveSession:
             from .viewer import init_headless_pygame
 
             init_headless_pygame()
+        if self.sources.keyboard is not None and not config.window:
+            log.warning("keyboard input without a window: no keys can be read (only scripted key events drive)")
         self.hold_instructions = config.hold_on_instructions if config.hold_on_instructions is not None else config.window
         self.max_steering_deg = math.degrees(settings.can_interface.max_steering_angle_rad)
         self.snapshot = VehicleSnapshot()

@@ -7,12 +7,15 @@ here lets the runner stay a loop.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 from typing import Any
 
 from .inputs.base import InputCombiner, InputSource
 from .session_config import DriveConfig
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -73,8 +76,11 @@ def build_sources(config: DriveConfig, task: Any, joystick_backend: Any = None) 
 
         port = config.server_port if config.server_port is not None else settings.settings_controller_server.port
         ids = remote_ids_of(task)
-        out.server = SettingsControllerServer(config.server_host, port, remote_ids=lambda: ids).start()
-        ordered.append(out.server)
+        try:
+            out.server = SettingsControllerServer(config.server_host, port, remote_ids=lambda: ids).start()
+            ordered.append(out.server)
+        except OSError as e:  # port taken or privileged: the drive goes on without the server
+            log.error("settings-controller server not started on %s:%s: %s", config.server_host, port, e)
     if any(s.kind == "keyboard" for s in config.inputs):
         from .inputs.keyboard import KeyboardSource
 
