@@ -175,11 +175,26 @@ EXTRA_TRIGGERS = """
                   </activities>
                   <condition>remote:honk</condition>
             </trigger>
+            <trigger id="KeyTimerTrigger" priority="1">
+                  <activities>
+                        <activity id="KeyTimerActivity">
+                              <action delay="0" id="startReactionMeasurement" repeat="0"/>
+                              <action delay="0" id="setupKeyReactionTimer" repeat="0">
+                                    <parameter name="timerID" value="keyTimer"/>
+                                    <parameter name="reactionGroup" value="WheelButton"/>
+                                    <parameter name="correctReaction" value="JOY_3"/>
+                                    <parameter name="failureReaction" value="KEY_F"/>
+                              </action>
+                        </activity>
+                  </activities>
+                  <condition>pressKey:KEY_L</condition>
+            </trigger>
       </triggers>"""
 
 
 def reaction_test_with_extra_triggers(task_copy: Any) -> Any:
-    """The corpus ReactionTest plus pressKey:KEY_G, pressButton:3 and remote:honk triggers."""
+    """The corpus ReactionTest plus pressKey:KEY_G, pressButton:3, remote:honk and a key reaction
+    timer armed by pressKey:KEY_L that button 3 of the wheel answers (JOY_3)."""
     return task_copy("opends-cts/ReactionTest", "interaction.xml", "      </triggers>", EXTRA_TRIGGERS)
 
 

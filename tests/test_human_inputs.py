@@ -243,3 +243,29 @@ def test_controls_builder_resolves_toggles_against_the_car() -> None:
     assert first == b.reset_ids[0] and b.build(InputFrame(commands=("reset_car_pos1",))).reset_to == b.reset_ids[0]
     assert b.build(InputFrame(commands=("reset_car_pos9",))).reset_to is None  # the task has fewer reset points
     world.close()
+
+
+class TimedWheel(FakeJoystick):
+    """Presses button 3 on the `press_at`-th poll (get_numbuttons is read once per poll)."""
+
+    def __init__(self, press_at: int) -> None:
+        super().__init__(axes=8, buttons=8)
+        self.axes[5] = self.axes[7] = 1.0
+        self.polls = 0
+        self.press_at = press_at
+
+    def get_numbuttons(self) -> int:
+        self.polls += 1
+        self.buttons[3] = self.polls >= self.press_at
+        return super().get_numbuttons()
+
+
+def test_wheel_button_answers_a_key_reaction_timer(task_copy) -> None:  # type: ignore[no-untyped-def]
+    folder = reaction_test_with_extra_triggers(task_copy)
+    wheel = TimedWheel(press_at=90)  # 1.5 s after the timer is armed
+    cfg = DriveConfig(target=str(folder), inputs=(InputSpec("joystick"), InputSpec("keyboard")), window=False, fast=True, duration_s=3.0)
+    with DriveSession(cfg, joystick_backend=FakeJoystickBackend(wheel)) as s:
+        s.sources.keyboard.handle_key("KEY_L", True)  # arms the key reaction timer at the first step
+        result = s.run()
+    assert [(r["group"], r["result"]) for r in result.reactions] == [("WheelButton", 1)]
+    assert 1.4 < result.reactions[0]["reaction_time_s"] < 1.55  # armed at the first step, pressed ~1.5 s later
