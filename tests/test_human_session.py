@@ -241,3 +241,18 @@ def test_real_time_pacing_follows_the_wall_clock() -> None:
         wall = time.perf_counter() - t0
     assert result.sim_time_s == pytest.approx(1.0) and 0.95 <= wall < 1.6
     assert result.pacing.dropped_s == 0.0
+
+
+def test_display_keys_change_only_the_view() -> None:
+    from opends_gym.human.view_state import ViewState
+    from opends_gym.task import load_task
+
+    view = ViewState.from_settings(load_task("ReactionTest").settings)
+    assert (view.camera_mode, view.mirror, view.top_view) == ("ego", False, False)  # mirrorMode unset: off, as OpenDS
+    for cmd in ("toggle_cam", "toggle_cam", "toggle_backmirror", "toggle_topview", "fog_inc5", "fog_inc5", "snow_dec5"):
+        assert view.command(cmd)
+    assert (view.camera_mode, view.mirror, view.top_view) == ("top", True, True)
+    assert view.weather({"fog_percent": 95.0, "snowing_percent": 2.0}) == {"fog_percent": 100.0, "snowing_percent": 0.0}
+    assert not view.command("toggle_headlight")
+    view.show_message("Bitte bremsen", 2.0, now=100.0)
+    assert view.messages(101.0) == ["Bitte bremsen"] and view.messages(102.5) == []

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-CAMERA_MODES = ("ego", "chase", "static_back")
+CAMERA_MODES = ("ego", "chase", "top", "static_back")  # toggle_cam cycles these
 WEATHER_KEYS = {
     "snow_inc5": ("snowing_percent", 5.0),
     "snow_dec5": ("snowing_percent", -5.0),
