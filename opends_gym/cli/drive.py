@@ -124,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     try:
         session = DriveSession(config)
-    except (TaskError, ValueError, OSError) as e:  # a bad task, calibration file or port: say so, no traceback
+    except (TaskError, ValueError, OSError, RuntimeError) as e:  # a bad task, file, port or display: say so, no traceback
         print(f"drive: {e}", file=sys.stderr)
         return 2
     with session:

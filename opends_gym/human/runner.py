@@ -113,7 +113,12 @@ class DriveSession:
             from .viewer import make_viewer
 
             factory = viewer_factory or make_viewer
-            self.viewer = factory(self.world, settings, config.width, config.height, title=f"opends-gym drive: {env_id}")
+            try:
+                self.viewer = factory(self.world, settings, config.width, config.height, title=f"opends-gym drive: {env_id}")
+            except Exception as e:  # no display: free the devices and sockets, then explain
+                self._closed = False
+                self.close()
+                raise RuntimeError(f"cannot open the drive window ({e}); on a machine without a display use --no-window") from e
         elif self.sources.needs_pygame_events:
             from .viewer import init_headless_pygame
 

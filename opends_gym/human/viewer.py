@@ -15,6 +15,7 @@ from typing import Any
 
 from .view_state import Overlay
 
+HEADLESS_DRIVERS = ("offscreen", "dummy")
 HOLD_COLOUR = (250, 220, 80)
 STATUS_COLOUR = (255, 120, 90)
 
@@ -42,6 +43,12 @@ class DriveViewer:
         self.world = world
         self.settings = settings
         self.window = FrameWindow(width, height, title=title)
+        from ..render import _pg
+
+        driver = _pg.pygame().display.get_driver()
+        if driver in HEADLESS_DRIVERS:  # SDL fell back to drawing into memory: nobody would see the drive
+            self.window.close()
+            raise RuntimeError(f"no display (SDL video driver '{driver}')")
         self.composer = ViewComposer(world, settings)
         self.base_mirror_mode = self.composer.mirror_mode
         self.base_top_view = self.composer.top_view
