@@ -93,7 +93,8 @@ class TrafficControls(LegLogic):
         o = self.objects[i]
         assert isinstance(o, ODVehicle)
         try:
-            pts = np.asarray(self.od_map.route(road, new, s + (20.0 if lane < 0 else -20.0), o.target_road_id, None, o.target_s_m))
+            ahead = s + (20.0 if lane < 0 else -20.0)  # join the new lane 20 m on, in its driving direction
+            pts = np.asarray(self.od_map.route(road, new, ahead, o.target_road_id, None, o.target_s_m, o.preferred_connections))
         except Exception as e:  # an impossible route is refused, not fatal
             log.warning("lane change of '%s' refused: %s", o.id, e)
             return False
