@@ -275,8 +275,7 @@ class TrafficLights:
 
     def _run_trigger(self, k: int, prog: _Program) -> None:
         t = self.t_s
-        if not prog.entered:
-            prog.queue.clear()
+        if not prog.entered:  # (set_mode already emptied the queue; a request made before the first step is kept)
             prog.stage = "idle"
             if not self._shift_red(k, None):
                 prog.stage, prog.stage_end_s = "init2", t + SHIFT_S
