@@ -102,15 +102,20 @@ def test_trigger_mode_serves_green_requests_after_the_required_lights_are_red() 
     assert lights.stop_mask.tolist() == [False, True]
 
 
-def test_touching_a_light_trigger_model_requests_green() -> None:
-    inter = Intersection(id="x", mode="trigger", traffic_lights=(_light("A", 1, trigger="padA"), _light("B", 2)))
-    pad = Model(id="padA", ref="POI", translation_m=(0.0, 0.0, -500.0), visible=False)
-    w = _world(_task(inter, models=(pad,)), start=Pose((0.0, 0.0, -500.0)))
+def test_touching_a_light_trigger_model_requests_green_and_a_phase_trigger_reports() -> None:
+    inter = Intersection(id="x", mode="trigger", traffic_lights=(_light("A", 1, trigger="pad"), _light("B", 2)))
+    program = replace(PROGRAM, id="y", traffic_lights=(_light("C", 1, phase_trigger="pad"), _light("D", 2)))
+    pad = Model(id="pad", ref="POI", translation_m=(0.0, 0.0, -500.0), visible=False)
+    w = _world(_task(inter, program, models=(pad,)), start=Pose((0.0, 0.0, -500.0)))
     _run(w, 3.0, DriverControls(brake=1.0))
-    assert "padA" in w.touching
+    assert "pad" in w.touching
     assert [e.source for e in w.events.of_kind("traffic_light_request")] == ["A"]  # once per contact
     assert w.lights.state_of("A") == "green"
     assert w.lights.state_of("B") == "red"
+    reports = w.events.of_kind("traffic_light_report")
+    assert [e.source for e in reports] == ["C"]  # phase triggers report in program mode, once per contact
+    assert reports[0].params["state"] == "green" and reports[0].params["remaining_kind"] == "green"
+    assert reports[0].params["remaining_s"] == pytest.approx(2.0 - reports[0].t_s, abs=2 * w.dt_s)
 
 
 def test_blinking_off_and_external_modes() -> None:
@@ -142,7 +147,7 @@ def test_blinking_off_and_external_modes() -> None:
 
 def test_light_state_round_trips_bit_for_bit() -> None:
     inter = Intersection(id="x", mode="trigger", traffic_lights=(_light("A", 1, "green"), _light("B", 2)))
-    w = _world(_task(inter, PROGRAM.__class__(**{**PROGRAM.__dict__, "id": "y", "traffic_lights": (_light("C", 1), _light("D", 2))})))
+    w = _world(_task(inter, replace(PROGRAM, id="y", traffic_lights=(_light("C", 1), _light("D", 2)))))
     _run(w, 1.3)
     w.lights.request_green("B")
     _run(w, 0.7)
