@@ -188,3 +188,21 @@ def test_session_answers_subscriptions_and_obeys_vehicle_control(task_copy) -> N
     assert replies["honk"] == "success" and ("trigger", "RemoteHonkTrigger") in events
     assert len(pushes) >= 5 and max(pushes) > 15.0 and pushes == sorted(pushes)  # pushes follow the accelerating car
     assert result.wall_s >= 1.9  # paced to the wall clock
+
+
+def test_traffic_values_come_from_the_traffic_manager(corpus) -> None:  # type: ignore[no-untyped-def]
+    from opends_gym.human.snapshot import snapshot_of
+    from opends_gym.human.value_tree import build_tree, matching_paths
+    from opends_gym.sim.world import World
+
+    world = World(corpus / "opends-cts/Idealtest2")
+    try:
+        world.run(0.5)
+        snap = snapshot_of(world)
+    finally:
+        world.close()
+    ids = [str(i) for i in world.traffic.ids]
+    assert ids and [t[0] for t in snap.traffic] == ids
+    tree = build_tree(matching_paths("/root/thisVehicle/roadAttributes/traffic"), snap)
+    assert tree.findtext("thisVehicle/roadAttributes/traffic/objName") == ",".join(ids)
+    assert tree.findtext("thisVehicle/roadAttributes/traffic/numObjs") == str(len(ids))

@@ -70,10 +70,11 @@ def snapshot_of(world: Any, prev: VehicleSnapshot | None = None, max_steering_de
     if prev is not None and world.t_s > prev.t_s:
         accel_long = (s.u * 3.6 - prev.speed_kmh) / 3.6 / max(world.t_s - prev.t_s, dt)
     traffic: tuple[tuple[str, float, float, float], ...] = ()
-    if world.traffic is not None:
-        try:
-            traffic = tuple((str(v.id), float(v.x), float(v.z), float(v.speed_mps) * 3.6) for v in getattr(world.traffic, "vehicles", ()))
-        except Exception:  # the traffic manager's shape is not ours to rely on
+    tr = world.traffic
+    if tr is not None and getattr(tr, "ids", None) is not None:
+        try:  # the traffic manager's arrays: ids, positions (N, 3), speed (N,) m/s
+            traffic = tuple((str(i), float(p[0]), float(p[2]), float(v) * 3.6) for i, p, v in zip(tr.ids, tr.positions, tr.speed))
+        except Exception:  # its shape is not ours to rely on: report no traffic rather than fail
             traffic = ()
     trig = world.triggers
     return VehicleSnapshot(
