@@ -44,6 +44,24 @@ def test_rule_driver_passes_the_reaction_test_with_every_reaction_correct() -> N
     assert m["reactions_failed"] == 0 and m["reactions_missed"] == 0
 
 
+def test_rule_driver_passes_the_platoon_test() -> None:
+    m, env = drive("OpenDS/ThreeVehiclePlatoon-v0", make_agent("rule"))
+    assert m["stimuli"] == 10 and m["stimulus_misses"] == 0
+    kinds = ("brakeLight", "leadingCarTurnSignal", "followerCarTurnSignal", "speedReduction", "emergencyBrake")
+    assert all(st.result == 1 for st in env.unwrapped.platoon.state.stimuli)
+    assert sum(m[f"{k}_n"] for k in kinds) == 10
+    assert m["collisions"] == 0 and m["lateral_outside_fraction"] == 0
+    assert m["longitudinal_outside_fraction"] < 0.35  # outside 20-35 m mostly while the lead brakes or slows
+
+
+def test_rule_driver_passes_the_brake_reaction_test() -> None:
+    m, _ = drive("OpenDS/BrakeReaction-v0", make_agent("rule"))
+    assert m["stimuli"] + m["BrakeSign_n"] == 9
+    assert m["stimulus_misses"] == 0 and m["BrakeSign_correct"] == m["BrakeSign_n"]
+    assert 0 < m["brake_onset_s"] < 0.2  # the attentive rule driver brakes within the policy step after onset
+    assert m["collisions"] == 0
+
+
 def test_rule_driver_works_with_buttons_and_meta_actions() -> None:
     m, _ = drive("OpenDS/LaneChangeTest-v0", make_agent("rule"), action="continuous_buttons", max_episode_s=60.0)
     assert m["reactions_correct"] >= 4

@@ -35,16 +35,19 @@ class RuleParams:
     lane_width_m: float = 3.75
     brake_margin_mps: float = 3.0 / 3.6  # drive this much below a brake target
     stimulus_brake: float = 0.35  # pedal while a lead-car brake stimulus lasts
-    throttle_accel_mps2: float = 3.0  # acceleration at full throttle (for pedal scaling)
-    brake_decel_mps2: float = 8.7  # deceleration at full brake (OpenDS default)
-    speed_gain_per_s: float = 0.8  # 1/s: acceleration asked per m/s of speed error
-    speed_deadband_mps: float = 0.3
+    throttle_kp: float = 0.25  # pedal per m/s below the set-point
+    brake_kp: float = 0.1  # brake per m/s above it
+    speed_ki: float = 0.08  # integral gain, pedal per (m/s * s)
+    speed_integral_limit: float = 0.6
+    speed_integral_band_mps: float = 3.0
+    speed_deadband_mps: float = 0.1
     idm_time_gap_s: float = 1.5
     idm_min_gap_m: float = 2.0
     idm_accel_mps2: float = 1.5
     idm_comfort_decel_mps2: float = 2.0
-    band_gap_gain_per_s2: float = 0.08  # platoon: acceleration per metre of gap error
-    band_speed_gain_per_s: float = 0.6  # platoon: acceleration per m/s of relative speed
+    idm_horizon_s: float = 1.0  # the IDM's acceleration becomes a speed set-point this far ahead
+    band_gap_gain_per_s: float = 0.3  # platoon: m/s faster than the lead per metre of gap beyond the band centre
+    platoon_overspeed_mps: float = 15.0 / 3.6  # platoon: may exceed the cruise speed this much to close a gap
     contre_response_s: float = 0.25  # ConTRe: time to close the bar gap
     contre_bar_speed_mps: float = 1.0
 
@@ -64,10 +67,14 @@ class RuleDriver:
         self.params = params or RuleParams()
         self.env: Any = None
         self._plan = _Plan()
+        self._integral = 0.0
+        self._pedal_t: float | None = None
 
     def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
         self.env = env
         self._plan = _Plan()
+        self._integral = 0.0
+        self._pedal_t = None
         base = env.unwrapped
         so = getattr(getattr(base, "contre", None), "steering_object", None)
         self._bar_speed = float(so.speed) if so is not None and so.speed > 0 else self.params.contre_bar_speed_mps
@@ -111,27 +118,46 @@ class RuleDriver:
         return stanley_steering(p.heading_error_rad, path_heading, p.lateral_m, plan.lateral_m, p.speed_mps, p.yaw_rate_radps)
 
     def _pedal(self, p: Percept) -> float:
+        """A speed set-point (cruise, brake target, lead car) held by a PI controller; the
+        integral supplies the throttle that drag needs at speed."""
         prm = self.params
-        target = p.cruise_mps
-        if p.brake_to_mps is not None:
-            target = min(target, p.brake_to_mps - prm.brake_margin_mps)
-        err = target - p.speed_mps
-        accel = 0.0 if abs(err) < prm.speed_deadband_mps else prm.speed_gain_per_s * err
-        if p.lead is not None:
-            accel = min(accel, self._follow(p, target))
-        pedal = accel / prm.throttle_accel_mps2 if accel >= 0.0 else accel / prm.brake_decel_mps2
+        err = self._speed_setpoint(p) - p.speed_mps
+        dt = 0.0 if self._pedal_t is None else min(max(p.t_s - self._pedal_t, 0.0), 0.5)
+        self._pedal_t = p.t_s
+        band = prm.speed_integral_band_mps
+        if abs(err) < band:  # integrate near the set-point only (no wind-up)
+            self._integral = max(-prm.speed_integral_limit, min(prm.speed_integral_limit, self._integral + prm.speed_ki * err * dt))
+        elif err < -band:  # far too fast: no throttle left over from cruising
+            self._integral = min(self._integral, 0.0)
+        else:
+            self._integral = max(self._integral, 0.0)
+        if abs(err) < prm.speed_deadband_mps:
+            err = 0.0
+        pedal = self._integral + (prm.throttle_kp * err if err >= 0.0 else prm.brake_kp * err)
         if p.brake_hard:
             pedal = min(pedal, -prm.stimulus_brake)
         return max(-1.0, min(1.0, pedal))
 
-    def _follow(self, p: Percept, v0: float) -> float:
-        """Acceleration behind the lead: platoon band centre, else the IDM."""
+    def _speed_setpoint(self, p: Percept) -> float:
+        prm = self.params
+        target = p.cruise_mps
+        if p.brake_to_mps is not None:
+            target = min(target, p.brake_to_mps - prm.brake_margin_mps)
+        lead = p.lead
+        if lead is None:
+            return target
+        if p.follow_gap_m is not None and p.brake_to_mps is None:
+            # platoon: the gap to the lead sets the pace, up to a little over the cruise speed
+            v = lead.speed_mps + prm.band_gap_gain_per_s * (lead.gap_m - p.follow_gap_m)
+            return max(0.0, min(v, target + prm.platoon_overspeed_mps))
+        return max(0.0, min(target, p.speed_mps + prm.idm_horizon_s * self._idm(p, target)))
+
+    def _idm(self, p: Percept, v0: float) -> float:
+        """The Intelligent Driver Model's acceleration behind the lead."""
         prm = self.params
         lead = p.lead
         assert lead is not None
         dv = p.speed_mps - lead.speed_mps
-        if p.follow_gap_m is not None:
-            return prm.band_gap_gain_per_s2 * (lead.gap_m - p.follow_gap_m) - prm.band_speed_gain_per_s * dv
         v = max(p.speed_mps, 0.0)
         s_star = prm.idm_min_gap_m + v * prm.idm_time_gap_s + v * dv / (2.0 * math.sqrt(prm.idm_accel_mps2 * prm.idm_comfort_decel_mps2))
         gap = max(lead.gap_m, 0.1)

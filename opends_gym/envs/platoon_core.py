@@ -36,7 +36,9 @@ from ..task.model_taskxml import ThreeVehiclePlatoon
 
 BRAKE_THRESHOLD = 0.1
 REGULAR_SPEED_TOLERANCE_MPS = 5.0 / 3.6
-BAND_GAIN = 0.15  # (m/s) of speed change per metre outside the band
+BAND_GAIN = 0.15  # (m/s) of lead speed change per metre outside the band
+FOLLOWER_GAIN_PER_S = 0.5  # follower: (m/s) faster per metre it lags behind the band centre
+FOLLOWER_CATCH_UP_MPS = 5.0  # at most this much above the nominal speed
 
 
 @dataclass
@@ -74,7 +76,7 @@ class PlatoonCore:
         self.lead = spec.leading_car.id
         self.follower = spec.follower_car.id
         self.state = PlatoonState()
-        self.nominal: dict[str, float] = {}
+        self.nominal_mps = 80.0 / 3.6  # the platoon's speed: the ego's start speed (the task's cruise speed)
 
     # ------------------------------------------------------------------ setup
     def reset(self, rng: np.random.Generator) -> None:
@@ -86,6 +88,12 @@ class PlatoonCore:
             traffic.set_speed_override(car, None)
             traffic.set_brake_light(car, None)
             traffic.set_turn_signal(car, None)
+            # the platoon is already rolling at the ego's start speed (OpenDS traffic would
+            # start at rest and be rear-ended), and its cars keep the task's bands rather
+            # than OpenDS's speed-dependent safety distance (45 m at 90 km/h)
+            traffic.set_speed(car, self.world.ego.state.u)
+            traffic.set_safety_distance(car, forward_m=3.0, speed_dependent=False)
+        self.nominal_mps = self.world.ego.state.u or self.nominal_mps
 
     def handle_action(self, args: dict[str, Any]) -> None:
         """`setTVPTStimulus` handler: start the named stimulus now."""
@@ -204,25 +212,34 @@ class PlatoonCore:
         return float((traffic.positions[j, 0] - s.x) * fx + (traffic.positions[j, 2] - s.z) * fz)
 
     def _hold_bands(self) -> None:
-        """Lead and follower adjust their speed to keep the ego inside their bands."""
+        """Lead and follower adjust their speed to keep the ego inside their bands.
+
+        The lead drives the platoon's nominal speed and only deviates when the ego is out
+        of its band: slower by `BAND_GAIN` per metre beyond the far edge, faster per metre
+        inside the near edge. (Keying the lead's speed to the ego's speed instead makes the
+        two cars chase each other down to a standstill.) The follower keeps the centre of
+        its band behind the ego like an adaptive cruise control, so it brakes when the ego
+        brakes.
+        """
         traffic = self.world.traffic
         assert traffic is not None
         busy = {st.car for st in self.state.active if st.kind in ("speedReduction", "emergencyBrake")}
         ego_v = self.world.ego.state.u
-        for car, band, ahead in ((self.lead, self.spec.leading_car, True), (self.follower, self.spec.follower_car, False)):
-            if car in busy or (not ahead and not self.with_follower):
-                continue
-            d = self._distance_to(car)
-            if d is None:
-                continue
-            dist = d if ahead else -d
-            if dist > band.max_distance_m:  # too far: close the gap
-                target = ego_v - BAND_GAIN * (dist - band.max_distance_m) if ahead else ego_v + BAND_GAIN * (dist - band.max_distance_m)
-            elif dist < band.min_distance_m:
-                target = ego_v + BAND_GAIN * (band.min_distance_m - dist) if ahead else ego_v - BAND_GAIN * (band.min_distance_m - dist)
-            else:
-                target = None
-            traffic.set_speed_override(car, None if target is None else max(0.0, target))
+        lead_band, follow_band = self.spec.leading_car, self.spec.follower_car
+        if self.lead not in busy:
+            gap = self._distance_to(self.lead)
+            target: float | None = None
+            if gap is not None and gap > lead_band.max_distance_m:
+                target = max(0.0, self.nominal_mps - BAND_GAIN * (gap - lead_band.max_distance_m))
+            elif gap is not None and gap < lead_band.min_distance_m:
+                target = self.nominal_mps + BAND_GAIN * (lead_band.min_distance_m - gap)
+            traffic.set_speed_override(self.lead, target)
+        if self.with_follower and self.follower not in busy:
+            d = self._distance_to(self.follower)
+            if d is not None:
+                wanted = 0.5 * (follow_band.min_distance_m + follow_band.max_distance_m)
+                target = ego_v + FOLLOWER_GAIN_PER_S * (-d - wanted)
+                traffic.set_speed_override(self.follower, min(max(0.0, target), self.nominal_mps + FOLLOWER_CATCH_UP_MPS))
 
     # ------------------------------------------------------------------ metrics
     def metrics(self) -> dict[str, float]:

@@ -14,6 +14,8 @@ ENVS: dict[str, str] = {
     "OpenDS/LaneChangeTest-v0": "opends_gym.envs.lct:LaneChangeTestEnv",
     "OpenDS/ReactionTest-v0": "opends_gym.envs.reaction_test:ReactionTestEnv",
     "OpenDS/ConTRe-v0": "opends_gym.envs.contre:ConTReEnv",
+    "OpenDS/BrakeReaction-v0": "opends_gym.envs.brake:BrakeReactionEnv",
+    "OpenDS/ThreeVehiclePlatoon-v0": "opends_gym.envs.platoon:ThreeVehiclePlatoonEnv",
 }
 
 
