@@ -19,7 +19,7 @@ ruff format --check .
 echo "== mypy"; mypy
 echo "== pytest"
 set +e
-python -m pytest "$@"
+python -m pytest -n "${PYTEST_WORKERS:-auto}" "$@"
 code=$?
 set -e
 if [ "$code" -eq 5 ]; then
