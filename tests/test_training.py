@@ -103,8 +103,8 @@ def test_every_env_trains_with_ppo(env_id: str) -> None:
     from stable_baselines3 import PPO
 
     env = gym.make(env_id, max_episode_s=20.0)
-    model = PPO("MlpPolicy", env, n_steps=256, batch_size=64, n_epochs=1, seed=0, device="cpu")
-    model.learn(total_timesteps=512)
+    model = PPO("MlpPolicy", env, n_steps=512, batch_size=128, n_epochs=1, seed=0, device="cpu")
+    model.learn(total_timesteps=2048)  # "a few thousand steps", across episode ends
     action, _ = model.predict(env.reset(seed=0)[0], deterministic=True)
     assert env.action_space.contains(action)
     env.close()

@@ -4,8 +4,8 @@ Why: both views draw the same road. OpenDS tasks describe it in one of several w
 use the first that the task has: an OpenDRIVE road (`world.road.opendrive`: every lane
 between its edges, drivable lanes as asphalt, others as shoulder), the `road/lane`
 X-bands (straight along Z, as OpenDS's reaction timers assume), the traffic road network
-(Gen B segments or Gen A waypoints, one 3.5 m lane each), else the ideal tracks. Ideal
-tracks are also returned as thin lines for the map. Markings: solid outer edges, dashed
+(Gen B segments or Gen A waypoints, one 3.5 m lane each), else the ideal tracks, else the
+camera-flight track. Ideal tracks are also returned as thin lines for the map. Markings: solid outer edges, dashed
 lines between lanes (6 m paint, 12 m gap, as on German motorways), 0.15 m wide.
 """
 
@@ -94,7 +94,7 @@ class RoadLayout:
             self.ribbons.extend(opendrive_ribbons(od))
         elif not self.bands:
             points = {g.id: g.translation_m for g in task.scene.geometries if isinstance(g, Point)}
-            for path in _network_paths(task, points) or self.tracks:
+            for path in _network_paths(task, points) or self.tracks or _camera_flight_path(task, points):
                 xz = resample(path)
                 if xz is not None:
                     left, right = offset_polyline(xz, PATH_LANE_HALF_W_M), offset_polyline(xz, -PATH_LANE_HALF_W_M)
@@ -244,6 +244,19 @@ def opendrive_ribbons(od: Any, step: float = RESAMPLE_M) -> list[Ribbon]:
                             marks += ((world(inner), True),)  # the centre line between the two directions
                     out.append(Ribbon(world(inner), world(outer), pal.ASPHALT if drivable else pal.SHOULDER, marks))
     return out
+
+
+def _camera_flight_path(task: Any, points: dict[str, tuple[float, float, float]]) -> list[list[tuple[float, float]]]:
+    """The camera-flight track (ConTRe drives along it) when a task gives no other road."""
+    flight = task.scenario.driver.camera_flight
+    if flight is None:
+        return []
+    xz = []
+    for p in flight.track:
+        pos = p.translation_m if p.translation_m is not None else points.get(p.ref)
+        if pos is not None:
+            xz.append((pos[0], pos[2]))
+    return [xz] if len(xz) >= 2 else []
 
 
 def _network_paths(task: Any, points: dict[str, tuple[float, float, float]]) -> list[list[tuple[float, float]]]:

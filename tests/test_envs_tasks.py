@@ -1,0 +1,85 @@
+"""Task-level behaviour of the envs: LCT scoring, the DRT wrapper, headless frames for every id."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import opends_gym  # noqa: F401
+from opends_gym.drivers.rule import RuleDriver, RuleParams
+from opends_gym.envs import ENVS
+from opends_gym.envs.drt import DetectionResponseTask
+
+
+def _episode(env: gym.Env[Any, Any], driver: Any, seed: int = 0) -> dict[str, float]:
+    obs, info = env.reset(seed=seed)
+    driver.reset(env, seed)
+    while True:
+        obs, _, terminated, truncated, info = env.step(driver.act(obs, info))
+        if terminated or truncated:
+            return dict(info["episode_metrics"])
+
+
+def test_lct_perfect_driver_scores_near_zero_and_a_late_driver_clearly_worse() -> None:
+    env = gym.make("OpenDS/LaneChangeTest-v0")
+    on_time = _episode(env, RuleDriver())
+    # the same driver starting each lane change only 5 m before the sign (25 m late)
+    late = _episode(env, RuleDriver(RuleParams(lane_change_start_before_sign_m=5.0)))
+    assert on_time["mdev_basic_m"] < 0.2
+    assert late["mdev_basic_m"] > on_time["mdev_basic_m"] + 0.4
+    # the adapted model absorbs a consistent personal timing, the basic one does not
+    assert late["mdev_adapted_m"] < late["mdev_basic_m"]
+    assert late["adapted_start_before_sign_m"] < on_time["adapted_start_before_sign_m"] - 15.0
+
+
+class _Responder:
+    """Drives straight and presses the reaction button `delay_steps` policy steps after each DRT onset."""
+
+    def __init__(self, delay_steps: int | None) -> None:
+        self.delay_steps = delay_steps
+
+    def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
+        self.on_for = 0
+
+    def act(self, obs: Any, info: dict[str, Any]) -> np.ndarray:
+        self.on_for = self.on_for + 1 if info.get("drt_stimulus_on") else 0
+        press = self.delay_steps is not None and self.on_for == self.delay_steps
+        return np.array([0.0, 0.0, 1.0 if press else -1.0, -1.0, -1.0, -1.0], dtype=np.float32)
+
+
+def test_drt_wrapper_scores_hits_misses_and_reaction_times() -> None:
+    env = DetectionResponseTask(gym.make("OpenDS/LaneChangeTest-v0", action="continuous_buttons", max_episode_s=60.0))
+    quick = _episode(env, _Responder(delay_steps=3))
+    assert quick["drt_stimuli"] >= 11  # one every 3-5 s over 60 s
+    assert quick["drt_hit_rate"] == 1.0 and quick["drt_misses"] == 0
+    # seen on the policy step after onset, pressed 3 steps later, scored to the physics step
+    assert 0.2 <= quick["drt_mean_rt_s"] <= 0.45
+    silent = _episode(env, _Responder(delay_steps=None))
+    assert silent["drt_hits"] == 0 and silent["drt_hit_rate"] == 0.0
+    assert silent["drt_misses"] == silent["drt_stimuli"]
+
+
+def test_drt_schedule_is_seeded() -> None:
+    env = DetectionResponseTask(gym.make("OpenDS/LaneChangeTest-v0", action="continuous_buttons", max_episode_s=30.0))
+    a = _episode(env, _Responder(2), seed=4)
+    b = _episode(env, _Responder(2), seed=4)
+    c = _episode(env, _Responder(2), seed=5)
+    assert a == b
+    assert env.unwrapped is not None and a["drt_stimuli"] > 0 and (a != c)
+
+
+@pytest.mark.parametrize("env_id", sorted(ENVS))
+def test_every_env_renders_headless_frames_that_are_not_blank(env_id: str) -> None:
+    env = gym.make(env_id, render_mode="rgb_array", max_episode_s=10.0, render_width=160, render_height=90)
+    env.reset(seed=0)
+    for _ in range(5):
+        env.step(env.action_space.sample())
+    frame = env.render()
+    assert isinstance(frame, np.ndarray) and frame.shape == (90, 160, 3) and frame.dtype == np.uint8
+    colours, counts = np.unique(frame.reshape(-1, 3), axis=0, return_counts=True)
+    assert len(colours) >= 4  # ground, road or markings, the ego car, ...
+    assert counts.max() < 0.97 * counts.sum()  # no single colour fills the frame
+    env.close()
