@@ -177,7 +177,12 @@ class Powertrain:
         """Best forward gear per 0.1 m/s of speed, so the automatic costs one lookup a step."""
         speeds = np.arange(0.0, _TABLE_MAX_SPEED, _TABLE_STEP)
         shares = np.array([[self.power_share(g, float(v)) for v in speeds] for g in range(1, len(self.ratios) + 1)])
-        self._best_gear_table = (np.argmax(shares, axis=0) + 1).tolist()
+        # OpenDS's power curve is clamped flat outside 1500..5100 rpm, so gears tie there; a
+        # tie goes to the gear whose rpm lies closest to that band (1st when crawling, the
+        # top gear at motorway speed) instead of to whichever comes first
+        rpm = np.array([[gear_rpm(float(v), r) for v in speeds] for r in self.ratios])
+        outside = np.maximum(POWER_RPM_MIN - rpm, 0.0) + np.maximum(rpm - POWER_RPM_MAX, 0.0)
+        self._best_gear_table = (np.argmax(shares - 1e-9 * outside, axis=0) + 1).tolist()
 
     def best_gear(self, v_mps: float) -> int:
         """Automatic gearbox: the forward gear of highest power share (no hysteresis, as OpenDS)."""
