@@ -1,0 +1,92 @@
+"""Score the baseline drivers side by side: rule, distracted (heavy) and the shipped policies.
+
+Every driver runs the same seeded episodes of each test through the same agent interface
+as `opends-gym run`, and the table shows each test's headline metrics (mean over episodes).
+
+    python agents/evaluate.py [--episodes 3] [--markdown]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+
+import opends_gym  # noqa: F401  (registers the ids)
+from opends_gym.drivers.agents import make_agent
+from opends_gym.metrics.stats import mean_ci
+
+POLICIES = Path(__file__).resolve().parent / "policies"
+
+# (env id, the shipped policy's folder, the headline metrics)
+TESTS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+    ("OpenDS/LaneChangeTest-v0", "lct_ppo", ("mdev_basic_m", "mdev_adapted_m", "lane_changes_correct", "sdlp_m")),
+    ("OpenDS/BrakeReaction-v0", "brake_ppo", ("stimulus_misses", "brake_onset_s", "BrakeSign_correct", "collisions")),
+    (
+        "OpenDS/ThreeVehiclePlatoon-v0",
+        "platoon_ppo",
+        ("stimulus_misses", "stimulus_mean_rt_s", "longitudinal_deviation_mean_m", "lateral_deviation_mean_m"),
+    ),
+)
+
+
+def run(env_id: str, agent_spec: str, episodes: int, seed: int) -> dict[str, float]:
+    env = gym.make(env_id)
+    rows: list[dict[str, Any]] = []
+    try:
+        for k in range(episodes):
+            agent = make_agent(agent_spec)
+            obs, info = env.reset(seed=seed + k)
+            agent.reset(env, seed + k)
+            ret = 0.0
+            while True:
+                obs, reward, terminated, truncated, info = env.step(agent.act(obs, info))
+                ret += float(reward)
+                if terminated or truncated:
+                    break
+            rows.append({"return": ret, **info["episode_metrics"]})
+    finally:
+        env.close()
+    return {key: mean_ci(float(r[key]) for r in rows).mean for key in rows[0] if isinstance(rows[0][key], (int, float))}
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--episodes", type=int, default=3)
+    p.add_argument("--seed", type=int, default=100)
+    p.add_argument("--markdown", action="store_true", help="print Markdown tables (for the README)")
+    args = p.parse_args(argv)
+    for env_id, policy, keys in TESTS:
+        agents = ["rule", "distracted:heavy"]
+        model = POLICIES / policy / "model.zip"
+        if model.is_file():
+            agents.append(f"ppo:{model}")
+        else:
+            print(f"({env_id}: no shipped policy at {model})", file=sys.stderr)
+        cols = ("return", *keys)
+        results = {a: run(env_id, a, args.episodes, args.seed) for a in agents}
+        label = {a: (f"ppo ({policy})" if a.startswith("ppo:") else a) for a in agents}
+        if args.markdown:
+            print(f"\n**{env_id}** ({args.episodes} episodes, seeds {args.seed}..)\n")
+            print("| driver | " + " | ".join(cols) + " |")
+            print("|---" * (len(cols) + 1) + "|")
+            for a in agents:
+                print(f"| {label[a]} | " + " | ".join(_fmt(results[a].get(c, math.nan)) for c in cols) + " |")
+        else:
+            print(f"\n{env_id} ({args.episodes} episodes)")
+            print("driver".ljust(22) + "".join(c.rjust(32) for c in cols))
+            for a in agents:
+                print(label[a].ljust(22) + "".join(_fmt(results[a].get(c, math.nan)).rjust(32) for c in cols))
+    return 0
+
+
+def _fmt(v: float) -> str:
+    return "nan" if not math.isfinite(v) else f"{v:.3g}"
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
