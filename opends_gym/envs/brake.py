@@ -36,10 +36,13 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
     turn signal; the follower slots stay 0) and `brake_sign_visible`.
 
     ## Reward
-    +1 per correct reaction, -1 per miss or failure, -10 per collision.
+    The platoon test's (progress, band deviation, lead-car stimulus reactions, collisions,
+    leaving the road; see `ThreeVehiclePlatoonEnv`) plus +1 per correct and -1 per failed
+    or missed brake-sign reaction.
 
     ## Episode end
-    Terminated at the end of the track or on a collision; truncated after `max_episode_s`.
+    Terminated at the end of the track, on a collision or off the road; truncated after
+    `max_episode_s`.
 
     ## Info
     `OpenDSEnv`'s keys; `episode_metrics` adds the platoon stimulus measures for the

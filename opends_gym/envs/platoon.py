@@ -32,6 +32,11 @@ class PlatoonConfig(EnvConfig):
     follower_gap_m: float = 10.0
     track_seed: int = 1
     action: str = "continuous_buttons"
+    reward_progress_per_m: float = 0.01
+    reward_deviation_per_m: float = 0.02
+    reward_deviation_cap_m: float = 10.0
+    off_road_margin_m: float = 1.5
+    off_road_penalty: float = 10.0
 
 
 class ThreeVehiclePlatoonEnv(OpenDSEnv):
@@ -54,12 +59,16 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
     0 off, 1 left, 2 right, 3 both).
 
     ## Reward
-    +1 per correct reaction, -1 per miss, -0.1 x (longitudinal + lateral deviation
-    outside the bands, m) per step, -10 per collision.
+    `reward_progress_per_m` (0.01) per metre driven, minus `reward_deviation_per_m` (0.02)
+    x the longitudinal + lateral deviation outside the bands (m, capped at
+    `reward_deviation_cap_m` = 10 m) per step; +1 per correct reaction, -1 per miss,
+    -10 per collision, -`off_road_penalty` (10) for leaving the road. The progress term
+    keeps ending the episode early from paying.
 
     ## Episode end
-    Terminated at the end of the track (the task pauses the simulation) or on a
-    collision; truncated after `max_episode_s` (300 s).
+    Terminated at the end of the track (the task pauses the simulation), on a collision,
+    or when the car leaves the road by more than `off_road_margin_m` (1.5 m); truncated
+    after `max_episode_s` (300 s).
 
     ## Info
     `OpenDSEnv`'s keys; `episode_metrics` adds longitudinal/lateral deviation (mean m,
@@ -107,7 +116,9 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
         self.platoon.step(inp.accelerator, inp.brake, pressed, inp.turn_signal, self.trace.last("lane_offset_m"))
         st = self.platoon.state
         if st.lon_dev:
-            self._reward_acc -= 0.1 * (st.lon_dev[-1] + (st.lat_dev[-1] if st.lat_dev else 0.0)) / self.config.action_repeat
+            cfg = self.config
+            dev = min(st.lon_dev[-1] + (st.lat_dev[-1] if st.lat_dev else 0.0), cfg.reward_deviation_cap_m)  # type: ignore[attr-defined]
+            self._reward_acc -= cfg.reward_deviation_per_m * dev / cfg.action_repeat  # type: ignore[attr-defined]
 
     def _stimulus(self) -> list[float]:
         traffic = self.world.traffic
@@ -125,9 +136,16 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
             float(traffic.turn_signal[fi]) if self.with_follower else 0.0,
         ]
 
+    def _task_terminated(self) -> bool:
+        half_road = len(self.world.road.lanes) * self.config.lane_width_m / 2  # type: ignore[attr-defined]
+        return abs(self.trace.last("lateral_m")) > half_road + self.config.off_road_margin_m  # type: ignore[attr-defined]
+
     def _reward(self, info: dict[str, Any]) -> float:
-        r = self._reward_acc
+        cfg = self.config
+        r = self._reward_acc + cfg.reward_progress_per_m * max(0.0, float(info["progress_m"]))  # type: ignore[attr-defined]
         self._reward_acc = 0.0
+        if self._task_terminated():
+            r -= cfg.off_road_penalty  # type: ignore[attr-defined]
         results = [s.result for s in self.platoon.state.stimuli if s.result != 0]
         for res in results[self._seen_results :]:
             r += 1.0 if res == 1 else -1.0
