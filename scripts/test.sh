@@ -2,7 +2,7 @@
 # The whole test suite: set up .venv with every extra, lint, type-check, run pytest.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-source "$ROOT/scripts/_env.sh" "dev,rl"
+source "$ROOT/scripts/_env.sh" "dev,rl,cluster"
 cd "$ROOT"
 # The drive-window test (tests/test_human_window.py) runs a real window under Xvfb.
 # Install it once if missing (root, or sudo without a password); quiet, never fatal here.

@@ -36,9 +36,14 @@ def run(args: argparse.Namespace) -> int:
         return 2
     out = Path(args.output).resolve() if args.output else None
     if cfg.framework == "rllib":
+        from ..training.rllib import RllibConfigError
         from ..training.rllib import train as train_rllib
 
-        metrics = train_rllib(cfg, base, out)
+        try:
+            metrics = train_rllib(cfg, base, out)
+        except RllibConfigError as e:  # a bad `rllib:` block: one line, no traceback
+            print(f"opends-gym train: {args.config}: {e}", file=sys.stderr)
+            return 2
     else:
         from ..training.sb3 import json_safe, train
 
