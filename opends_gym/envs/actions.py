@@ -57,9 +57,11 @@ class ContinuousAction(ActionType):
         return gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
 
     def to_controls(self, action: Any) -> DriverControls:
-        a = _check_finite(action)
-        pedal = float(a[1])
-        return DriverControls(steering=float(a[0]), accelerator=max(pedal, 0.0), brake=max(-pedal, 0.0))
+        values = np.asarray(action, dtype=np.float64).reshape(-1).tolist()  # plain floats: cheaper than array maths here
+        if not all(map(math.isfinite, values)):
+            raise ValueError(f"action contains NaN or infinity: {values}")
+        steering, pedal = (-1.0 if v < -1.0 else 1.0 if v > 1.0 else v for v in values[:2])
+        return DriverControls(steering=steering, accelerator=max(pedal, 0.0), brake=max(-pedal, 0.0))
 
 
 BUTTONS = ("reaction", "horn", "indicator_left", "indicator_right")

@@ -39,9 +39,10 @@ from ..task import DrivingTask
 from .actions import make_action_type
 from .config import EnvConfig, build_config
 from .observations import make_observation_type
-from .trace import Trace
+from .trace import COL, Trace
 
 LANE_KEEPING_OFFSET_M = 1.0  # |offset from lane centre| below which a sample counts for SDLP
+_X, _Z, _OFFSET = COL["x_m"], COL["z_m"], COL["lane_offset_m"]
 
 
 class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
@@ -176,10 +177,8 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
     def _record_row(self) -> None:
         w = self.world
         s = w.ego.state
-        p = self.guide.locate(s.x, s.z)
-        lane = p.lane_index
-        center = self.guide.lane_laterals_m[lane if lane >= 0 else self.guide.nearest_lane(p.lateral_m)]
-        offset = p.lateral_m - center
+        x, z = s.x, s.z
+        _, lateral, lane, offset = self.guide.lane_position(x, z)
         lead = lead_vehicle(w) if w.traffic is not None else None
         if lead is not None:
             headway = time_headway(lead.gap_m, lead.length_m, s.u)
@@ -188,11 +187,12 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             headway = ttc = math.inf
         inp = w.ego.inputs
         tr = self.trace
-        if tr.n:
-            ds = math.hypot(s.x - tr.last("x_m"), s.z - tr.last("z_m"))
-            self._run.add_distance(ds, abs(tr.last("lane_offset_m")), abs(offset))
+        prev = tr.last_row()
+        if prev:
+            ds = math.hypot(x - float(prev[_X]), z - float(prev[_Z]))
+            self._run.add_distance(ds, abs(float(prev[_OFFSET])), abs(offset))
         self._run.add_offset(offset)
-        tr.append((w.t_s, s.x, s.z, s.yaw, s.u, p.lateral_m, offset, float(lane), inp.steering, inp.accelerator, inp.brake, headway, ttc))
+        tr.append((w.t_s, x, z, s.yaw, s.u, lateral, offset, float(lane), inp.steering, inp.accelerator, inp.brake, headway, ttc))
 
     def _new_reaction(self) -> tuple[float, float]:
         reactions: Any = getattr(self.world.triggers, "reactions", ())

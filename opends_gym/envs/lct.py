@@ -122,6 +122,7 @@ class LaneChangeTestEnv(OpenDSEnv):
         self._norm_d0 = float(d[0])
         self._norm = normative_path(d, self.metric_signs, self.lane_laterals, self.initial_lane, self.basic).tolist()
         self.half_road = g.lanes * g.lane_width_m / 2
+        self._start_z = float(self.world.task.start_pose.position_m[2])  # (a scene lookup: not per step)
 
     def _norm_at(self, d: float) -> float:
         i = int((d - self._norm_d0) / self._norm_step)
@@ -135,7 +136,7 @@ class LaneChangeTestEnv(OpenDSEnv):
 
     def _on_physics_step(self) -> None:
         tr = self.trace
-        d = float(self.world.task.start_pose.position_m[2]) - tr.last("z_m")
+        d = self._start_z - tr.last("z_m")
         dev = abs(tr.last("lateral_m") - self._norm_at(d))
         if self._prev is not None:
             d0, dev0 = self._prev

@@ -76,18 +76,14 @@ class KinematicsObservation(ObservationType):
         self.k = int(self.config.nearby_vehicles)
         self.size = len(EGO_NAMES) + self.k * len(VEHICLE_NAMES) + len(self.stimulus_names)
         self.names = EGO_NAMES + tuple(f"vehicle{i}_{n}" for i in range(self.k) for n in VEHICLE_NAMES) + self.stimulus_names
-        self._buf = np.zeros(self.size, dtype=np.float32)
 
     def space(self) -> gym.spaces.Box:
         return gym.spaces.Box(-np.inf, np.inf, shape=(self.size,), dtype=np.float32)
 
     def observe(self) -> np.ndarray:
-        out = self._buf
-        out[:] = 0.0
-        ego = self.ego_features()
-        out[: len(ego)] = ego
-        i = len(ego)
+        values = self.ego_features()
         traffic = self.world.traffic
+        slots = [0.0] * (self.k * len(VEHICLE_NAMES))
         if self.k and traffic is not None and len(traffic.ids):
             s = self.world.ego.state
             fx, fz = -math.sin(s.yaw), -math.cos(s.yaw)
@@ -103,8 +99,8 @@ class KinematicsObservation(ObservationType):
                     break
                 vyaw = traffic.yaw[j]
                 v_along = traffic.speed[j] * (-math.sin(vyaw) * fx - math.cos(vyaw) * fz)
-                base = i + slot * len(VEHICLE_NAMES)
-                out[base : base + 6] = (
+                base = slot * len(VEHICLE_NAMES)
+                slots[base : base + 6] = (
                     1.0,
                     dx[j] * fx + dz[j] * fz,
                     dx[j] * lx + dz[j] * lz,
@@ -112,10 +108,10 @@ class KinematicsObservation(ObservationType):
                     float(traffic.brake_light[j]),
                     float(traffic.turn_signal[j]),
                 )
-        i += self.k * len(VEHICLE_NAMES)
+        values += slots
         if self.stimulus_names:
-            out[i:] = self.stimulus()
-        return out.copy()
+            values += self.stimulus()
+        return np.array(values, dtype=np.float32)
 
 
 class RaysObservation(ObservationType):

@@ -26,22 +26,51 @@ COLUMNS = (
 COL = {name: i for i, name in enumerate(COLUMNS)}
 
 
+FLUSH_ROWS = 256  # rows gathered in a list before they are copied into the array
+
+
 class Trace:
+    """Rows are appended to a short Python list (cheap per step) and copied into the float
+    array in blocks; `col()` flushes first, `last()` reads the newest row directly."""
+
     def __init__(self, capacity: int = 4096) -> None:
         self._data = np.zeros((capacity, len(COLUMNS)), dtype=np.float64)
+        self._stored = 0  # rows already in `_data`
+        self._rows: list[tuple[float, ...]] = []  # rows appended since the last flush
+        self._last: tuple[float, ...] = ()
         self.n = 0
 
     def clear(self) -> None:
         self.n = 0
+        self._stored = 0
+        self._rows.clear()
+        self._last = ()
 
     def append(self, row: tuple[float, ...]) -> None:
-        if self.n == len(self._data):
-            self._data = np.concatenate([self._data, np.zeros_like(self._data)])
-        self._data[self.n] = row
+        self._rows.append(row)
+        self._last = row
         self.n += 1
+        if len(self._rows) >= FLUSH_ROWS:
+            self._flush()
+
+    def _flush(self) -> None:
+        rows = self._rows
+        if not rows:
+            return
+        end = self._stored + len(rows)
+        while end > len(self._data):
+            self._data = np.concatenate([self._data, np.zeros_like(self._data)])
+        self._data[self._stored : end] = rows
+        self._stored = end
+        rows.clear()
 
     def col(self, name: str) -> np.ndarray:
+        self._flush()
         return self._data[: self.n, COL[name]]
 
+    def last_row(self) -> tuple[float, ...]:
+        """The newest row as appended (empty before the first)."""
+        return self._last
+
     def last(self, name: str) -> float:
-        return float(self._data[self.n - 1, COL[name]]) if self.n else float("nan")
+        return float(self._last[COL[name]]) if self.n else float("nan")

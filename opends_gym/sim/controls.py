@@ -45,18 +45,19 @@ class DriverControls:
 
     def clipped(self) -> DriverControls:
         """A copy with pedal and steering values forced into their ranges (NaN -> 0)."""
-
-        def clip(v: float, lo: float, hi: float) -> float:
-            if v != v:  # NaN
-                return 0.0
-            return lo if v < lo else hi if v > hi else v
-
-        c = DriverControls(**self.__dict__)
-        c.steering = clip(float(self.steering), -1.0, 1.0)
-        c.accelerator = clip(float(self.accelerator), 0.0, 1.0)
-        c.brake = clip(float(self.brake), 0.0, 1.0)
-        c.clutch = clip(float(self.clutch), 0.0, 1.0)
+        c = object.__new__(DriverControls)  # a plain field copy: this runs every physics step
+        c.__dict__.update(self.__dict__)
+        c.steering = _clip(float(self.steering), -1.0, 1.0)
+        c.accelerator = _clip(float(self.accelerator), 0.0, 1.0)
+        c.brake = _clip(float(self.brake), 0.0, 1.0)
+        c.clutch = _clip(float(self.clutch), 0.0, 1.0)
         return c
+
+
+def _clip(v: float, lo: float, hi: float) -> float:
+    if v != v:  # NaN
+        return 0.0
+    return lo if v < lo else hi if v > hi else v
 
 
 @dataclass

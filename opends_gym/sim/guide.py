@@ -79,6 +79,20 @@ class RoadGuide:
         lat = dx * (-math.cos(self.start_yaw)) + dz * math.sin(self.start_yaw)
         return GuidePoint(s, lat, self.start_yaw, 0 if abs(lat) < self.lane_width_m / 2 else -1)
 
+    def lane_position(self, x: float, z: float) -> tuple[float, float, int, float]:
+        """(s, lateral, lane index, offset from the centre of that lane, or of the nearest lane
+        when off the lanes): `locate` plus the lane offset, without building a GuidePoint (the
+        env's trace asks this every physics step)."""
+        if self.kind == "lanes":
+            lat = -self.sign * x
+            s = -self.sign * (z - self.start_xz[1])
+            lane = self._lane_index(lat)
+        else:
+            p = self.locate(x, z)
+            s, lat, lane = p.s_m, p.lateral_m, p.lane_index
+        centre = self.lane_laterals_m[lane if lane >= 0 else self.nearest_lane(lat)]
+        return s, lat, lane, lat - centre
+
     def _lane_index(self, lat: float) -> int:
         half = self.lane_width_m / 2.0
         for i, c in enumerate(self.lane_laterals_m):

@@ -36,16 +36,15 @@ class FastVehicle:
         self._max_front = spec.mu * self._fz_front
         self._max_rear = spec.mu * self._fz_rear
         self._max_long = spec.mu * m * G
+        self._m, self._lf, self._lr = m, lf, spec.wheelbase_m - lf
+        self._wheelbase, self._yaw_inertia = spec.wheelbase_m, spec.yaw_inertia
 
     def reset(self, x: float, y: float, z: float, yaw: float, speed_mps: float) -> None:
         self.state = BodyState(x=x, y=y, z=z, yaw=yaw, u=speed_mps)
 
     def step(self, dt_s: float, steer_rad: float, drive_force_n: float, brake_force_n: float, side_force_n: float = 0.0) -> None:
         s = self.state
-        spec = self.spec
-        m = spec.mass_kg
-        lf = spec.cog_to_front_m
-        lr = spec.wheelbase_m - lf
+        m, lf, lr = self._m, self._lf, self._lr
         u, v, r = s.u, s.v, s.r
         s.steer_rad = steer_rad
         # longitudinal force: drive minus brakes (brakes oppose motion, never reverse it)
@@ -81,7 +80,7 @@ class FastVehicle:
             fyf = self._max_front * math.tanh(self._c_front * alpha_f / self._max_front)
             fyr = self._max_rear * math.tanh(self._c_rear * alpha_r / self._max_rear)
             dv_dyn = (fyf * cos_d + fyr + side_force_n) / m - u * r
-            dr_dyn = (lf * fyf * cos_d - lr * fyr) / spec.yaw_inertia
+            dr_dyn = (lf * fyf * cos_d - lr * fyr) / self._yaw_inertia
             u_new += (-fyf * sin_d / m + v * r) * dt_s
             v_dyn = v + dv_dyn * dt_s
             r_dyn = r + dr_dyn * dt_s
@@ -90,8 +89,8 @@ class FastVehicle:
         if w_dyn < 1.0:
             # kinematic bicycle model: no tyre slip at walking pace
             tan_d = math.tan(steer_rad)
-            beta = math.atan(lr * tan_d / spec.wheelbase_m)
-            r_kin = u_new * math.cos(beta) * tan_d / spec.wheelbase_m
+            beta = math.atan(lr * tan_d / self._wheelbase)
+            r_kin = u_new * math.cos(beta) * tan_d / self._wheelbase
             v_kin = u_new * math.tan(beta)
             v_new = w_dyn * v_dyn + (1.0 - w_dyn) * v_kin
             r_new = w_dyn * r_dyn + (1.0 - w_dyn) * r_kin

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -139,8 +140,9 @@ class PowertrainState:
     odometer_m: float = 0.0
 
 
-@dataclass(frozen=True)
-class PowertrainOutput:
+class PowertrainOutput(NamedTuple):
+    """One step's result (a named tuple: built every physics step, so it must be cheap)."""
+
     drive_force_n: float  # along the car's forward axis (negative in reverse)
     brake_force_n: float  # magnitude, opposes motion: brakes plus rolling/air or free-wheel drag
     rpm: float
@@ -162,6 +164,11 @@ class Powertrain:
         self.max_power_kw = max(self._power_table)
         self.state = PowertrainState(automatic=car.transmission.automatic, engine_on=car.engine.engine_on, fuel_left_l=car.fuel.start_l)
         self._build_gear_table()
+        # constants of the per-step maths, looked up once (the car blocks are frozen)
+        self._cap_from_kmh = self.engine.max_speed_mps * 3.6 - 1.0
+        self._max_rpm, self._min_rpm = self.engine.max_rpm, self.engine.min_rpm
+        self._accel_mps2 = self.engine.acceleration_mps2
+        self._dec_brake, self._dec_free = self.brake.deceleration_brake_mps2, self.brake.deceleration_free_wheel_mps2
 
     # ------------------------------------------------------------------ gears
     def power_share(self, gear: int, v_mps: float) -> float:
@@ -211,26 +218,27 @@ class Powertrain:
         """Advance one physics step at forward speed v (negative when rolling backwards)."""
         st = self.state
         st.t_s += dt_s
-        eng = self.engine
         speed = -v_mps if v_mps < 0.0 else v_mps
         if st.automatic and st.gear > 0:
             st.gear = self.best_gear(speed)
         gear = st.gear
-        if not st.engine_on or st.fuel_left_l <= 0.0:
+        engine_on = st.engine_on
+        max_rpm = self._max_rpm
+        if not engine_on or st.fuel_left_l <= 0.0:
             gas = 0.0
         elif gear > 0:
             # OpenDS's speed cap: power scaled by (maxSpeed - v) in the last km/h, 0 above
-            over = speed * 3.6 - (eng.max_speed_mps * 3.6 - 1.0)
+            over = speed * 3.6 - self._cap_from_kmh
             if over > 0.0:
                 gas *= 0.0 if over >= 1.0 else 1.0 - over
         ratio = self.reverse_ratio if gear < 0 else self.ratios[gear - 1] if gear > 0 else 0.0
         gear_rpm_now = speed * 3.6 * ratio / WHEEL_CONSTANT
-        if not st.engine_on:
+        if not engine_on:
             target_rpm = 0.0
         elif gear == 0:
-            target_rpm = gas * eng.max_rpm
+            target_rpm = gas * max_rpm
         else:
-            target_rpm = eng.max_rpm if gear_rpm_now > eng.max_rpm else eng.min_rpm if gear_rpm_now < eng.min_rpm else gear_rpm_now
+            target_rpm = max_rpm if gear_rpm_now > max_rpm else self._min_rpm if gear_rpm_now < self._min_rpm else gear_rpm_now
         max_change = RPM_RATE_LIMIT * dt_s
         d_rpm = target_rpm - st.rpm
         st.rpm += max_change if d_rpm > max_change else -max_change if d_rpm < -max_change else d_rpm
@@ -239,9 +247,10 @@ class Powertrain:
         prev = -st.prev_v_mps if st.prev_v_mps < 0.0 else st.prev_v_mps
         dv = speed - prev
         st.prev_v_mps = v_mps
-        p_engine = self._full_power_kw(rpm) * gas if st.engine_on and gear != 0 else 0.0
+        p_engine = self._full_power_kw(rpm) * gas if engine_on and gear != 0 else 0.0
         m = self.mass_kg
         sin_slope = math.sin(-slope_rad if gear < 0 else slope_rad) if slope_rad else 0.0
+        inner_kw = inner_friction_kw(rpm)
         p_load = (
             (
                 ROLLING_COEFF * m * G * speed
@@ -251,7 +260,7 @@ class Powertrain:
             )
             / 1000.0
             + ACCESSORIES_KW
-            + (inner_friction_kw(rpm) if st.engine_on else 10.9)
+            + (inner_kw if engine_on else 10.9)
         )
         st.p_engine_kw = p_engine
         st.p_load_kw = p_load
@@ -259,20 +268,20 @@ class Powertrain:
         # grade) applied as forces on the body below and the inertia term being the
         # acceleration itself; what remains to subtract are accessories and engine friction
         drive = 0.0
-        if gas > 0.0 and gear != 0 and st.engine_on and gear_rpm_now <= eng.max_rpm:
-            p_wheel_kw = p_engine - ACCESSORIES_KW - inner_friction_kw(rpm)
+        if gas > 0.0 and gear != 0 and engine_on and gear_rpm_now <= max_rpm:
+            p_wheel_kw = p_engine - ACCESSORIES_KW - inner_kw
             if p_wheel_kw > 0.0:
                 v = speed if speed > MIN_DRIVE_SPEED else MIN_DRIVE_SPEED
-                cap = m * eng.acceleration_mps2 * gas
+                cap = m * self._accel_mps2 * gas
                 drive = 1000.0 * p_wheel_kw / v
                 if drive > cap:
                     drive = cap
                 if gear < 0:
                     drive = -drive
         # brakes: pedal, hand brake, and the engine/free-wheel drag when off the gas
-        brake_force = brake * m * self.brake.deceleration_brake_mps2
+        brake_force = brake * m * self._dec_brake
         if hand_brake:
-            brake_force = max(brake_force, m * self.brake.deceleration_brake_mps2 * 0.6)
+            brake_force = max(brake_force, m * self._dec_brake * 0.6)
         if gas > 0.0:
             # rolling and air resistance; off the gas OpenDS's free-wheel drag stands for them
             brake_force += ROLLING_COEFF * m * G + _AIR_K * speed * speed
@@ -280,7 +289,7 @@ class Powertrain:
             surplus_kw = p_load - p_engine
             coeff = (surplus_kw - 10.0) / 50.0
             coeff = 0.2 if coeff < 0.2 else 1.0 if coeff > 1.0 else coeff
-            brake_force += m * self.brake.deceleration_free_wheel_mps2 * coeff
+            brake_force += m * self._dec_free * coeff
         self._fuel(dt_s, p_engine, rpm, speed)
         return PowertrainOutput(drive, brake_force, rpm, gear)
 

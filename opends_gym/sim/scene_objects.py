@@ -143,6 +143,8 @@ class SceneObjects:
 
     def _rebuild_grid(self) -> None:
         self._grid = {}
+        self._near_cache: dict[tuple[int, int, int, int], list[int]] = {}
+        self._shapes: list[tuple[Any, ...] | None] = [None] * len(self.objects)
         for k, o in enumerate(self.objects):
             if o.is_trigger or o.collidable:
                 for c in self._cells(o):
@@ -153,34 +155,57 @@ class SceneObjects:
         self._rebuild_grid()
 
     # ------------------------------------------------------------------ queries
-    def near(self, x: float, z: float, radius: float) -> list[SceneObject]:
-        """Trigger volumes and obstacles whose grid cells touch a circle around (x, z)."""
+    def _near_indices(self, x: float, z: float, radius: float) -> list[int]:
+        """Indices of the grid objects near (x, z); cached per cell window until the grid changes
+        (a car crosses a 50 m cell every couple of seconds, so most steps are one dict lookup)."""
         x0, x1 = int(math.floor((x - radius) / CELL_M)), int(math.floor((x + radius) / CELL_M))
         z0, z1 = int(math.floor((z - radius) / CELL_M)), int(math.floor((z + radius) / CELL_M))
+        key = (x0, x1, z0, z1)
+        found = self._near_cache.get(key)
+        if found is not None:
+            return found
         seen: set[int] = set()
-        out = []
+        found = []
         grid = self._grid
         for ix in range(x0, x1 + 1):
             for iz in range(z0, z1 + 1):
                 for k in grid.get((ix, iz), ()):
                     if k not in seen:
                         seen.add(k)
-                        out.append(self.objects[k])
-        for k in grid.get((1 << 30, 1 << 30), ()):
-            if k not in seen:
-                out.append(self.objects[k])
-        return out
+                        found.append(k)
+        found.extend(k for k in grid.get((1 << 30, 1 << 30), ()) if k not in seen)
+        if len(self._near_cache) >= 4096:  # bounded: a long drive visits many windows
+            self._near_cache.clear()
+        self._near_cache[key] = found
+        return found
+
+    def near(self, x: float, z: float, radius: float) -> list[SceneObject]:
+        """Trigger volumes and obstacles whose grid cells touch a circle around (x, z)."""
+        objects = self.objects
+        return [objects[k] for k in self._near_indices(x, z, radius)]
+
+    def _shape(self, k: int, o: SceneObject) -> tuple[float, float, Obb]:
+        """(y low, y high, ground box) of object k, recomputed only when its pose or scale changed
+        (checked by identity, so code that moves a model without `update()` is still seen)."""
+        c = self._shapes[k]
+        if c is not None and c[0] is o.position and c[1] is o.scale and c[2] == o.yaw:
+            return c[3], c[4], c[5]
+        lo, hi = o.y_range()
+        box = o.obb()
+        self._shapes[k] = (o.position, o.scale, o.yaw, lo, hi, box)
+        return lo, hi, box
 
     def overlapping(self, car: Obb, y_lo: float, y_hi: float) -> tuple[list[SceneObject], list[SceneObject]]:
         """(trigger volumes, obstacles) the car box overlaps now."""
         triggers: list[SceneObject] = []
         obstacles: list[SceneObject] = []
-        reach = math.hypot(car.hx, car.hz)
-        for o in self.near(car.cx, car.cz, reach):
-            lo, hi = o.y_range()
+        objects = self.objects
+        for k in self._near_indices(car.cx, car.cz, math.hypot(car.hx, car.hz)):
+            o = objects[k]
+            lo, hi, box = self._shape(k, o)
             if hi < y_lo or lo > y_hi:
                 continue
-            if not obb_overlap(car, o.obb()):
+            if not obb_overlap(car, box):
                 continue
             if o.is_trigger:
                 triggers.append(o)

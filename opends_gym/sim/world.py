@@ -35,6 +35,8 @@ from .geometry2d import Obb, obb_overlap
 from .road import RoadModel
 from .scene_objects import SceneObjects
 
+_NOTHING: frozenset[str] = frozenset()
+
 
 @dataclass(frozen=True)
 class WorldConfig:
@@ -147,10 +149,13 @@ class World:
         s = self.ego.state
         box = self.ego_obb()
         triggers, obstacles = self.objects.overlapping(box, s.y - 0.5, s.y + self.ego.spec.height_m)
-        self.touching = frozenset(o.id for o in triggers)
+        self.touching = frozenset(o.id for o in triggers) if triggers else _NOTHING
         hits = {o.id for o in obstacles}
         if self.traffic is not None:
             hits.update(self.traffic.colliding_with(box))
+        if not hits:  # the usual step: nothing hit, nothing to count
+            self._hitting = _NOTHING
+            return
         for oid in sorted(hits - self._hitting):  # a collision is counted when contact begins
             self.events.emit(self.t_s, "collision", oid, speed_kmh=abs(s.u) * 3.6)
             self.collisions += 1

@@ -284,7 +284,7 @@ class TriggerCore:
         """Evaluate conditions, fire triggers by priority, update measurements and timers."""
         w = self.world
         fired: list[int] = []
-        keys = tuple(canonical_key(k) for k in c.keys)
+        keys = tuple(canonical_key(k) for k in c.keys) if c.keys else ()
         for k in keys:
             fired.extend(self._by_key.get(k, ()))
         for b in c.buttons:
@@ -303,11 +303,12 @@ class TriggerCore:
                 fired.extend(self._by_waypoint.get(wp, ()))
             for oid in w.touching:
                 fired.extend(self._by_model.get(oid, ()))
-            fired.extend(self._opendrive_fired())
+            if self._opendrive:
+                fired.extend(self._opendrive_fired())
         if fired:
             self._fire_all(fired, "condition")
         self._update_measurements(c)
-        if not self.paused:
+        if not self.paused and self.center.timers:  # (the car view is built only for running timers)
             self.center.update(self.car_view(keys))
 
     def car_view(self, keys: tuple[str, ...] = ()) -> CarState:

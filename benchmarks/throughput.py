@@ -1,0 +1,372 @@
+"""How many policy steps per second do the OpenDS envs run, next to highway-env, in one run?
+
+One table: every registered env (plus the corpus MotorwayTask with its 41 traffic cars) on
+both physics backends, as a single env, in gymnasium's SyncVectorEnv and AsyncVectorEnv, and
+in the native batch (`opends_gym.vector`) where that exists; highway-env's `highway-fast-v0`
+and `highway-v0` are measured in the same run as the peer. Columns: policy steps per second
+(all envs together), simulated seconds per wall second, the real-time factor of each env,
+and resident memory per env (RSS growth while building the envs in this process; for
+AsyncVectorEnv the proportional set size, PSS, of each worker process, which splits pages
+shared after fork fairly). Then the goals of issue 9 as ratios from this run, PASS/FAIL
+each, and a scaling table for 1, 2, 4, ..., 256 Lane Change Test envs.
+
+Actions are random (`action_space.sample()`, drawn before timing) and episodes that end are
+reset inside the timed loop, so resets count. Rates are wall-clock; `cpu %` is this
+process's CPU time over wall time (below ~90 % another program shared the cores).
+
+    python benchmarks/throughput.py [--quick] [--seconds S] [--out benchmarks/results/throughput.md]
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import importlib.util
+import logging
+import os
+import platform
+import time
+import tracemalloc
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import opends_gym  # noqa: F401  (registers the OpenDS ids)
+
+ROOT = Path(__file__).resolve().parent.parent
+CORPUS = Path(os.environ.get("OPENDS_CORPUS", ROOT.parent / "shared" / "opends-tasks"))
+MOTORWAY = str(CORPUS / "opends-cts" / "MotorwayTask")
+RESULTS = ROOT / "benchmarks" / "results" / "throughput.md"
+SCALING_SIZES = (1, 2, 4, 8, 16, 32, 64, 128, 256)
+VECTOR_ENVS = 4  # envs per vector in the main table
+
+
+@dataclass(frozen=True)
+class Case:
+    label: str
+    env_id: str
+    kwargs: dict[str, Any]
+    policy_hz: float  # simulated seconds per policy step = 1 / policy_hz
+
+
+def opends_cases() -> list[Case]:
+    from opends_gym.envs.registration import ENVS
+
+    out = []
+    for env_id in ENVS:
+        name = env_id.split("/")[1].split("-")[0]
+        out.append(Case(name + (" (bundled ReactionTest)" if name == "DrivingTask" else ""), env_id, {}, 10.0))
+    out.append(Case("MotorwayTask (41 cars)", "OpenDS/DrivingTask-v0", {"task": MOTORWAY, "terminate_on_collision": False}, 10.0))
+    return out
+
+
+HIGHWAY = (Case("highway-fast-v0", "highway-fast-v0", {}, 1.0), Case("highway-v0", "highway-v0", {}, 1.0))
+
+
+@dataclass
+class Row:
+    label: str
+    backend: str
+    mode: str
+    envs: int
+    steps_per_s: float  # policy steps of all envs together
+    sim_s_per_s: float
+    mb_per_env: float
+    cpu_share: float  # process CPU / wall (in-process modes)
+    note: str = ""
+
+    @property
+    def rtf_per_env(self) -> float:
+        return self.sim_s_per_s / self.envs
+
+
+# ---------------------------------------------------------------------- memory
+def _status_mb(pid: int | str, field: str, source: str = "status") -> float:
+    try:
+        with open(f"/proc/{pid}/{source}") as f:
+            for line in f:
+                if line.startswith(field + ":"):
+                    return float(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return float("nan")
+
+
+def rss_mb() -> float:
+    return _status_mb("self", "VmRSS")
+
+
+def grown_mb(build: Callable[[], list[Any]]) -> tuple[float, list[Any]]:
+    """Memory that `build()` adds: RSS growth, or the traced Python/numpy allocations when the
+    allocator reused pages freed earlier (whichever is larger; C++ memory, such as a pybullet
+    client's, only shows in RSS)."""
+    gc.collect()
+    tracemalloc.start()
+    before_rss = rss_mb()
+    base, _ = tracemalloc.get_traced_memory()
+    built = build()
+    traced = (tracemalloc.get_traced_memory()[0] - base) / 2**20
+    tracemalloc.stop()
+    return max(rss_mb() - before_rss, traced), built
+
+
+def pss_mb(pid: int) -> float:
+    return _status_mb(pid, "Pss", "smaps_rollup")
+
+
+def available_mb() -> float:
+    return _status_mb("", "MemAvailable", "meminfo") if os.path.exists("/proc/meminfo") else float("nan")
+
+
+# ---------------------------------------------------------------------- timing
+def timed_steps(step: Callable[[int], None], seconds: float, batch: int = 20) -> tuple[float, float]:
+    """Call step(i) until `seconds` of wall time passed; (calls per second, cpu share)."""
+    for i in range(3):  # warm-up
+        step(i)
+    n, t0, c0 = 0, time.perf_counter(), time.process_time()
+    while True:
+        for _ in range(batch):
+            step(n)
+            n += 1
+        wall = time.perf_counter() - t0
+        if wall >= seconds:
+            return n / wall, (time.process_time() - c0) / wall
+
+
+def make_env(case: Case, backend: str | None) -> gym.Env[Any, Any]:
+    kwargs = dict(case.kwargs)
+    if backend is not None:
+        kwargs["physics"] = backend
+    return gym.make(case.env_id, **kwargs)
+
+
+def measure_single(case: Case, backend: str | None, seconds: float) -> Row:
+    env = make_env(case, backend)
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    actions = [env.action_space.sample() for _ in range(1024)]
+
+    def step(i: int) -> None:
+        _, _, terminated, truncated, _ = env.step(actions[i % 1024])
+        if terminated or truncated:
+            env.reset()
+
+    rate, cpu = timed_steps(step, seconds)
+
+    # memory: grow the process by a few more envs of the same kind (imports already paid)
+    def build() -> list[Any]:
+        envs = [make_env(case, backend) for _ in range(2)]
+        for k, e in enumerate(envs):
+            e.reset(seed=k)
+        return envs
+
+    grown, extra = grown_mb(build)
+    mb = grown / len(extra)
+    for e in [env, *extra]:
+        e.close()
+    return Row(case.label, backend or "-", "single", 1, rate, rate / case.policy_hz, mb, cpu)
+
+
+def measure_vector(case: Case, backend: str | None, mode: str, n: int, seconds: float) -> Row:
+    fns = [lambda: make_env(case, backend) for _ in range(n)]
+
+    def build() -> list[Any]:
+        v = gym.vector.SyncVectorEnv(fns) if mode == "sync" else gym.vector.AsyncVectorEnv(fns)
+        v.reset(seed=0)
+        return [v]
+
+    if mode == "sync":
+        grown, (vec,) = grown_mb(build)
+        mb = grown / n
+    else:  # (no tracemalloc here: forked workers would inherit it)
+        (vec,) = build()
+        mb = float(np.mean([pss_mb(p.pid) for p in vec.processes]))
+    try:
+        vec.action_space.seed(0)
+        actions = [vec.action_space.sample() for _ in range(64)]
+        rate, cpu = timed_steps(lambda i: vec.step(actions[i % 64]), seconds, batch=max(1, 64 // n))
+    finally:
+        vec.close()
+    steps = rate * n
+    return Row(case.label, backend or "-", mode, n, steps, steps / case.policy_hz, mb, cpu if mode == "sync" else float("nan"))
+
+
+def native_batch_available() -> bool:
+    return importlib.util.find_spec("opends_gym.vector") is not None
+
+
+def measure_native(case: Case, backend: str, n: int, seconds: float) -> Row | None:
+    """The natively batched env of `opends_gym.vector` (issue 9 item 2), when it exists."""
+    if not native_batch_available():
+        return None
+    import opends_gym.vector as vector
+
+    make = getattr(vector, "make_batch", None) or getattr(vector, "make_vec", None)
+    if make is None:
+        return None
+
+    def build() -> list[Any]:
+        v = make(case.env_id, num_envs=n, physics=backend, **case.kwargs)
+        v.reset(seed=0)
+        return [v]
+
+    grown, (vec,) = grown_mb(build)
+    try:
+        mb = grown / n
+        vec.action_space.seed(0)
+        actions = [vec.action_space.sample() for _ in range(16)]
+        rate, cpu = timed_steps(lambda i: vec.step(actions[i % 16]), seconds, batch=4)
+    finally:
+        vec.close()
+    return Row(case.label, backend, "native", n, rate * n, rate * n / case.policy_hz, mb, cpu)
+
+
+# ---------------------------------------------------------------------- report
+def fmt(x: float, digits: int = 0) -> str:
+    if x != x:
+        return "-"
+    return f"{x:,.{digits}f}"
+
+
+def table(rows: list[Row]) -> list[str]:
+    out = [
+        "| env | backend | mode | envs | policy steps/s | sim s / wall s | real-time factor per env | MB RSS / env | cpu % |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        if r.note:
+            out.append(f"| {r.label} | {r.backend} | {r.mode} | {r.envs} | {r.note} | | | | |")
+            continue
+        rtf = fmt(r.rtf_per_env, 1)
+        out.append(
+            f"| {r.label} | {r.backend} | {r.mode} | {r.envs} | {fmt(r.steps_per_s)} | {fmt(r.sim_s_per_s, 1)} | {rtf} "
+            f"| {fmt(r.mb_per_env, 1)} | {fmt(100 * r.cpu_share)} |"
+        )
+    return out
+
+
+def find(rows: list[Row], label: str, backend: str, mode: str) -> Row | None:
+    return next((r for r in rows if r.label.startswith(label) and r.backend == backend and r.mode == mode and not r.note), None)
+
+
+def goals(rows: list[Row]) -> list[str]:
+    hw = find(rows, "highway-fast-v0", "-", "single")
+    lct = find(rows, "LaneChangeTest", "fast", "single")
+    mw = find(rows, "MotorwayTask", "fast", "single")
+    native = [r for r in rows if r.mode == "native" and r.label.startswith("LaneChangeTest") and not r.note]
+    out = ["| goal | measured | peer (highway-fast-v0) | ratio | target | result |", "|---|---:|---:|---:|---:|---|"]
+
+    def line(goal: str, value: float | None, peer: float | None, target: float, unit: str) -> None:
+        if value is None or (peer is not None and peer <= 0):
+            out.append(f"| {goal} | n/a | | | {target:,.0f}{unit} | n/a (not built) |")
+            return
+        ratio = value / peer if peer else value
+        ok = "PASS" if ratio >= target else "FAIL"
+        out.append(f"| {goal} | {fmt(value, 1)} | {fmt(peer, 1) if peer else ''} | {fmt(ratio, 1)}{unit} | {target:,.0f}{unit} | {ok} |")
+
+    hw_steps = hw.steps_per_s if hw else None
+    hw_sim = hw.sim_s_per_s if hw else None
+    line("single LCT (fast) policy steps/s vs highway-fast-v0", lct.steps_per_s if lct else None, hw_steps, 250, "x")
+    line("MotorwayTask (fast) simulated s per wall s vs highway-fast-v0", mw.sim_s_per_s if mw else None, hw_sim, 10, "x")
+    best_native = max((r.steps_per_s for r in native), default=None)
+    line("native batch LCT env-steps/s on this machine's cores", best_native, None, 1_000_000, "")
+    for label in ("LaneChangeTest", "MotorwayTask"):
+        b = find(rows, label, "bullet", "single")
+        line(f"bullet backend real-time factor ({label})", b.rtf_per_env if b else None, None, 50, "x")
+    return out
+
+
+def scaling(seconds: float, sizes: tuple[int, ...], async_max: int) -> list[str]:
+    lct = Case("LaneChangeTest", "OpenDS/LaneChangeTest-v0", {}, 10.0)
+    out = [
+        "| envs | sync steps/s | sync MB/env | async steps/s | async MB (PSS)/env | native steps/s |",
+        "|---:|---:|---:|---:|---:|---:|",
+    ]
+    async_note = ""
+    for n in sizes:
+        s = measure_vector(lct, "fast", "sync", n, seconds)
+        cells = [str(n), fmt(s.steps_per_s), fmt(s.mb_per_env, 1)]
+        if async_note:
+            cells += [async_note, ""]
+        elif n > async_max:
+            async_note = f"skipped from {n}: beyond --async-max {async_max} (time budget)"
+            cells += [async_note, ""]
+        else:
+            need = n * 120.0 * 1.5  # a worker process holds roughly 100-150 MB PSS
+            if need > 0.5 * available_mb():
+                async_note = f"skipped from {n}: ~{need / 1024:.1f} GB of workers > half the free memory"
+                cells += [async_note, ""]
+            else:
+                a = measure_vector(lct, "fast", "async", n, seconds)
+                cells += [fmt(a.steps_per_s), fmt(a.mb_per_env, 1)]
+        nat = measure_native(lct, "fast", n, seconds) if native_batch_available() else None
+        cells.append(fmt(nat.steps_per_s) if nat else "n/a (not built)")
+        out.append("| " + " | ".join(cells) + " |")
+        print(out[-1], flush=True)
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer rows and shorter runs (about 2 minutes)")
+    ap.add_argument("--seconds", type=float, default=None, help="wall seconds per measurement")
+    ap.add_argument("--async-max", type=int, default=None, help="largest AsyncVectorEnv in the scaling table")
+    ap.add_argument("--out", type=Path, default=RESULTS)
+    args = ap.parse_args()
+    logging.disable(logging.WARNING)  # corpus tasks warn about their quirks at load time
+    warnings.filterwarnings("ignore")
+    quick = args.quick
+    seconds = args.seconds or (0.6 if quick else 2.0)
+    async_max = args.async_max or (4 if quick else 64)
+    sizes = (1, 4, 16, 64) if quick else SCALING_SIZES
+    t_start = time.perf_counter()
+    rows: list[Row] = []
+    import highway_env  # noqa: F401  (registers highway ids)
+
+    for case in HIGHWAY:
+        rows.append(measure_single(case, None, seconds * (1.5 if quick else 3.0)))
+        print(table(rows[-1:])[-1], flush=True)
+    for case in opends_cases():
+        is_main = case.label.startswith(("LaneChangeTest", "MotorwayTask"))
+        for backend in ("fast", "bullet"):
+            if quick and backend == "bullet" and not is_main:
+                continue
+            rows.append(measure_single(case, backend, seconds))
+            print(table(rows[-1:])[-1], flush=True)
+            if quick and not is_main:
+                continue
+            for mode in ("sync", "async"):
+                rows.append(measure_vector(case, backend, mode, VECTOR_ENVS, seconds))
+                print(table(rows[-1:])[-1], flush=True)
+            nat = measure_native(case, backend, 256, seconds) if case.label.startswith("LaneChangeTest") else None
+            rows.append(nat or Row(case.label, backend, "native", 256, 0, 0, 0, 0, note="n/a (not built)"))
+    main_table = table(rows)
+    goal_table = goals(rows)
+    print("\n".join(["", *goal_table, ""]), flush=True)
+    scale_table = scaling(seconds, sizes, async_max)
+    elapsed = time.perf_counter() - t_start
+    header = [
+        "# Throughput (issue 9)",
+        "",
+        f"`python benchmarks/throughput.py{' --quick' if quick else ''}` on {platform.processor() or platform.machine()}, "
+        f"{os.cpu_count()} cores, Python {platform.python_version()}, {time.strftime('%Y-%m-%d %H:%M')}; "
+        f"{seconds:.1f} s per measurement, {elapsed / 60:.1f} min in all.",
+        "Random actions with resets; vector rows use "
+        f"{VECTOR_ENVS} envs (native: 256); MB/env is RSS growth in this process (async: worker PSS).",
+        "",
+    ]
+    scale_intro = ["", "## Scaling: LaneChangeTest-v0 (fast backend), env-steps per second", ""]
+    text = "\n".join([*header, *main_table, "", "## Goals", "", *goal_table, *scale_intro, *scale_table, ""])
+    print("\n" + text)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(text)
+    print(f"written to {args.out}")
+
+
+if __name__ == "__main__":
+    main()
