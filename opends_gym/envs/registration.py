@@ -18,8 +18,15 @@ ENVS: dict[str, str] = {
     "OpenDS/ThreeVehiclePlatoon-v0": "opends_gym.envs.platoon:ThreeVehiclePlatoonEnv",
 }
 
+# natively batched vector envs (`gymnasium.make_vec(id, n, vectorization_mode="vector_entry_point")`)
+VECTOR_ENVS: dict[str, str] = {
+    "OpenDS/LaneChangeTest-v0": "opends_gym.vector:make_lane_change_test",
+    "OpenDS/BrakeReaction-v0": "opends_gym.vector:make_brake_reaction",
+    "OpenDS/ThreeVehiclePlatoon-v0": "opends_gym.vector:make_three_vehicle_platoon",
+}
+
 
 def register_envs() -> None:
     for env_id, entry_point in ENVS.items():
         if env_id not in gymnasium.registry:
-            gymnasium.register(id=env_id, entry_point=entry_point, disable_env_checker=False)
+            gymnasium.register(id=env_id, entry_point=entry_point, vector_entry_point=VECTOR_ENVS.get(env_id), disable_env_checker=False)

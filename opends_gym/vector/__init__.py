@@ -1,0 +1,33 @@
+"""Natively batched vector envs (`vector_entry_point`) for the LCT, brake and platoon tests.
+
+`gymnasium.make_vec("OpenDS/LaneChangeTest-v0", num_envs=4096, vectorization_mode="vector_entry_point")`
+returns a `NativeVectorEnv`: all envs in numpy arrays, the same results as the single env
+for the same seeds and actions (see `opends_gym.vector.env`). Fast backend only.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .env import NativeVectorEnv
+
+
+def make_lane_change_test(num_envs: int, **kwargs: Any) -> NativeVectorEnv:
+    from .lct import LctBatch
+
+    return NativeVectorEnv("OpenDS/LaneChangeTest-v0", LctBatch, num_envs, **kwargs)
+
+
+def make_brake_reaction(num_envs: int, **kwargs: Any) -> NativeVectorEnv:
+    from .platoon import BrakeBatch
+
+    return NativeVectorEnv("OpenDS/BrakeReaction-v0", BrakeBatch, num_envs, **kwargs)
+
+
+def make_three_vehicle_platoon(num_envs: int, **kwargs: Any) -> NativeVectorEnv:
+    from .platoon import PlatoonBatch
+
+    return NativeVectorEnv("OpenDS/ThreeVehiclePlatoon-v0", PlatoonBatch, num_envs, **kwargs)
+
+
+__all__ = ["NativeVectorEnv", "make_brake_reaction", "make_lane_change_test", "make_three_vehicle_platoon"]

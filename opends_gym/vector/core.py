@@ -1,0 +1,312 @@
+"""`BatchCore`: N worlds of one task stepped together, the batched `OpenDSEnv.step` loop.
+
+Why: the native batch runs the single env's physics step (World.step) and policy step
+(OpenDSEnv.step: action repeat, early stop, trace row, task hook, info, reward, end) for
+all envs with one numpy array per state variable. Task batches (`lct`, `platoon`)
+subclass it and fill in the hooks the single env's task classes have (`_reset_task`,
+`_on_physics_step`, `_stimulus`, `_reward`, `_task_terminated`, `_episode_metrics`).
+A private single env of the same id and options (`template`) supplies the task, its
+constants and, at the end of an episode, scores the episode's trace with its own
+`episode_metrics()` (rare, per env).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from gymnasium.utils import seeding
+
+from ..envs.base import LANE_KEEPING_OFFSET_M, OpenDSEnv
+from ..sim.triggers.core import CompiledAction
+from . import ego, libm
+from .actions import BatchActions, BatchControls
+from .timers import KINDS, TimerBatch
+from .trace import TraceRing, lane_columns
+from .triggers import TriggerBatch
+
+
+class BatchCore:
+    """State and physics of N envs; see the module docstring."""
+
+    handled_actions: frozenset[str] = frozenset({"setupLaneChangeReactionTimer", "setupBrakeReactionTimer", "manipulateObject"})
+    trace_columns: tuple[str, ...] = ("x_m", "z_m", "speed_mps", "steering")
+    needs_distance = False  # the base running mean deviation (the LCT replaces it)
+
+    def __init__(self, template: OpenDSEnv, n: int, record_metrics: bool = True) -> None:
+        self.template: Any = template
+        self.n = n
+        cfg = template.config
+        self.config = cfg
+        w = template.world
+        self.world = w
+        self.guide = template.guide
+        if self.guide.kind != "lanes":
+            raise ValueError("the native batch needs a task with lane bands")
+        self.dt = w.dt_s
+        self.repeat = cfg.action_repeat
+        self.p = ego.EgoParams.from_world(w)
+        self.s = ego.EgoArrays.zeros(n)
+        spec = w.ego.spec
+        self.car_half = (0.5 * spec.width_m, 0.5 * spec.length_m)
+        self.car_shift = 0.5 * spec.wheelbase_m - spec.cog_to_front_m
+        self.trig = TriggerBatch(n, w, self.handled_actions, self.car_half, spec.height_m)
+        self.bands = tuple((b.x_min, b.x_max) for b in w.road.lanes)
+        self.timers = TimerBatch(n, self.bands)
+        lane_ids = tuple(b.id for b in w.road.lanes)
+        for trig in self.trig.triggers:
+            for act in trig.actions:
+                if act.name in KINDS:
+                    self.timers.add_spec(act.counter, act.name, act.args, lane_ids)
+        self.actions = BatchActions(cfg.action, n)
+        self.record_metrics = record_metrics
+        max_steps = int(math.ceil(cfg.max_episode_s / self.dt)) + 2 * self.repeat
+        self.ring = TraceRing(n, self.trace_columns, max_steps) if record_metrics else None
+        self.rngs: list[np.random.Generator | None] = [None] * n
+        self.step_count = np.zeros(n, dtype=np.int64)
+        self.t: np.ndarray = np.zeros(n)
+        self.collisions = np.zeros(n, dtype=np.int64)
+        self.collisions_seen = np.zeros(n, dtype=np.int64)
+        self.last_s = np.zeros(n)
+        self.reaction_cursor = np.zeros(n, dtype=np.int64)
+        self.lat = np.zeros(n)
+        self.lane = np.zeros(n, dtype=np.int64)
+        self.offset = np.zeros(n)
+        self.headway = np.full(n, np.inf)
+        self.ttc = np.full(n, np.inf)
+        self.rl = {k: np.zeros(n) for k in ("n", "mean", "m2", "area", "dist")}
+        self.start_z = float(w.task.start_pose.position_m[2])
+        self.prev_x = np.zeros(n)
+        self.prev_z = np.zeros(n)
+        self.progress = np.zeros(n)
+        self.new_collisions = np.zeros(n, dtype=np.int64)
+
+    # ------------------------------------------------------------------ task hooks
+    def _reset_task(self, idx: np.ndarray) -> None:
+        """After the world rows are reset, before the first trace row."""
+
+    def _traffic_step(self, rows: np.ndarray) -> None:
+        """Move the traffic of the envs `rows` (World.step, after the ego car)."""
+
+    def _traffic_hits(self, box: tuple[np.ndarray, ...], rows: np.ndarray) -> np.ndarray:
+        """New contacts of the ego boxes with traffic, per env (count)."""
+        return np.zeros(self.n, dtype=np.int64)
+
+    def _lead_measures(self) -> None:
+        """Fill `headway` and `ttc` for the current positions (no traffic: inf)."""
+
+    def _on_action(self, e: int, act: CompiledAction, trigger: int) -> None:
+        raise ValueError(f"action {act.name} is not handled by {type(self).__name__}")
+
+    def _on_physics_step(self, rows: np.ndarray, k: int, c: BatchControls) -> None:
+        """After each physics step's trace row (the single env's `_on_physics_step`)."""
+
+    def _stimulus(self) -> np.ndarray:
+        return np.zeros((self.n, 0))
+
+    def vehicle_slots(self, k: int) -> np.ndarray | None:
+        """The kinematics observation's K nearest-vehicle slots (None: no traffic, all zeros)."""
+        return None
+
+    def _reward(self, info: dict[str, np.ndarray], terminated_task: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def _task_terminated(self) -> np.ndarray:
+        return np.zeros(self.n, dtype=bool)
+
+    def _task_info(self, info: dict[str, np.ndarray]) -> None:
+        """Add or override info arrays."""
+
+    def _load_episode(self, e: int) -> None:
+        """Put env e's task state into the template before `episode_metrics()`."""
+
+    # ------------------------------------------------------------------ reset
+    def reset_rows(self, idx: np.ndarray, seeds: list[int | None] | None) -> None:
+        """`OpenDSEnv.reset` for the envs `idx`: seeds (None keeps the env's generator)."""
+        for j, e in enumerate(idx.tolist()):
+            seed = seeds[j] if seeds is not None else None
+            if seed is not None or self.rngs[e] is None:
+                self.rngs[e], _ = seeding.np_random(seed)
+            self._world_seed(e)
+        ego.reset_rows(self.p, self.s, idx)
+        self.trig.reset_rows(idx)
+        self.timers.reset_rows(idx)
+        self.actions.reset_rows(idx)
+        self.step_count[idx] = 0
+        self.t[idx] = 0.0
+        self.collisions[idx] = 0
+        self.collisions_seen[idx] = 0
+        self.reaction_cursor[idx] = 0
+        self.progress[idx] = 0.0
+        self.new_collisions[idx] = 0
+        for v in self.rl.values():
+            v[idx] = 0.0
+        self.last_s[idx] = self._s_along(self.s.z[idx])
+        self._reset_task(idx)
+        self._record_row(self._mask(idx), first=True)
+
+    def _world_seed(self, e: int) -> None:
+        rng = self.rngs[e]
+        assert rng is not None
+        rng.integers(0, 2**31 - 1)  # World.reset(seed=...): the batch's worlds use no randomness
+
+    def _mask(self, idx: np.ndarray) -> np.ndarray:
+        m = np.zeros(self.n, dtype=bool)
+        m[idx] = True
+        return m
+
+    def _s_along(self, z: np.ndarray) -> np.ndarray:
+        return -self.guide.sign * (z - self.guide.start_xz[1])
+
+    # ------------------------------------------------------------------ step
+    def step_rows(self, actions: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """One policy step of the envs `rows`: (reward, terminated, truncated, info)."""
+        c = self.actions.convert(actions, rows)
+        live = rows.copy()
+        for k in range(self.repeat):
+            self._physics_step(live, c)
+            self._record_row(live, first=False)
+            self._on_physics_step(live, k, c)
+            live &= ~self._stop_early()
+            if not live.any():
+                break
+        s_now = self._s_along(self.s.z)
+        self.progress = np.where(rows, s_now - self.last_s, 0.0)
+        self.last_s = np.where(rows, s_now, self.last_s)
+        self.new_collisions = np.where(rows, self.collisions - self.collisions_seen, 0)
+        self.collisions_seen = self.collisions.copy()
+        info = self.info()
+        task_end = self._task_terminated()
+        reward = self._reward(info, task_end)
+        terminated = self._terminated(self.new_collisions, task_end)
+        truncated = ~terminated & (self.t >= self.config.max_episode_s - 1e-9)
+        return reward, terminated & rows, truncated & rows, info
+
+    def _physics_step(self, live: np.ndarray, c: BatchControls) -> None:
+        all_live = bool(live.all())
+        idx = None if all_live else np.flatnonzero(live)
+        self.step_count += live
+        self.t = self.step_count * self.dt
+        if idx is None:
+            ego.step(self.p, self.s, self.dt, c.steer, c.gas, c.brake)
+        else:
+            part = self.s.take(idx)
+            ego.step(self.p, part, self.dt, c.steer[idx], c.gas[idx], c.brake[idx])
+            self.s.put(idx, part)
+        self._traffic_step(live)
+        s = self.s
+        cx = s.x - self.car_shift * np.sin(s.yaw)
+        cz = s.z - self.car_shift * np.cos(s.yaw)
+        self.collisions += self._traffic_hits((cx, cz, s.yaw), live)
+        env, vol = self.trig.touching(cx, cz, s.yaw, live & ~self.trig.paused)
+        if env.size:
+            ok = self.trig.unlocked(self.t, env, vol)
+            if ok.any():
+                self.trig.fire(self.t, env[ok], vol[ok], self._run_action)
+        polled = live & ~self.trig.paused
+        self.timers.update(polled, self.t, s.x, s.z, s.u, s.steer_in, s.brake_in, self.trig.started_at)
+
+    def _run_action(self, e: int, act: CompiledAction, trigger: int) -> None:
+        if act.name in KINDS:
+            if self.trig.started[e]:
+                s = self.s
+                self.timers.setup(
+                    e, act.counter, float(self.t[e]), float(s.x[e]), float(s.z[e]), float(s.u[e]), float(self.trig.started_at[e])
+                )
+            return
+        self._on_action(e, act, trigger)
+
+    def _record_row(self, rows: np.ndarray, first: bool) -> None:
+        """`OpenDSEnv._record_row` for the envs `rows` (trace row, running lateral measures)."""
+        s = self.s
+        lat, lane, offset = lane_columns(self.guide, s.x, s.z)
+        self._lead_measures()
+        rl = self.rl
+        if self.needs_distance and not first:
+            ds = libm.py_hypot(s.x - self.prev_x, s.z - self.prev_z)
+            rl["dist"] = np.where(rows, rl["dist"] + ds, rl["dist"])
+            rl["area"] = np.where(rows, rl["area"] + 0.5 * (np.abs(self.offset) + np.abs(offset)) * ds, rl["area"])
+        add = rows & (np.abs(offset) < LANE_KEEPING_OFFSET_M)
+        n = rl["n"] + add
+        d = offset - rl["mean"]
+        mean = np.where(add, rl["mean"] + d / np.where(add, n, 1.0), rl["mean"])
+        rl["m2"] = np.where(add, rl["m2"] + d * (offset - mean), rl["m2"])
+        rl["n"], rl["mean"] = n, mean
+        self.lat = np.where(rows, lat, self.lat)
+        self.lane = np.where(rows, lane, self.lane)
+        self.offset = np.where(rows, offset, self.offset)
+        if self.needs_distance:
+            self.prev_x = np.where(rows, s.x, self.prev_x)
+            self.prev_z = np.where(rows, s.z, self.prev_z)
+        if self.ring is not None:
+            values = self._trace_values()
+            if first:
+                idx = np.flatnonzero(rows)
+                self.ring.reset_rows(idx, {k: v[idx] for k, v in values.items()})
+            else:
+                self.ring.write(values, None if rows.all() else rows)
+
+    def _trace_values(self) -> dict[str, np.ndarray]:
+        s = self.s
+        out = {"x_m": s.x, "z_m": s.z, "speed_mps": s.u, "steering": s.steer_in}
+        extra = {"accelerator": s.gas_in, "brake": s.brake_in, "headway_s": self.headway, "ttc_s": self.ttc}
+        extra |= {k: getattr(self, k) for k in self.trace_columns if k not in out and k not in extra}
+        return {k: out.get(k, extra.get(k)) for k in self.trace_columns}  # type: ignore[misc]
+
+    def _stop_early(self) -> np.ndarray:
+        return self._terminated(self.collisions - self.collisions_seen, self._task_terminated())
+
+    def _terminated(self, new_collisions: np.ndarray, task_end: np.ndarray) -> np.ndarray:
+        out = self.trig.paused | task_end
+        if self.config.terminate_on_collision:
+            out = out | (new_collisions > 0)
+        return out
+
+    # ------------------------------------------------------------------ info
+    def sdlp(self) -> np.ndarray:
+        n = self.rl["n"]
+        return np.where(n >= 2, np.sqrt(self.rl["m2"] / np.maximum(n, 1.0)), 0.0)
+
+    def info(self) -> dict[str, np.ndarray]:
+        result = np.zeros(self.n)
+        rt = np.zeros(self.n)
+        for e in np.flatnonzero(self.timers.n_results > self.reaction_cursor).tolist():
+            last = self.timers.results[e][-1]
+            result[e], rt[e] = float(last.result), float(last.reaction_time_s)
+        self.reaction_cursor = self.timers.n_results.copy()
+        dist = self.rl["dist"]
+        info = {
+            "sim_time_s": self.t.copy(),
+            "speed_kmh": self.s.u * 3.6,
+            "lateral_offset_m": self.offset.copy(),
+            "lane_index": self.lane.copy(),
+            "fuel_used_l": self.s.fuel_used.copy(),
+            "collisions": self.collisions.copy(),
+            "reaction_result": result,
+            "reaction_time_s": rt,
+            "mean_deviation_m": np.where(dist > 0, self.rl["area"] / np.where(dist > 0, dist, 1.0), 0.0),
+            "sdlp_m": self.sdlp(),
+            "headway_s": self.headway.copy(),
+            "ttc_s": self.ttc.copy(),
+            "progress_m": self.progress.copy(),
+            "new_collisions": self.new_collisions.copy(),
+        }
+        self._task_info(info)
+        return info
+
+    def episode_metrics(self, e: int) -> dict[str, float]:
+        """Env e's `episode_metrics()`, scored by the template env's own code."""
+        if self.ring is None:
+            raise RuntimeError("episode metrics were switched off (record_metrics=False)")
+        tpl = self.template
+        constant = {c: 0.0 for c in ("yaw_rad", "accelerator", "brake")} | {"headway_s": math.inf, "ttc_s": math.inf}
+        tpl.trace = self.ring.to_trace(e, self.guide, self.dt, {k: v for k, v in constant.items() if k not in self.trace_columns})
+        w = tpl.world
+        w.step_count = int(self.step_count[e])
+        w.t_s = float(self.t[e])
+        w.collisions = int(self.collisions[e])
+        w.ego.powertrain.state.fuel_used_l = float(self.s.fuel_used[e])
+        w.triggers.center.results = list(self.timers.results[e])
+        self._load_episode(e)
+        return tpl.episode_metrics()

@@ -1,0 +1,337 @@
+"""The platoon and brake-reaction tests for a native batch (`envs.platoon_core` over N envs).
+
+Why: the lead/follower band control, the stimuli (`setTVPTStimulus`) and their reaction
+rules run every physics step, so they are array operations here: each env has a few
+stimulus slots (onset, end, target, result, hold time); starting, scoring and ending a
+stimulus is rare and keeps the single env's `Stimulus` records per env, which its own
+`PlatoonCore.metrics()` scores at the end of the episode.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ..envs.platoon import ThreeVehiclePlatoonEnv
+from ..envs.platoon_core import (
+    BAND_GAIN,
+    BRAKE_THRESHOLD,
+    FOLLOWER_CATCH_UP_MPS,
+    FOLLOWER_GAIN_PER_S,
+    REGULAR_SPEED_TOLERANCE_MPS,
+    PlatoonState,
+    Stimulus,
+)
+from ..sim.traffic_routes import TURN_CODES
+from ..sim.triggers.core import CompiledAction
+from .actions import SIGNAL_OFF, BatchControls
+from .core import BatchCore
+from .traffic import FlatTraffic
+
+KINDS = ("brakeLight", "leadingCarTurnSignal", "followerCarTurnSignal", "speedReduction", "emergencyBrake")
+BL, LT, FT, SR, EB = range(5)
+SLOTS = 4  # simultaneous stimuli per env (a stimulus lasts <= 5 s; triggers lie >= 250 m apart)
+
+
+class PlatoonBatch(BatchCore):
+    handled_actions = frozenset({"setTVPTStimulus"})
+    trace_columns: tuple[str, ...] = ("x_m", "z_m", "speed_mps", "steering", "headway_s", "ttc_s", "lon_dev")
+    needs_distance = True
+
+    def __init__(self, template: ThreeVehiclePlatoonEnv, n: int, record_metrics: bool = True) -> None:
+        template.reset(seed=0)  # the cars as the task's reset leaves them (the same for every seed)
+        super().__init__(template, n, record_metrics)
+        core = template.platoon
+        tm = self.world.traffic
+        self.spec = core.spec
+        self.with_follower = core.with_follower
+        self.nominal = core.nominal_mps
+        self.lead_i, self.follow_i = tm.index_of(core.lead), tm.index_of(core.follower)
+        spec = self.world.ego.spec
+        self.traffic = FlatTraffic(tm, n, spec.length_m, self.car_half)
+        self.em_decel = self.world.task.scenario.vehicles[self.lead_i].deceleration_brake_mps2
+        sr = self.spec.speed_reduction
+        self.durations = np.array(
+            [self.spec.brake_light_min_duration_s or 2.5, self.spec.turn_signal_duration_s or 2.5, self.spec.turn_signal_duration_s or 2.5]
+            + [sr.duration_s if sr else 0.0] * 2
+        )
+        self.reset_on = np.array(
+            [self.spec.brake_light_reset_on_reaction, self.spec.turn_signal_reset_on_reaction, self.spec.turn_signal_reset_on_reaction]
+            + [bool(sr and sr.reset_on_reaction)] * 2
+        )
+        shape = (n, SLOTS)
+        self.on = np.zeros(shape, dtype=bool)
+        self.kind = np.zeros(shape, dtype=np.int64)
+        self.onset = np.zeros(shape)
+        self.end = np.zeros(shape)
+        self.target = np.zeros(shape)
+        self.car = np.zeros(shape, dtype=np.int64)
+        self.result = np.zeros(shape, dtype=np.int64)
+        self.hold = np.full(shape, np.nan)
+        self.objs: list[list[Stimulus | None]] = [[None] * SLOTS for _ in range(n)]
+        self.stimuli: list[list[Stimulus]] = [[] for _ in range(n)]
+        self.prng: list[np.random.Generator | None] = [None] * n
+        cfg: Any = template.config
+        self.dev_cap, self.dev_per_m = cfg.reward_deviation_cap_m, cfg.reward_deviation_per_m
+        self.progress_per_m, self.off_road_penalty = cfg.reward_progress_per_m, cfg.off_road_penalty
+        self.off_road_limit = len(self.world.road.lanes) * cfg.lane_width_m / 2 + cfg.off_road_margin_m
+        self.reward_acc = np.zeros(n)
+        self.seen = np.zeros(n, dtype=np.int64)
+        self.dirty = np.zeros(n, dtype=bool)
+        self.lon_dev = np.zeros(n)
+        self.lead_j = np.full(n, -1, dtype=np.int64)
+        self.lead_gap = np.zeros(n)
+        self.lead_v = np.zeros(n)
+
+    # ------------------------------------------------------------------ reset
+    def _reset_task(self, idx: np.ndarray) -> None:
+        for e in idx.tolist():
+            rng = self.rngs[e]
+            assert rng is not None
+            self.prng[e] = np.random.default_rng(int(rng.integers(0, 2**31 - 1)))
+            self.stimuli[e] = []
+            self.objs[e] = [None] * SLOTS
+        self.traffic.reset_rows(idx, self.traffic.st0)
+        self.on[idx] = False
+        self.reward_acc[idx] = 0.0
+        self.seen[idx] = 0
+        self.dirty[idx] = False
+
+    # ------------------------------------------------------------------ world
+    def _traffic_step(self, rows: np.ndarray) -> None:
+        self.traffic.step(rows, self.dt, self.t, self.s.x, self.s.z)
+
+    def _traffic_hits(self, box: tuple[np.ndarray, ...], rows: np.ndarray) -> np.ndarray:
+        return self.traffic.new_hits(rows, box[0], box[1], box[2], self.car_half)
+
+    def _lead_measures(self) -> None:
+        s = self.s
+        j, gap, v, length = self.traffic.lead(s.x, s.z, s.yaw, s.u)
+        found = j >= 0
+        self.lead_j, self.lead_gap, self.lead_v = j, gap, v
+        with np.errstate(divide="ignore", invalid="ignore"):
+            self.headway = np.where(found & np.isfinite(gap) & (s.u > 0.0), (gap + length) / s.u, np.inf)
+            closing = s.u - v
+            self.ttc = np.where(found & np.isfinite(gap) & (closing > 0.0), np.maximum(gap, 0.0) / closing, np.inf)
+
+    def vehicle_slots(self, k: int) -> np.ndarray | None:
+        s = self.s
+        return self.traffic.slots(k, s.x, s.z, s.yaw, s.u)
+
+    def _distance_to(self, car: int) -> np.ndarray:
+        s, st = self.s, self.traffic.st
+        rows = np.arange(self.n) * self.traffic.c + car
+        return (st.pos[rows, 0] - s.x) * -np.sin(s.yaw) + (st.pos[rows, 2] - s.z) * -np.cos(s.yaw)
+
+    # ------------------------------------------------------------------ stimuli
+    def _on_action(self, e: int, act: CompiledAction, trigger: int) -> None:
+        if act.name != "setTVPTStimulus":
+            return super()._on_action(e, act, trigger)
+        kind = str(act.args.get("stimulus_id", ""))
+        if kind == "turnSignal":
+            rng = self.prng[e]
+            assert rng is not None
+            kind = "leadingCarTurnSignal" if rng.random() < 0.5 or not self.with_follower else "followerCarTurnSignal"
+        self._start(e, kind)
+
+    def _start(self, e: int, kind: str) -> None:
+        if kind not in KINDS or (KINDS.index(kind) >= SR and self.spec.speed_reduction is None):
+            return  # the single env logs a warning and ignores it
+        k = KINDS.index(kind)
+        free = np.flatnonzero(~self.on[e])
+        if free.size == 0:
+            raise RuntimeError(f"env {e}: more than {SLOTS} simultaneous stimuli; use vectorization_mode='sync' for this geometry")
+        slot = int(free[0])
+        t = float(self.t[e])
+        car = self.follow_i if k == FT else self.lead_i
+        row = e * self.traffic.c + car
+        st = self.traffic.st
+        target = 0.0
+        sr = self.spec.speed_reduction
+        if k == BL:
+            st.ov_brake[row] = 1
+        elif k in (LT, FT):
+            st.ov_turn[row] = TURN_CODES["left"]
+        else:
+            assert sr is not None
+            lo, hi = (
+                (sr.target_speed_min_regular_mps, sr.target_speed_max_regular_mps)
+                if k == SR
+                else (sr.target_speed_min_emergency_mps, sr.target_speed_max_emergency_mps)
+            )
+            rng = self.prng[e]
+            assert rng is not None
+            target = float(rng.uniform(lo, hi))
+            st.ov_speed[row] = max(0.0, target)
+            st.ov_decel[row] = abs(self.em_decel) if k == EB else np.nan
+        obj = Stimulus(kind, t, t + float(self.durations[k]), target_mps=target, car=self.world.traffic.ids[car])
+        self.stimuli[e].append(obj)
+        self.objs[e][slot] = obj
+        self.on[e, slot], self.kind[e, slot], self.car[e, slot] = True, k, car
+        self.onset[e, slot], self.end[e, slot], self.target[e, slot] = obj.onset_s, obj.end_s, target
+        self.result[e, slot], self.hold[e, slot] = 0, np.nan
+
+    def _end_slots(self, es: np.ndarray, slots: np.ndarray) -> None:
+        st, c = self.traffic.st, self.traffic.c
+        rows = es * c + self.car[es, slots]
+        k = self.kind[es, slots]
+        st.ov_brake[rows] = np.where(k == BL, -1, st.ov_brake[rows])
+        st.ov_turn[rows] = np.where((k == LT) | (k == FT), -1, st.ov_turn[rows])
+        speed = k >= SR
+        st.ov_speed[rows[speed]] = np.nan
+        st.ov_decel[rows[speed]] = np.nan
+        self.on[es, slots] = False
+
+    def _on_physics_step(self, rows: np.ndarray, k: int, c: BatchControls) -> None:
+        s, _t = self.s, self.t
+        busy = (self.on & (self.kind >= SR) & (self.car == self.lead_i)).any(axis=1)
+        st, nc = self.traffic.st, self.traffic.c
+        lb, fb = self.spec.leading_car, self.spec.follower_car
+        gap = self._distance_to(self.lead_i)
+        hold_lead = rows & ~busy
+        target = np.where(
+            gap > lb.max_distance_m,
+            np.maximum(0.0, self.nominal - BAND_GAIN * (gap - lb.max_distance_m)),
+            np.where(gap < lb.min_distance_m, self.nominal + BAND_GAIN * (lb.min_distance_m - gap), np.nan),
+        )
+        lead_rows = np.arange(self.n) * nc + self.lead_i
+        st.ov_speed[lead_rows] = np.where(hold_lead, np.where(np.isnan(target), np.nan, np.maximum(0.0, target)), st.ov_speed[lead_rows])
+        st.ov_decel[lead_rows] = np.where(hold_lead, np.nan, st.ov_decel[lead_rows])
+        if self.with_follower:
+            busy_f = (self.on & (self.kind >= SR) & (self.car == self.follow_i)).any(axis=1)
+            d = self._distance_to(self.follow_i)
+            wanted = 0.5 * (fb.min_distance_m + fb.max_distance_m)
+            ft = s.u + FOLLOWER_GAIN_PER_S * (-d - wanted)
+            ft = np.minimum(np.maximum(0.0, ft), self.nominal + FOLLOWER_CATCH_UP_MPS)
+            f_rows = np.arange(self.n) * nc + self.follow_i
+            hold_f = rows & ~busy_f
+            st.ov_speed[f_rows] = np.where(hold_f, np.maximum(0.0, ft), st.ov_speed[f_rows])
+            st.ov_decel[f_rows] = np.where(hold_f, np.nan, st.ov_decel[f_rows])
+        self._stimuli_step(rows, c, first=k == 0)
+        lon = gap
+        band, lat_band = self.spec.longitudinal_tolerance, self.spec.lateral_tolerance
+        assert band is not None and lat_band is not None, "the native batch needs both tolerance bands"
+        self.lon_dev = np.where(rows, np.maximum(np.maximum(0.0, band.lower_bound_m - lon), lon - band.upper_bound_m), self.lon_dev)
+        lat = np.maximum(np.maximum(0.0, lat_band.lower_bound_m - self.offset), self.offset - lat_band.upper_bound_m)
+        dev = np.minimum(self.lon_dev + lat, self.dev_cap)
+        self.reward_acc = np.where(rows, self.reward_acc - self.dev_per_m * dev / self.repeat, self.reward_acc)
+        if self.ring is not None:  # the lon_dev row of this step (written with the trace row just before)
+            self.ring.ring["lon_dev"][(self.ring.g - 1) % self.ring.size] = self.lon_dev
+
+    def _stimuli_step(self, rows: np.ndarray, c: BatchControls, first: bool) -> None:
+        act = self.on & rows[:, None]
+        if not act.any():
+            return
+        t = self.t[:, None]
+        s = self.s
+        pressed = c.pressed if first else np.zeros(self.n, dtype=bool)  # a press is an edge: the first substep only
+        signal = c.signal
+        kind = self.kind
+        brake_hit = (s.brake_in >= BRAKE_THRESHOLD)[:, None]
+        turn_hit = (pressed | (signal != SIGNAL_OFF))[:, None]
+        sr = self.spec.speed_reduction
+        ok = (s.u[:, None] <= self.target + REGULAR_SPEED_TOLERANCE_MPS) & act & (kind == SR)
+        self.hold = np.where(act & (kind == SR) & ~ok, np.nan, self.hold)
+        self.hold = np.where(ok & np.isnan(self.hold), t, self.hold)
+        sr_done = ok & (t - self.hold >= (sr.min_time_all_conditions_met_s if sr else math.inf) - 1e-9)
+        reacted = np.where((kind == BL) | (kind == EB), brake_hit, np.where(kind == SR, sr_done, turn_hit)) & act
+        new = reacted & (self.result == 0)
+        react_s = np.where(kind == SR, self.hold, t)
+        max_rt = self.spec.max_reaction_time_s
+        verdict = np.where(react_s - self.onset <= max_rt + 1e-9, 1, -2)
+        self.result = np.where(new, verdict, self.result)
+        ends_now = new & self.reset_on[kind]
+        missed = act & ~ends_now & (self.result == 0) & (t - self.onset > max_rt)
+        self.result = np.where(missed, -2, self.result)
+        timeout = act & ~ends_now & (t >= self.end)
+        changed = new | missed
+        if changed.any():
+            for e, slot in zip(*np.nonzero(changed)):
+                obj = self.objs[e][slot]
+                assert obj is not None
+                if new[e, slot]:
+                    obj.reaction_s = float(react_s[e, slot])
+                obj.result = int(self.result[e, slot])
+                if kind[e, slot] == SR:
+                    obj.hold_since_s = float(self.hold[e, slot])
+                self.dirty[e] = True
+        done = ends_now | timeout
+        if done.any():
+            es, slots = np.nonzero(done)
+            self._end_slots(es, slots)
+
+    # ------------------------------------------------------------------ outputs
+    def _stimulus(self) -> np.ndarray:
+        c = self.traffic.c
+        brake, turn = self.traffic.outputs()
+        found = self.lead_j >= 0
+        li = np.arange(self.n) * c + self.lead_i
+        fi = np.arange(self.n) * c + self.follow_i
+        cols = [
+            np.where(found, self.lead_gap, 0.0),
+            np.where(found, self.lead_v - self.s.u, 0.0),
+            brake[li].astype(float),
+            turn[li].astype(float),
+            -self._distance_to(self.follow_i) if self.with_follower else np.zeros(self.n),
+            turn[fi].astype(float) if self.with_follower else np.zeros(self.n),
+        ]
+        return np.stack(cols, axis=1)
+
+    def _task_terminated(self) -> np.ndarray:
+        return np.abs(self.lat) > self.off_road_limit
+
+    def _reward(self, info: dict[str, np.ndarray], terminated_task: np.ndarray) -> np.ndarray:
+        r = self.reward_acc + self.progress_per_m * np.maximum(0.0, info["progress_m"])
+        self.reward_acc = np.zeros(self.n)
+        r = np.where(terminated_task, r - self.off_road_penalty, r)
+        for e in np.flatnonzero(self.dirty).tolist():
+            results = [s.result for s in self.stimuli[e] if s.result != 0]
+            re = float(r[e])
+            for res in results[int(self.seen[e]) :]:
+                re += 1.0 if res == 1 else -1.0
+            r[e] = re
+            self.seen[e] = len(results)
+        self.dirty[:] = False
+        return r - 10.0 * info["new_collisions"].astype(np.float64)
+
+    def _load_episode(self, e: int) -> None:
+        assert self.ring is not None
+        off = self.ring.to_trace(e, self.guide, self.dt, {}).col("lane_offset_m")[1:]
+        lb = self.spec.lateral_tolerance
+        lat = np.maximum(np.maximum(0.0, lb.lower_bound_m - off), off - lb.upper_bound_m) if lb is not None else np.zeros(0)
+        lon = self.ring.column(e, "lon_dev")[1:]
+        self.template.platoon.state = PlatoonState(stimuli=list(self.stimuli[e]), lon_dev=list(lon), lat_dev=list(lat))
+
+
+class BrakeBatch(PlatoonBatch):
+    handled_actions = frozenset({"setTVPTStimulus", "manipulateObject", "setupBrakeReactionTimer"})
+    trace_columns = PlatoonBatch.trace_columns + ("accelerator", "brake")
+
+    def __init__(self, template: Any, n: int, record_metrics: bool = True) -> None:
+        super().__init__(template, n, record_metrics)
+        self.sign_ids = [oid for oid, objs in self.world.objects.by_id.items() if oid.endswith("_Sign")]
+        self.sign_z = np.array([self.world.objects.by_id[oid][0].position[2] for oid in self.sign_ids])
+        self.revealed = np.zeros((n, len(self.sign_ids)), dtype=bool)
+
+    def _reset_task(self, idx: np.ndarray) -> None:
+        super()._reset_task(idx)
+        self.revealed[idx] = False
+
+    def _on_action(self, e: int, act: CompiledAction, trigger: int) -> None:
+        if act.name == "manipulateObject":
+            oid = str(act.args["object_id"])
+            if oid in self.sign_ids and act.args.get("visible"):
+                self.revealed[e, self.sign_ids.index(oid)] = True
+            return
+        super()._on_action(e, act, trigger)
+
+    def _stimulus(self) -> np.ndarray:
+        visible = np.any(self.revealed & (self.sign_z[None, :] < self.s.z[:, None]), axis=1)
+        return np.concatenate([super()._stimulus(), visible[:, None].astype(float)], axis=1)
+
+    def _reward(self, info: dict[str, np.ndarray], terminated_task: np.ndarray) -> np.ndarray:
+        r = super()._reward(info, terminated_task)
+        res = info["reaction_result"]
+        return np.where(res == 1, r + 1.0, np.where(res < 0, r - 1.0, r))

@@ -1,0 +1,219 @@
+"""Lane-change and brake reaction timers of a native batch (one timer id per task).
+
+Why: `sim.triggers.reactions` (LaneChangeTimer, BrakeTimer) and `ReactionCenter` for N
+envs: the per-step checks (steering peak, lane held, speed held, limits) are array
+operations over the envs whose timer runs; arming and scoring are rare and run per env,
+building the same `ReactionResult` records (times rounded to the nanosecond, as there).
+The optional extra timestamps of a result (`extra`: first steering, lane entry, ...) are
+not kept: no env output reads them. The distance limit uses numpy's `hypot` and, where
+that lies within a few ulps of the limit, CPython's, so the verdict is the single env's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..sim.controls import STEERING_WHEEL_MAX_DEG
+from ..sim.road import LANE_MARGIN_M
+from ..sim.triggers.reactions import CORRECT, EPS, FAILURE, MISSED, MISSED_RT_S, ReactionResult
+
+LANE, BRAKE = 0, 1
+KINDS = {"setupLaneChangeReactionTimer": LANE, "setupBrakeReactionTimer": BRAKE}
+
+
+@dataclass(frozen=True)
+class TimerSpec:
+    """One setup*ReactionTimer action's arguments, as `ReactionCenter._build` reads them."""
+
+    kind: int
+    timer_id: str
+    group: str
+    comment: str
+    time_limit_s: float
+    distance_limit_m: float
+    start_lane: int  # lane index (-2: not a lane of the road)
+    target_lane: int
+    min_steering_deg: float
+    allow_brake: bool
+    hold_s: float
+    target_speed_mps: float
+    start_speed_mps: float
+    must_press_brake: bool
+    allow_lane_change: bool
+
+    @staticmethod
+    def from_args(name: str, a: dict[str, Any], lane_ids: tuple[str, ...]) -> TimerSpec:
+        kind = KINDS[name]
+
+        def lane(key: str) -> int:
+            value = str(a.get(key) or "")
+            return lane_ids.index(value) if value in lane_ids else -2
+
+        return TimerSpec(
+            kind=kind,
+            timer_id=str(a["timer_id"]),
+            group=str(a.get("reaction_group") or ""),
+            comment=str(a.get("comment") or ""),
+            time_limit_s=float(a.get("time_limit_s") or 0.0),
+            distance_limit_m=float(a.get("distance_limit_m") or 0.0),
+            start_lane=lane("start_lane"),
+            target_lane=lane("target_lane"),
+            min_steering_deg=float(a.get("min_steering_angle_deg") or 0.0),
+            allow_brake=bool(a.get("allow_brake", True)),
+            hold_s=float(a.get("hold_lane_for_s", 2.0)) if kind == LANE else float(a.get("hold_speed_for_s", 2.0)),
+            target_speed_mps=float(a.get("target_speed_mps", 60.0 / 3.6)),
+            start_speed_mps=float(a.get("start_speed_mps", 80.0 / 3.6)),
+            must_press_brake=bool(a.get("must_press_brake_pedal", True)),
+            allow_lane_change=bool(a.get("allow_lane_change", True)),
+        )
+
+
+def lane_index_at(x: np.ndarray, bands: tuple[tuple[float, float], ...]) -> np.ndarray:
+    """`RoadModel.lane_id_at` as an index into the road's lanes (-1: none)."""
+    out = np.full(x.shape, -1, dtype=np.int64)
+    for i, (lo, hi) in enumerate(bands):
+        out = np.where((out < 0) & (lo + LANE_MARGIN_M <= x) & (x <= hi - LANE_MARGIN_M), i, out)
+    return out
+
+
+class TimerBatch:
+    """The running timer (at most one: the task's timer id) of each of N envs, and the results."""
+
+    def __init__(self, n: int, bands: tuple[tuple[float, float], ...]) -> None:
+        self.bands = bands
+        self.specs: list[TimerSpec] = []
+        self._spec_index: dict[int, int] = {}
+        self.timer_ids: set[str] = set()
+        self.active = np.zeros(n, dtype=bool)
+        self.armed = np.zeros(n, dtype=bool)
+        self.spec = np.zeros(n, dtype=np.int64)
+        self.start_t = np.zeros(n)
+        self.start_x = np.zeros(n)
+        self.start_z = np.zeros(n)
+        self.peak = np.zeros(n)
+        self.hold_since = np.full(n, np.nan)
+        self.braked = np.zeros(n, dtype=bool)
+        self.start_lane = np.full(n, -1, dtype=np.int64)
+        self.results: list[list[ReactionResult]] = [[] for _ in range(n)]
+        self.n_results = np.zeros(n, dtype=np.int64)
+        self._tables: dict[str, np.ndarray] = {}
+
+    def add_spec(self, key: int, name: str, args: dict[str, Any], lane_ids: tuple[str, ...]) -> None:
+        spec = TimerSpec.from_args(name, args, lane_ids)
+        self.timer_ids.add(spec.timer_id)
+        if len(self.timer_ids) > 1:
+            raise ValueError(f"the native batch supports one reaction timer id per task, not {sorted(self.timer_ids)}")
+        self._spec_index[key] = len(self.specs)
+        self.specs.append(spec)
+        self._tables = {
+            f: np.array([getattr(s, f) for s in self.specs])
+            for f in ("kind", "time_limit_s", "distance_limit_m", "target_lane", "min_steering_deg", "allow_brake", "hold_s")
+            + ("target_speed_mps", "must_press_brake", "allow_lane_change")
+        }
+
+    def reset_rows(self, idx: np.ndarray) -> None:
+        self.active[idx] = False
+        self.armed[idx] = False
+        for i in np.atleast_1d(idx).tolist():
+            self.results[i] = []
+        self.n_results[idx] = 0
+
+    # ------------------------------------------------------------------ arming (rare)
+    def setup(self, e: int, key: int, t: float, x: float, z: float, u: float, started_at: float) -> None:
+        """`ReactionCenter.setup` for env e (the caller checked that measurement started)."""
+        k = self._spec_index[key]
+        spec = self.specs[k]
+        if self.active[e] and self.armed[e]:
+            self._score(e, MISSED, MISSED_RT_S, t, started_at)
+        lane = int(lane_index_at(np.array([x]), self.bands)[0])
+        self.active[e] = True
+        self.spec[e] = k
+        self.start_t[e], self.start_x[e], self.start_z[e] = t, x, z
+        self.peak[e] = 0.0
+        self.hold_since[e] = np.nan
+        self.braked[e] = False
+        self.start_lane[e] = lane
+        if spec.kind == LANE:
+            self.armed[e] = lane == spec.start_lane
+        else:
+            self.armed[e] = u >= spec.start_speed_mps - 1e-9
+
+    def _score(self, e: int, result: int, rt_s: float, t: float, started_at: float) -> None:
+        spec = self.specs[int(self.spec[e])]
+        self.results[e].append(
+            ReactionResult(
+                timer_id=spec.timer_id,
+                kind="laneChange" if spec.kind == LANE else "brake",
+                group=spec.group,
+                result=result,
+                reaction_time_s=round(rt_s, 9),
+                start_t_s=round(float(self.start_t[e]), 9),
+                t_s=round(t, 9),
+                experiment_time_s=round(t - started_at, 9),
+                comment=spec.comment,
+            )
+        )
+        self.n_results[e] += 1
+
+    # ------------------------------------------------------------------ polling
+    def update(self, rows: np.ndarray, t: np.ndarray, x: np.ndarray, z: np.ndarray, u: np.ndarray, steer: np.ndarray, brake: np.ndarray,
+               started_at: np.ndarray) -> None:  # fmt: skip
+        """`ReactionCenter.update` for the envs `rows` (not paused)."""
+        a = np.flatnonzero(self.active & rows)
+        if a.size == 0:
+            return
+        tab = {k: v[self.spec[a]] for k, v in self._tables.items()}
+        ta, xa = t[a], x[a]
+        lim = self._limit_exceeded(a, ta, xa, z[a], tab)
+        armed = self.armed[a]
+        self.active[a[~armed & lim]] = False  # an unarmed timer only expires
+        lane_kind = tab["kind"] == LANE
+        self.peak[a] = np.where(lane_kind, np.maximum(self.peak[a], np.abs(steer[a]) * STEERING_WHEEL_MAX_DEG), self.peak[a])
+        ba = brake[a]
+        self.braked[a] |= ~lane_kind & (ba > 0.0)
+        lane_now = lane_index_at(xa, self.bands)
+        fail = np.where(
+            lane_kind, ~tab["allow_brake"] & (ba > 0.0), ~tab["allow_lane_change"] & (lane_now >= 0) & (self.start_lane[a] >= 0)
+        )
+        fail &= lane_kind | (lane_now != self.start_lane[a])
+        fail &= armed
+        miss = armed & ~fail & lim
+        rest = armed & ~fail & ~miss
+        ok = np.where(
+            lane_kind,
+            (lane_now == tab["target_lane"]) & (self.peak[a] >= tab["min_steering_deg"] - EPS),
+            (u[a] <= tab["target_speed_mps"] + EPS) & (self.braked[a] | ~tab["must_press_brake"]),
+        )
+        hold = self.hold_since[a]
+        hold = np.where(rest & ok & np.isnan(hold), ta, hold)
+        hold = np.where(rest & ~ok, np.nan, hold)
+        self.hold_since[a] = hold
+        success = rest & ok & (ta - hold >= tab["hold_s"] - EPS)
+        done = fail | miss | success
+        if not done.any():
+            return
+        for i in np.flatnonzero(done).tolist():
+            e = int(a[i])
+            now = float(ta[i])
+            if fail[i]:
+                result, rt = FAILURE, now - float(self.start_t[e])
+            elif miss[i]:
+                result, rt = MISSED, MISSED_RT_S
+            else:
+                result, rt = CORRECT, now - float(self.start_t[e]) - float(tab["hold_s"][i])
+            self.active[e] = False
+            self._score(e, result, rt, now, float(started_at[e]))
+
+    def _limit_exceeded(self, a: np.ndarray, t: np.ndarray, x: np.ndarray, z: np.ndarray, tab: dict[str, np.ndarray]) -> np.ndarray:
+        tl, dl = tab["time_limit_s"], tab["distance_limit_m"]
+        by_time = (tl > 0.0) & (t - self.start_t[a] > tl + EPS)
+        dx, dz = x - self.start_x[a], z - self.start_z[a]
+        h = np.hypot(dx, dz)
+        close = np.flatnonzero((dl > 0.0) & (np.abs(h - dl) <= 8.0 * np.spacing(np.maximum(dl, 1.0))))
+        for i in close.tolist():  # near the limit: CPython's hypot decides, as in the single env
+            h[i] = math.hypot(float(dx[i]), float(dz[i]))
+        return by_time | ((dl > 0.0) & (h > dl))

@@ -1,0 +1,96 @@
+"""Per-physics-step traces of N episodes in one ring buffer, for the end-of-episode metrics.
+
+Why: SDLP, steering reversal rate and the LCT's MDEV need the whole trace of an episode;
+the single env keeps one `envs.trace.Trace` each. Here every physics step writes one
+contiguous row (all envs) of each recorded column into a time-major ring; an env's
+episode is its reset row (kept aside) plus the ring rows from its first step on, which
+stay contiguous because every live env is stepped in every substep. When an episode ends
+its rows are copied into a `Trace`, and the single env's own metric code scores it.
+Derived columns (time, lateral position, lane, lane offset) are not stored; `to_trace`
+computes them with the guide's formulas.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..envs.trace import COL, Trace
+from ..sim.guide import RoadGuide
+
+
+class TraceRing:
+    """`columns` recorded per physics step for `n` envs; episodes up to `max_steps` long.
+    Columns that are not `Trace` columns (task measures) are read with `column`."""
+
+    def __init__(self, n: int, columns: tuple[str, ...], max_steps: int) -> None:
+        self.columns = columns
+        self.size = int(max_steps) + 2
+        self.ring = {c: np.zeros((self.size, n)) for c in columns}
+        self.first = {c: np.zeros(n) for c in columns}  # the reset row of each env's episode
+        self.g = 0  # rows written so far (the next row goes to g % size)
+        self.start = np.zeros(n, dtype=np.int64)  # g of each env's first step row
+        self.steps = np.zeros(n, dtype=np.int64)  # step rows of each env's episode so far
+
+    def reset_rows(self, idx: np.ndarray, values: dict[str, np.ndarray]) -> None:
+        """Episodes of `idx` start: their reset rows; their step rows begin at the next write."""
+        for c in self.columns:
+            self.first[c][idx] = values[c]
+        self.start[idx] = self.g
+        self.steps[idx] = 0
+
+    def write(self, values: dict[str, np.ndarray], live: np.ndarray | None) -> None:
+        """One physics step: a row for every env (rows of envs not `live` are never read)."""
+        row = self.g % self.size
+        for c in self.columns:
+            self.ring[c][row] = values[c]
+        self.g += 1
+        if live is None:
+            self.steps += 1
+        else:
+            self.steps[live] += 1
+
+    def column(self, e: int, c: str) -> np.ndarray:
+        """Env e's episode so far for one column (reset row first)."""
+        k = int(self.steps[e])
+        rows = (int(self.start[e]) + np.arange(k)) % self.size
+        out = np.empty(k + 1)
+        out[0] = self.first[c][e]
+        out[1:] = self.ring[c][rows, e]
+        return out
+
+    def to_trace(self, e: int, guide: RoadGuide, dt_s: float, constant: dict[str, float]) -> Trace:
+        """Env e's episode as the single env's `Trace` (missing columns from `constant`)."""
+        k = int(self.steps[e]) + 1
+        tr = Trace(capacity=max(k, 1))
+        data = tr._data
+        data[:, COL["t_s"]] = np.arange(k) * dt_s
+        for c in self.columns:
+            if c in COL:
+                data[:, COL[c]] = self.column(e, c)
+        for c, v in constant.items():
+            data[:, COL[c]] = v
+        lat, lane, offset = lane_columns(guide, data[:, COL["x_m"]], data[:, COL["z_m"]])
+        data[:, COL["lateral_m"]] = lat
+        data[:, COL["lane_index"]] = lane
+        data[:, COL["lane_offset_m"]] = offset
+        tr.n = k
+        if hasattr(tr, "_stored"):  # the single env's Trace buffers appended rows
+            tr._stored = k
+            tr._last = tuple(float(v) for v in data[k - 1])
+        return tr
+
+
+def lane_columns(guide: RoadGuide, x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(lateral position, lane index, offset from the lane centre) as `RoadGuide.locate` and
+    `OpenDSEnv._record_row` compute them, for X-band lane roads."""
+    if guide.kind != "lanes":
+        raise ValueError("the native batch needs a task with lane bands")
+    lat = -guide.sign * x
+    centres = np.asarray(guide.lane_laterals_m)
+    half = guide.lane_width_m / 2.0
+    lane = np.full(lat.shape, -1, dtype=np.int64)
+    for i, c in enumerate(guide.lane_laterals_m):
+        lane = np.where((lane < 0) & (np.abs(lat - c) <= half), i, lane)
+    nearest = np.argmin(np.abs(centres[:, None] - lat[None, :]), axis=0)
+    ref = np.where(lane >= 0, lane, nearest)
+    return lat, lane, lat - centres[ref]

@@ -1,0 +1,201 @@
+"""The trigger core of a native batch: trigger boxes touched, 2 s locks, repeat caps, actions.
+
+Why: `sim.triggers.TriggerCore` for N worlds of one task. The contact test (is the car's
+box over a trigger box?) runs as array maths every physics step: each env has at most one
+trigger volume within reach at a time (checked when the table is built), found by a
+sorted search along the road, and only envs near one get the exact separating-axis test of
+`sim.geometry2d.obb_overlap`, with the same arithmetic. Firing is rare: the few (env,
+trigger) pairs that fire and are not locked run their actions in Python, through the
+handler the task batch gives (`on_action(env, action, trigger)`).
+
+Supported, because the three batched tasks use nothing else: `collideWith` conditions,
+actions without delay, `pauseSimulation` until resumed (it ends the episode) and the
+actions the task handler knows. Anything else is refused when the table is built, with the
+trigger named, so a task the batch cannot run exactly is never run inexactly.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..sim.triggers.core import LOCK_S, CompiledAction, TriggerCore
+
+NO_EFFECT_ACTIONS = frozenset({"startRecording", "stopRecording"})  # logged by OpenDS, no effect on the drive
+
+
+@dataclass(frozen=True)
+class Volume:
+    """A trigger box (the model named by a collideWith condition) and the triggers it fires."""
+
+    cx: float
+    cz: float
+    yaw: float
+    hx: float
+    hz: float
+    triggers: tuple[int, ...]
+
+
+class TriggerBatch:
+    """Trigger state of N envs of one task (see the module docstring)."""
+
+    def __init__(self, n: int, world: Any, handled: frozenset[str], car_half: tuple[float, float], car_height_m: float) -> None:
+        core: TriggerCore = world.triggers
+        self.triggers = core.triggers
+        for trig, source in zip(core.triggers, core._source_triggers):
+            kinds = {type(c).__name__ for c in source.condition.items}
+            if kinds - {"CollideWith"}:
+                raise ValueError(f"trigger '{trig.id}' (line {trig.line}): the native batch supports collideWith conditions only")
+            for act in trig.actions:
+                self._check_action(trig.id, act, handled)
+        ego_y = world.ego.state.y
+        vols = []
+        for model_id, tis in core._by_model.items():
+            for o in world.objects.by_id.get(model_id, ()):
+                lo, hi = o.y_range()
+                if hi < ego_y - 0.5 or lo > ego_y + car_height_m:
+                    continue  # never reachable on flat ground
+                hx, _, hz = o.half
+                vols.append(Volume(o.position[0], o.position[2], o.yaw, hx, hz, tuple(tis)))
+        vols.sort(key=lambda v: v.cz)
+        self.volumes = vols
+        self._cz = np.array([v.cz for v in vols])
+        self._cx = np.array([v.cx for v in vols])
+        car_r = math.hypot(*car_half)
+        self._reach = np.array([math.hypot(v.hx, v.hz) + car_r + 1.0 for v in vols])
+        for a, b in itertools.pairwise(vols):
+            if b.cz - a.cz <= 2.0 * max(math.hypot(a.hx, a.hz), math.hypot(b.hx, b.hz)) + 2.0 * car_r + 2.0:
+                raise ValueError("trigger volumes lie too close together for the native batch's contact search")
+        self.car_half = car_half
+        self._table = np.array([(v.cx, v.cz, v.yaw, v.hx, v.hz) for v in vols]).reshape(-1, 5)
+        self.pause_s = np.array([t.pause_s for t in self.triggers])
+        self.n_counters = core._n_counters
+        self.locks = np.full((n, len(self.triggers)), -np.inf)
+        self.counts = np.zeros((n, max(1, self.n_counters)), dtype=np.int64)
+        self.paused = np.zeros(n, dtype=bool)
+        self.started = np.zeros(n, dtype=bool)
+        self.started_at = np.zeros(n)
+
+    @staticmethod
+    def _check_action(trigger_id: str, act: CompiledAction, handled: frozenset[str]) -> None:
+        where = f"trigger '{trigger_id}', action '{act.name}' (line {act.line})"
+        if not act.known:
+            return  # skipped with a warning, as in the single env
+        if act.delay_s > 0.0:
+            raise ValueError(f"{where}: delayed actions are not supported by the native batch")
+        if act.name == "pauseSimulation" and float(act.args.get("duration_s", 1.0)) > 0:
+            raise ValueError(f"{where}: timed pauses are not supported by the native batch")
+        if act.name == "manipulateObject":
+            extra = {k for k, v in act.args.items() if v is not None} - {"object_id", "visible"}
+            if extra:
+                raise ValueError(f"{where}: only 'visible' is supported by the native batch (not {sorted(extra)})")
+        if act.name not in handled | NO_EFFECT_ACTIONS | {"pauseSimulation", "startReactionMeasurement"}:
+            raise ValueError(f"{where}: not supported by the native batch")
+
+    def reset_rows(self, idx: np.ndarray) -> None:
+        self.locks[idx] = -np.inf
+        self.counts[idx] = 0
+        self.paused[idx] = False
+        self.started[idx] = False
+        self.started_at[idx] = 0.0
+
+    # ------------------------------------------------------------------ contacts
+    def touching(self, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, rows: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """(env rows, volume index) of every car box (centre x, z, heading yaw) over a trigger box."""
+        if not self.volumes:
+            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        k = np.searchsorted(self._cz, z)
+        lo = np.maximum(k - 1, 0)
+        hi = np.minimum(k, len(self.volumes) - 1)
+        pick = np.where(np.abs(self._cz[lo] - z) <= np.abs(self._cz[hi] - z), lo, hi)
+        near = (np.abs(self._cz[pick] - z) < self._reach[pick]) & (np.abs(self._cx[pick] - x) < self._reach[pick] + 50.0)
+        if rows is not None:
+            near &= rows
+        e = np.flatnonzero(near)
+        if e.size == 0:
+            return e, e
+        j = pick[e]
+        hit = obb_overlap_rows(x[e], z[e], yaw[e], self.car_half, j, self._table)
+        return e[hit], j[hit]
+
+    def fire(self, t: np.ndarray, env: np.ndarray, vol: np.ndarray, run: Callable[[int, CompiledAction, int], None]) -> None:
+        """Fire the triggers of the touched volumes: skip locked ones, lock, run their actions."""
+        for e, j in zip(env.tolist(), vol.tolist()):
+            order = sorted(self.volumes[j].triggers, key=lambda i: (-self.triggers[i].priority, i))
+            for i in order:
+                now = float(t[e])
+                if now < self.locks[e, i] - 1e-9:
+                    continue
+                self.locks[e, i] = now + LOCK_S + self.triggers[i].pause_s
+                for act in self.triggers[i].actions:
+                    if not act.known:
+                        continue
+                    if act.repeat > 0 and self.counts[e, act.counter] >= act.repeat:
+                        continue
+                    self.counts[e, act.counter] += 1
+                    if not self._builtin(e, act, now):
+                        run(e, act, i)
+
+    def unlocked(self, t: np.ndarray, env: np.ndarray, vol: np.ndarray) -> np.ndarray:
+        """Which (env, volume) contacts could fire (some trigger of the volume not locked)."""
+        ok = np.zeros(env.size, dtype=bool)
+        for j in np.unique(vol):
+            sel = vol == j
+            for i in self.volumes[int(j)].triggers:
+                ok[sel] |= t[env[sel]] >= self.locks[env[sel], i] - 1e-9
+        return ok
+
+    def _builtin(self, e: int, act: CompiledAction, now: float) -> bool:
+        if act.name in NO_EFFECT_ACTIONS:
+            return True
+        if act.name == "pauseSimulation":
+            self.paused[e] = True  # until resumed: the episode is over
+            return True
+        if act.name == "startReactionMeasurement":
+            if not self.started[e]:
+                self.started[e] = True
+                self.started_at[e] = now
+            return True
+        return False
+
+
+def obb_overlap_rows(
+    x: np.ndarray, z: np.ndarray, yaw: np.ndarray, half: tuple[float, float], vol: np.ndarray, table: np.ndarray
+) -> np.ndarray:
+    """The car boxes against the volumes `vol` (rows of `table`: cx, cz, yaw, hx, hz)."""
+    b = table[vol]
+    return obb_overlap(x, z, yaw, half[0], half[1], b[:, 0], b[:, 1], b[:, 2], b[:, 3], b[:, 4])
+
+
+def obb_overlap(
+    ax: np.ndarray,
+    az: np.ndarray,
+    ayaw: np.ndarray,
+    ahx: Any,
+    ahz: Any,
+    bx: np.ndarray,
+    bz: np.ndarray,
+    byaw: np.ndarray,
+    bhx: Any,
+    bhz: Any,
+) -> np.ndarray:
+    """`sim.geometry2d.obb_overlap(a, b)` per row, with the same arithmetic."""
+    dx, dz = bx - ax, bz - az
+    ra = ahx * ahx + ahz * ahz
+    rb = bhx * bhx + bhz * bhz
+    d2 = dx * dx + dz * dz
+    ok = ~(d2 > ra + rb + 2.0 * np.sqrt(ra * rb))
+    ca, sa = np.cos(ayaw), np.sin(ayaw)
+    cb, sb = np.cos(byaw), np.sin(byaw)
+    a_axes = ((ca, -sa), (sa, ca))
+    b_axes = ((cb, -sb), (sb, cb))
+    for ux, uz in (*a_axes, *b_axes):
+        proj_a = ahx * np.abs(a_axes[0][0] * ux + a_axes[0][1] * uz) + ahz * np.abs(a_axes[1][0] * ux + a_axes[1][1] * uz)
+        proj_b = bhx * np.abs(b_axes[0][0] * ux + b_axes[0][1] * uz) + bhz * np.abs(b_axes[1][0] * ux + b_axes[1][1] * uz)
+        ok &= ~(np.abs(dx * ux + dz * uz) > proj_a + proj_b)
+    return ok

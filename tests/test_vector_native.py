@@ -1,0 +1,196 @@
+"""The natively batched vector envs (`vector_entry_point`): same results as the single env."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import opends_gym  # noqa: F401  (registers the ids)
+from opends_gym.vector import NativeVectorEnv, libm
+
+LCT = "OpenDS/LaneChangeTest-v0"
+BRAKE = "OpenDS/BrakeReaction-v0"
+PLATOON = "OpenDS/ThreeVehiclePlatoon-v0"
+SHORT = {
+    LCT: {"signs": 3, "lead_in_m": 100.0, "lead_out_m": 60.0},
+    BRAKE: {"stimuli": 3, "track_seed": 3, "max_episode_s": 40.0},  # brake sign at 300 m, emergency brake at 586 m
+    PLATOON: {"stimuli": 5, "lead_in_m": 100.0, "spacing_min_m": 200.0, "spacing_max_m": 220.0, "max_episode_s": 24.0},
+}
+Policy = Callable[[np.ndarray, np.random.Generator, int], np.ndarray]
+
+
+def lct_driver(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
+    """Follows the sign's lane (env 0 steers at random and leaves the road), brakes now and then."""
+    a = np.zeros((n, 2), dtype=np.float32)
+    a[:, 0] = np.clip(0.04 * obs[:, -2] - 0.8 * obs[:, 1] - 0.1 * obs[:, 6], -1, 1) + rng.normal(0, 0.02, n)
+    a[0, 0] = rng.uniform(-0.3, 0.3)
+    a[:, 1] = np.where(rng.random(n) < 0.05, -0.6, 0.0)
+    return a
+
+
+def follow_driver(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
+    """Keeps the lane and ~70 km/h, brakes at random and for brake lights; presses buttons at random."""
+    width = obs.shape[1]
+    steer = np.clip(-0.05 * obs[:, 2] - 0.8 * obs[:, 1] - 0.1 * obs[:, 6], -1, 1)
+    pedal = np.clip(0.4 * (19.4 - obs[:, 0]), -1, 1)
+    lead_brake = obs[:, 7 + 4 * 6 + 2] > 0
+    pedal = np.where(lead_brake | (rng.random(n) < 0.04), -0.8, pedal)
+    if width == 7 + 24 + 7:  # the brake test's sign slot
+        pedal = np.where((obs[:, -1] > 0) & (obs[:, 0] > 9.0), -0.7, pedal)
+    a = np.zeros((n, 6 if width == 7 + 24 + 6 else 2), dtype=np.float32)
+    a[:, 0], a[:, 1] = steer + rng.normal(0, 0.01, n), pedal
+    if a.shape[1] == 6:
+        a[:, 2:] = np.where(rng.random((n, 4)) < 0.15, 1.0, -1.0)
+    return a
+
+
+def _same(tag: str, a: Any, b: Any) -> None:
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.shape == b.shape and np.array_equal(a, b, equal_nan=True), f"{tag}: native {a!r} != single {b!r}"
+
+
+def _compare_infos(t: int, native: dict[str, Any], sync: dict[str, Any], n: int) -> None:
+    for key, value in sync.items():
+        if key in ("events", "_events"):
+            continue  # the native batch does not produce the event log
+        if key == "episode_metrics":
+            for e in np.flatnonzero(sync["_episode_metrics"]):
+                for mk, mv in value.items():
+                    if not mk.startswith("_"):
+                        _same(f"step {t} env {e} metric {mk}", native["episode_metrics"][mk][e], mv[e])
+            continue
+        _same(f"step {t} info {key}", native[key], value)
+
+
+def run_identity(env_id: str, policy: Policy, n: int, steps: int, seed: int = 7, **kwargs: Any) -> dict[str, int]:
+    """Step the native batch and Gymnasium's SyncVectorEnv of single envs in lockstep; compare everything."""
+    kw = {**SHORT[env_id], **kwargs}
+    native = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kw)
+    sync = gym.make_vec(env_id, num_envs=n, vectorization_mode="sync", **kw)
+    assert isinstance(native.unwrapped, NativeVectorEnv)
+    rng = np.random.default_rng(seed)
+    obs, info = native.reset(seed=seed)
+    obs_s, info_s = sync.reset(seed=seed)
+    _same("reset obs", obs, obs_s)
+    _compare_infos(-1, info, info_s, n)
+    seen = {"episodes": 0, "reactions": 0, "correct": 0}
+    for t in range(steps):
+        a = policy(obs, rng, n)
+        obs, r, term, trunc, info = native.step(a)
+        obs_s, r_s, term_s, trunc_s, info_s = sync.step(a)
+        _same(f"step {t} obs", obs, obs_s)
+        _same(f"step {t} reward", r, r_s)
+        _same(f"step {t} terminated", term, term_s)
+        _same(f"step {t} truncated", trunc, trunc_s)
+        _compare_infos(t, info, info_s, n)
+        seen["episodes"] += int(np.sum(term | trunc))
+        seen["reactions"] += int(np.count_nonzero(info["reaction_result"]))
+        seen["correct"] += int(np.count_nonzero(info["reaction_result"] == 1))
+    native.close()
+    sync.close()
+    return seen
+
+
+def test_lane_change_test_identical_to_single_env() -> None:
+    seen = run_identity(LCT, lct_driver, n=3, steps=560)
+    assert seen["episodes"] >= 3 and seen["correct"] >= 3  # ends (off road, end of track), autoresets, lane changes
+
+
+def test_brake_reaction_identical_to_single_env() -> None:
+    seen = run_identity(BRAKE, follow_driver, n=2, steps=230, policy_hz=5)
+    assert seen["episodes"] >= 2 and seen["reactions"] >= 1  # the brake sign's timer
+
+
+def test_platoon_identical_to_single_env() -> None:
+    seen = run_identity(PLATOON, follow_driver, n=2, steps=500, policy_hz=20)
+    assert seen["episodes"] >= 2
+
+
+def test_vector_api_spaces_and_info_batching() -> None:
+    env = gym.make_vec(LCT, num_envs=4, vectorization_mode="vector_entry_point")
+    single = gym.make(LCT)
+    assert env.metadata["autoreset_mode"] == gym.vector.AutoresetMode.NEXT_STEP
+    assert env.single_observation_space == single.observation_space and env.single_action_space == single.action_space
+    assert env.observation_space.shape == (4, *single.observation_space.shape) and env.action_space.shape == (4, 2)
+    obs, info = env.reset(seed=[1, 2, 3, 4])
+    assert obs.dtype == np.float32 and env.observation_space.contains(obs)
+    for key in ("sim_time_s", "speed_kmh", "lane_index", "reaction_result", "mean_deviation_m", "headway_s"):
+        assert info[key].shape == (4,) and info[f"_{key}"].all()
+    assert info["lane_index"].dtype == np.int64 and info["speed_kmh"].dtype == np.float64
+    obs, reward, term, trunc, info = env.step(env.action_space.sample())
+    assert reward.shape == (4,) and reward.dtype == np.float64 and term.dtype == bool and trunc.dtype == bool
+    assert env.observation_space.contains(obs)
+    assert "episode_metrics" not in info
+    with pytest.raises(ValueError, match="4 seeds"):
+        env.reset(seed=[1, 2])
+    env.close()
+
+
+def test_deterministic_and_seeded_like_sync() -> None:
+    def rollout() -> list[np.ndarray]:
+        env = gym.make_vec(LCT, num_envs=3, vectorization_mode="vector_entry_point", **SHORT[LCT])
+        rng = np.random.default_rng(3)
+        obs, _ = env.reset(seed=42)
+        out = [obs]
+        for _ in range(60):
+            obs, r, *_ = env.step(lct_driver(obs, rng, 3))
+            out += [obs, r]
+        return out
+
+    a, b = rollout(), rollout()
+    assert all(np.array_equal(x, y) for x, y in zip(a, b))
+    # reset(seed=s) seeds env i with s + i, as SyncVectorEnv: env 1 of seed 42 is a single env seeded 43
+    env = gym.make_vec(LCT, num_envs=2, vectorization_mode="vector_entry_point")
+    single = gym.make(LCT)
+    obs, _ = env.reset(seed=42)
+    assert np.array_equal(obs[1], single.reset(seed=43)[0])
+
+
+def test_bullet_render_and_reset_mask_are_refused_clearly() -> None:
+    with pytest.raises(ValueError, match=r"physics='fast' only.*vectorization_mode='sync'"):
+        gym.make_vec(LCT, num_envs=2, vectorization_mode="vector_entry_point", physics="bullet")
+    with pytest.raises(ValueError, match="does not render"):
+        gym.make_vec(LCT, num_envs=2, vectorization_mode="vector_entry_point", render_mode="rgb_array")
+    with pytest.raises(TypeError, match="polcy_hz"):
+        gym.make_vec(LCT, num_envs=2, vectorization_mode="vector_entry_point", polcy_hz=20)
+    env = gym.make_vec(LCT, num_envs=2, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match="reset_mask"):
+        env.reset(options={"reset_mask": np.array([True, False])})
+
+
+def test_nan_action_names_the_env() -> None:
+    env = gym.make_vec(PLATOON, num_envs=3, vectorization_mode="vector_entry_point")
+    env.reset(seed=0)
+    a = np.zeros((3, 6), dtype=np.float32)
+    a[2, 1] = np.nan
+    with pytest.raises(ValueError, match="env 2: action contains NaN"):
+        env.step(a)
+    with pytest.raises(ValueError, match="shape"):
+        env.step(np.zeros((3, 2), dtype=np.float32))
+
+
+def test_without_metrics_the_same_steps() -> None:
+    kw = {**SHORT[LCT], "max_episode_s": 3.0}
+    with_m = gym.make_vec(LCT, num_envs=2, vectorization_mode="vector_entry_point", **kw)
+    without = gym.make_vec(LCT, num_envs=2, vectorization_mode="vector_entry_point", record_metrics=False, **kw)
+    assert np.array_equal(with_m.reset(seed=1)[0], without.reset(seed=1)[0])
+    for _ in range(30):  # 3 s at 10 Hz: truncated at the 30th step
+        act = np.tile(np.array([[0.0, 0.0]], dtype=np.float32), (2, 1))
+        oa, ra, _, ta, ia = with_m.step(act)
+        ob, rb, _, tb, ib = without.step(act)
+        assert np.array_equal(oa, ob) and np.array_equal(ra, rb) and np.array_equal(ta, tb)
+    assert ta.all() and "episode_metrics" in ia and "episode_metrics" not in ib
+
+
+def test_libm_equals_python_math() -> None:
+    rng = np.random.default_rng(0)
+    x = np.concatenate([rng.uniform(-1, 1, 20000), rng.uniform(-50, 50, 20000), rng.normal(0, 1e-4, 5000), [0.0, -0.0]])
+    y = np.concatenate([rng.uniform(-1, 1, 20000), rng.uniform(-50, 50, 20000), rng.normal(0, 1e-4, 5000), [0.0, 3.0]])
+    for fn, ref in ((libm.tanh, math.tanh), (libm.arctan, math.atan), (libm.tan, math.tan)):
+        assert np.array_equal(fn(x), np.array([ref(v) for v in x])), fn.__name__
+    assert np.array_equal(libm.py_hypot(x, y), np.array([math.hypot(a, b) for a, b in zip(x, y)]))
