@@ -114,6 +114,7 @@ class TimerBatch:
             for f in ("kind", "time_limit_s", "distance_limit_m", "target_lane", "min_steering_deg", "allow_brake", "hold_s")
             + ("target_speed_mps", "must_press_brake", "allow_lane_change")
         }
+        self._constant = {k: bool(np.all(v == v[0])) for k, v in self._tables.items()}  # a scalar is cheaper than a gather
 
     def reset_rows(self, idx: np.ndarray) -> None:
         self.active[idx] = False
@@ -166,7 +167,8 @@ class TimerBatch:
         a = np.flatnonzero(self.active & rows)
         if a.size == 0:
             return
-        tab = {k: v[self.spec[a]] for k, v in self._tables.items()}
+        spec = self.spec[a]
+        tab = {k: (v[0] if self._constant[k] else v[spec]) for k, v in self._tables.items()}
         ta, xa = t[a], x[a]
         lim = self._limit_exceeded(a, ta, xa, z[a], tab)
         armed = self.armed[a]
@@ -204,7 +206,7 @@ class TimerBatch:
             elif miss[i]:
                 result, rt = MISSED, MISSED_RT_S
             else:
-                result, rt = CORRECT, now - float(self.start_t[e]) - float(tab["hold_s"][i])
+                result, rt = CORRECT, now - float(self.start_t[e]) - float(np.broadcast_to(tab["hold_s"], a.shape)[i])
             self.active[e] = False
             self._score(e, result, rt, now, float(started_at[e]))
 

@@ -91,6 +91,8 @@ def lane_columns(guide: RoadGuide, x: np.ndarray, z: np.ndarray) -> tuple[np.nda
     lane = np.full(lat.shape, -1, dtype=np.int64)
     for i, c in enumerate(guide.lane_laterals_m):
         lane = np.where((lane < 0) & (np.abs(lat - c) <= half), i, lane)
-    nearest = np.argmin(np.abs(centres[:, None] - lat[None, :]), axis=0)
-    ref = np.where(lane >= 0, lane, nearest)
+    ref = lane.copy()
+    off = np.flatnonzero(lane < 0)
+    if off.size:  # off the lanes: the nearest lane's centre (the first of equals, as `RoadGuide.nearest_lane`)
+        ref[off] = np.argmin(np.abs(centres[:, None] - lat[None, off]), axis=0)
     return lat, lane, lat - centres[ref]

@@ -1,0 +1,71 @@
+"""Throughput of the native vector envs over the batch size N (env-steps = policy steps).
+
+    python benchmarks/native_batch.py                       # LCT, N = 1 ... 16384
+    python benchmarks/native_batch.py --env platoon --sizes 64 1024 --seconds 5
+    python benchmarks/native_batch.py --no-metrics          # without the per-step traces
+
+A lane-keeping policy (the instructed lane for the LCT) keeps the episodes long; the
+first steps are not timed (warm-up). Prints one row per N: env-steps per second, ms per
+batched step, and the same for Gymnasium's SyncVectorEnv of single envs at the smallest N
+for comparison.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import gymnasium as gym
+import numpy as np
+
+import opends_gym  # noqa: F401
+
+IDS = {"lct": "OpenDS/LaneChangeTest-v0", "brake": "OpenDS/BrakeReaction-v0", "platoon": "OpenDS/ThreeVehiclePlatoon-v0"}
+
+
+def policy(obs: np.ndarray, width: int, lct: bool) -> np.ndarray:
+    a = np.zeros((len(obs), width), dtype=np.float32)
+    if lct:
+        a[:, 0] = np.clip(0.04 * obs[:, -2] - 0.8 * obs[:, 1] - 0.1 * obs[:, 6], -1, 1)
+    else:
+        a[:, 0] = np.clip(-0.05 * obs[:, 2] - 0.8 * obs[:, 1] - 0.1 * obs[:, 6], -1, 1)
+        a[:, 1] = np.clip(0.4 * (19.4 - obs[:, 0]), -1, 1)
+    return a
+
+
+def measure(env: gym.vector.VectorEnv, seconds: float, lct: bool) -> tuple[float, float]:
+    width = env.single_action_space.shape[0]
+    obs, _ = env.reset(seed=0)
+    for _ in range(3):
+        obs, *_ = env.step(policy(obs, width, lct))
+    steps, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        obs, *_ = env.step(policy(obs, width, lct))
+        steps += 1
+    dt = time.perf_counter() - t0
+    return steps * env.num_envs / dt, 1000.0 * dt / steps
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--env", choices=sorted(IDS), default="lct")
+    p.add_argument("--sizes", type=int, nargs="+", default=[1, 16, 256, 1024, 4096, 16384])
+    p.add_argument("--seconds", type=float, default=8.0)
+    p.add_argument("--no-metrics", action="store_true", help="record_metrics=False (no traces, no episode_metrics)")
+    args = p.parse_args()
+    env_id, lct = IDS[args.env], args.env == "lct"
+    print(f"{env_id}, fast backend, 10 Hz policy / 60 Hz physics, record_metrics={not args.no_metrics}")
+    print(f"{'mode':<8} {'N':>7} {'env-steps/s':>14} {'ms/step':>10}")
+    sync = gym.make_vec(env_id, num_envs=min(args.sizes), vectorization_mode="sync")
+    rate, ms = measure(sync, min(args.seconds, 5.0), lct)
+    print(f"{'sync':<8} {sync.num_envs:>7} {rate:>14,.0f} {ms:>10.2f}", flush=True)
+    sync.close()
+    for n in args.sizes:
+        env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", record_metrics=not args.no_metrics)
+        rate, ms = measure(env, args.seconds, lct)
+        print(f"{'native':<8} {n:>7} {rate:>14,.0f} {ms:>10.2f}", flush=True)
+        env.close()
+
+
+if __name__ == "__main__":
+    main()
