@@ -191,7 +191,9 @@ def _powertrain(
     m = p.mass
     speed = np.abs(v_mps)
     i = (speed / ptm._TABLE_STEP + 0.5).astype(np.int64)
-    s.gear = np.where(s.gear > 0, p.gear_table[np.minimum(i, len(p.gear_table) - 1)], s.gear)
+    all_fwd = bool(np.all(s.gear > 0))
+    best = p.gear_table[np.minimum(i, len(p.gear_table) - 1)]
+    s.gear = best if all_fwd else np.where(s.gear > 0, best, s.gear)
     gear = s.gear
     fwd = gear > 0
     if not p.engine_on:
@@ -199,11 +201,11 @@ def _powertrain(
     over = speed * 3.6 - (p.max_speed * 3.6 - 1.0)
     capped = fwd & (over > 0.0)
     gas = np.where(s.fuel_left <= 0.0, 0.0, np.where(capped, gas * np.where(over >= 1.0, 0.0, 1.0 - over), gas))
-    ratio = np.where(fwd, p.ratios[np.maximum(gear, 1) - 1], np.where(gear < 0, p.reverse_ratio, 0.0))
+    ratio = p.ratios[gear - 1] if all_fwd else np.where(fwd, p.ratios[np.maximum(gear, 1) - 1], np.where(gear < 0, p.reverse_ratio, 0.0))
     gear_rpm_now = speed * 3.6 * ratio / ptm.WHEEL_CONSTANT
     if p.engine_on:
         clamp = np.where(gear_rpm_now > p.max_rpm, p.max_rpm, np.where(gear_rpm_now < p.min_rpm, p.min_rpm, gear_rpm_now))
-        target = np.where(gear == 0, gas * p.max_rpm, clamp)
+        target = clamp if all_fwd else np.where(gear == 0, gas * p.max_rpm, clamp)
     else:
         target = np.zeros_like(speed)
     max_change = ptm.RPM_RATE_LIMIT * dt
@@ -213,7 +215,8 @@ def _powertrain(
     dv = speed - np.abs(s.prev_v)
     s.prev_v = v_mps
     p_engine = _full_power(p, rpm) * gas if p.engine_on else np.zeros_like(rpm)
-    p_engine = np.where(gear != 0, p_engine, 0.0)
+    if not all_fwd:
+        p_engine = np.where(gear != 0, p_engine, 0.0)
     inner = _inner_friction(rpm) if p.engine_on else np.full_like(rpm, 10.9)
     p_load = (
         (
@@ -252,29 +255,46 @@ def _body(p: EgoParams, s: EgoArrays, dt: float, steer_rad: np.ndarray, drive: n
     u, v, r = s.u, s.v, s.r
     fx = np.where(drive > p.max_long, p.max_long, np.where(drive < -p.max_long, -p.max_long, drive))
     brake = np.where(brake_force < p.max_long, brake_force, p.max_long)
-    still = (u == 0.0) & (-brake <= fx) & (fx <= brake)
-    fx = np.where(u > 0.0, fx - brake, np.where(u < 0.0, fx + brake, np.where(still, 0.0, fx - np.copysign(brake, fx))))
-    au = np.abs(u)
-    w_dyn = np.where(
-        au < DYNAMIC_ABOVE, np.where(au <= KINEMATIC_BELOW, 0.0, (au - KINEMATIC_BELOW) / (DYNAMIC_ABOVE - KINEMATIC_BELOW)), 1.0
-    )
+    # the common case, every car moving forward faster than DYNAMIC_ABOVE, skips the branches
+    # that cannot apply (the same operations on the same values otherwise)
+    cruising = bool(np.all(u >= DYNAMIC_ABOVE))
+    if cruising:
+        fx = fx - brake
+        uu = u
+    else:
+        still = (u == 0.0) & (-brake <= fx) & (fx <= brake)
+        fx = np.where(u > 0.0, fx - brake, np.where(u < 0.0, fx + brake, np.where(still, 0.0, fx - np.copysign(brake, fx))))
+        au = np.abs(u)
+        w_dyn = np.where(
+            au < DYNAMIC_ABOVE, np.where(au <= KINEMATIC_BELOW, 0.0, (au - KINEMATIC_BELOW) / (DYNAMIC_ABOVE - KINEMATIC_BELOW)), 1.0
+        )
+        uu = np.where(au > 0.5, u, np.copysign(0.5, np.where(u != 0.0, u, 1.0)))
     u_new = u + fx / m * dt
     # dynamic bicycle model (computed for all rows, used where w_dyn > 0)
     cos_d = np.cos(steer_rad)
     sin_d = np.sin(steer_rad)
-    uu = np.where(au > 0.5, u, np.copysign(0.5, np.where(u != 0.0, u, 1.0)))
-    sign = np.where(uu > 0.0, 1.0, -1.0)
-    alpha_f = sign * (steer_rad - libm.arctan((v + lf * r) / uu))
-    alpha_r = -sign * libm.arctan((v - lr * r) / uu)
+    if cruising:  # sign = 1.0: 1.0 * a == a and -1.0 * a == -a exactly
+        alpha_f = steer_rad - libm.arctan((v + lf * r) / uu)
+        alpha_r = -libm.arctan((v - lr * r) / uu)
+    else:
+        sign = np.where(uu > 0.0, 1.0, -1.0)
+        alpha_f = sign * (steer_rad - libm.arctan((v + lf * r) / uu))
+        alpha_r = -sign * libm.arctan((v - lr * r) / uu)
     fyf = p.max_front * libm.tanh(p.c_front * alpha_f / p.max_front)
     fyr = p.max_rear * libm.tanh(p.c_rear * alpha_r / p.max_rear)
-    dyn = w_dyn > 0.0
     dv_dyn = (fyf * cos_d + fyr + 0.0) / m - u * r
     dr_dyn = (lf * fyf * cos_d - lr * fyr) / p.yaw_inertia
-    u_new = np.where(dyn, u_new + (-fyf * sin_d / m + v * r) * dt, u_new)
-    v_new = np.where(dyn, v + dv_dyn * dt, 0.0)
-    r_new = np.where(dyn, r + dr_dyn * dt, 0.0)
-    kin = np.flatnonzero(w_dyn < 1.0)
+    if cruising:
+        u_new = u_new + (-fyf * sin_d / m + v * r) * dt
+        v_new = v + dv_dyn * dt
+        r_new = r + dr_dyn * dt
+        kin = np.zeros(0, dtype=np.int64)
+    else:
+        dyn = w_dyn > 0.0
+        u_new = np.where(dyn, u_new + (-fyf * sin_d / m + v * r) * dt, u_new)
+        v_new = np.where(dyn, v + dv_dyn * dt, 0.0)
+        r_new = np.where(dyn, r + dr_dyn * dt, 0.0)
+        kin = np.flatnonzero(w_dyn < 1.0)
     if kin.size:  # kinematic bicycle model at walking pace (rare: compute on those rows only)
         sk, uk, wk = steer_rad[kin], u_new[kin], w_dyn[kin]
         tan_d = libm.tan(sk)
@@ -284,7 +304,10 @@ def _body(p: EgoParams, s: EgoArrays, dt: float, steer_rad: np.ndarray, drive: n
         v_new[kin] = wk * v_new[kin] + (1.0 - wk) * v_kin
         r_new[kin] = wk * r_new[kin] + (1.0 - wk) * r_kin
     held = np.abs(drive) <= brake
-    u_new = np.where((((u > 0.0) & (u_new < 0.0)) | ((u < 0.0) & (u_new > 0.0))) & held, 0.0, u_new)
+    if cruising:
+        u_new = np.where((u_new < 0.0) & held, 0.0, u_new)
+    else:
+        u_new = np.where((((u > 0.0) & (u_new < 0.0)) | ((u < 0.0) & (u_new > 0.0))) & held, 0.0, u_new)
     stop = (np.abs(u_new) < STOP_SPEED) & (np.abs(drive) <= brake + 1e-9)
     s.u = np.where(stop, 0.0, u_new)
     s.v = np.where(stop, 0.0, v_new)

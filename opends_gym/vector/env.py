@@ -22,6 +22,9 @@ per-step traces (and `episode_metrics`) to save memory at large N.
 
 from __future__ import annotations
 
+import itertools
+import os
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import gymnasium as gym
@@ -38,7 +41,9 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
 
     metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
-    def __init__(self, env_id: str, batch_cls: type[BatchCore], num_envs: int, record_metrics: bool = True, **kwargs: Any) -> None:
+    def __init__(
+        self, env_id: str, batch_cls: type[BatchCore], num_envs: int, record_metrics: bool = True, threads: int | None = None, **kwargs: Any
+    ) -> None:
         if num_envs < 1:
             raise ValueError(f"num_envs must be at least 1, not {num_envs}")
         if kwargs.get("physics", "fast") != "fast":
@@ -54,7 +59,14 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             raise ValueError(f"the native batch supports the kinematics observation, not {template.config.observation!r}")
         self.env_id = env_id
         self.num_envs = num_envs
-        self.core = batch_cls(template, num_envs, record_metrics)  # type: ignore[arg-type]
+        shards = _shard_count(num_envs, threads)
+        bounds = np.linspace(0, num_envs, shards + 1).astype(int)
+        self._slices = [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
+        templates = [template] + [gym.make(env_id, disable_env_checker=True, **kwargs).unwrapped for _ in range(shards - 1)]
+        self.cores = [batch_cls(t, sl.stop - sl.start, record_metrics) for t, sl in zip(templates, self._slices)]  # type: ignore[arg-type]
+        self.core = self.cores[0]
+        self._pool = ThreadPoolExecutor(max_workers=shards, thread_name_prefix="opends-native") if shards > 1 else None
+        self.record_metrics = record_metrics
         self.single_observation_space = template.observation_space
         self.single_action_space = template.action_space
         self.observation_space = batch_space(self.single_observation_space, num_envs)
@@ -80,62 +92,111 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
                 raise ValueError(f"reset(seed=list) needs {self.num_envs} seeds, got {len(seeds)}")
         if options is not None and "reset_mask" in options:
             raise ValueError("reset_mask belongs to the DISABLED autoreset mode; this env autoresets on the next step")
-        idx = np.arange(self.num_envs)
-        self.core.reset_rows(idx, seeds)
+        for core, sl in zip(self.cores, self._slices):
+            core.reset_rows(np.arange(core.n), seeds[sl])
         self._autoreset[:] = False
         self._started = True
-        return self._observe(), self._info_dict(self.core.info(), np.zeros(self.num_envs, dtype=bool))
+        obs = np.concatenate([_observe(c, self._k, self._obs_size) for c in self.cores])
+        values = _concat([c.info() for c in self.cores])
+        return obs, self._info_dict(values, np.zeros(self.num_envs, dtype=bool))
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
             raise RuntimeError("call reset() before step()")
-        core = self.core
-        resetting = self._autoreset.copy()
-        stepping = ~resetting
-        reward, terminated, truncated, values = core.step_rows(actions, stepping)
-        if resetting.any():
-            core.reset_rows(np.flatnonzero(resetting), None)
-            fresh = core.info()
-            values = {k: np.where(resetting, fresh[k], v) for k, v in values.items()}
+        a = np.asarray(actions)
+        if a.shape != self.action_space.shape:
+            raise ValueError(f"actions must have shape {self.action_space.shape}, got {a.shape}")
+        jobs = [(c, a[sl], self._autoreset[sl]) for c, sl in zip(self.cores, self._slices)]
+        if self._pool is None:
+            parts = [self._step_shard(*job) for job in jobs]
+        else:
+            parts = list(self._pool.map(lambda job: self._step_shard(*job), jobs))
+        for part, sl in zip(parts, self._slices):
+            err = part[-1]
+            if err is not None:  # name the env in the whole batch, not in its shard
+                raise type(err)(_renumber(str(err), sl.start)) from err
+        obs = np.concatenate([p[0] for p in parts])
+        reward = np.concatenate([p[1] for p in parts])
+        terminated = np.concatenate([p[2] for p in parts])
+        truncated = np.concatenate([p[3] for p in parts])
         ended = terminated | truncated
-        info = self._info_dict(values, ended)
+        info = self._info_dict(_concat([p[4] for p in parts]), ended)
         self._autoreset = ended
-        reward = np.where(stepping, reward, 0.0)
-        return self._observe(), reward, terminated, truncated, info
+        return obs, reward, terminated, truncated, info
+
+    def _step_shard(self, core: BatchCore, actions: np.ndarray, resetting: np.ndarray) -> tuple[Any, ...]:
+        """One shard's step, NEXT_STEP autoreset included (runs in a worker thread when sharded)."""
+        try:
+            stepping = ~resetting
+            reward, terminated, truncated, values = core.step_rows(actions, stepping)
+            if resetting.any():
+                core.reset_rows(np.flatnonzero(resetting), None)
+                fresh = core.info()
+                values = {k: np.where(resetting, fresh[k], v) for k, v in values.items()}
+            reward = np.where(stepping, reward, 0.0)
+            return _observe(core, self._k, self._obs_size), reward, terminated, truncated, values, None
+        except (ValueError, RuntimeError, FloatingPointError) as e:
+            return (None,) * 5 + (e,)
 
     def close_extras(self, **kwargs: Any) -> None:
-        self.core.template.close()
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+        for core in self.cores:
+            core.template.close()
 
     # ------------------------------------------------------------------ outputs
-    def _observe(self) -> np.ndarray:
-        """The kinematics observation of every env (float32, as the single env's)."""
-        c = self.core
-        s = c.s
-        out = np.zeros((self.num_envs, self._obs_size))
-        heading = c.guide.road_heading
-        out[:, 0] = s.u
-        out[:, 1] = (s.yaw - heading + np.pi) % (2.0 * np.pi) - np.pi
-        out[:, 2] = c.offset
-        out[:, 3] = c.lat
-        out[:, 4] = c.lane
-        out[:, 5] = s.steer_in
-        out[:, 6] = s.r
-        base = len(EGO_NAMES)
-        vehicles = c.vehicle_slots(self._k) if self._k else None
-        if vehicles is not None:
-            out[:, base : base + vehicles.shape[1]] = vehicles
-        stim = c._stimulus()
-        if stim.shape[1]:
-            out[:, base + self._k * len(VEHICLE_NAMES) :] = stim
-        return out.astype(np.float32)
-
     def _info_dict(self, values: dict[str, np.ndarray], ended: np.ndarray) -> dict[str, Any]:
         info: dict[str, Any] = {}
         full = np.ones(self.num_envs, dtype=bool)
         for k, v in values.items():
             info[k] = v
             info[f"_{k}"] = full
-        if ended.any() and self.core.record_metrics:
+        if ended.any() and self.record_metrics:
             for e in np.flatnonzero(ended).tolist():
-                info = self._add_info(info, {"episode_metrics": self.core.episode_metrics(e)}, e)
+                j = next(i for i, sl in enumerate(self._slices) if sl.start <= e < sl.stop)
+                info = self._add_info(info, {"episode_metrics": self.cores[j].episode_metrics(e - self._slices[j].start)}, e)
         return info
+
+
+def _shard_count(num_envs: int, threads: int | None) -> int:
+    """Shards stepped in parallel threads (numpy releases the GIL in its loops): by default one
+    per CPU (at most 4) once the shards are large enough for that to pay."""
+    if threads is None:
+        threads = min(4, os.cpu_count() or 1) if num_envs >= 2048 else 1
+    if threads < 1:
+        raise ValueError(f"threads must be at least 1, not {threads}")
+    return max(1, min(threads, num_envs))
+
+
+def _concat(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def _renumber(message: str, offset: int) -> str:
+    """'env 3: ...' of a shard starting at `offset` -> 'env 3+offset: ...'."""
+    if offset and message.startswith("env "):
+        head, _, rest = message[4:].partition(":")
+        if head.isdigit():
+            return f"env {int(head) + offset}:{rest}"
+    return message
+
+
+def _observe(c: BatchCore, k: int, size: int) -> np.ndarray:
+    """The kinematics observation of every env of a shard (float32, as the single env's)."""
+    s = c.s
+    out = np.zeros((c.n, size))
+    out[:, 0] = s.u
+    out[:, 1] = (s.yaw - c.guide.road_heading + np.pi) % (2.0 * np.pi) - np.pi
+    out[:, 2] = c.offset
+    out[:, 3] = c.lat
+    out[:, 4] = c.lane
+    out[:, 5] = s.steer_in
+    out[:, 6] = s.r
+    base = len(EGO_NAMES)
+    vehicles = c.vehicle_slots(k) if k else None
+    if vehicles is not None:
+        out[:, base : base + vehicles.shape[1]] = vehicles
+    stim = c._stimulus()
+    if stim.shape[1]:
+        out[:, base + k * len(VEHICLE_NAMES) :] = stim
+    return out.astype(np.float32)
