@@ -227,15 +227,21 @@ class BatchCore:
             ds = libm.py_hypot(s.x - self.prev_x, s.z - self.prev_z)
             rl["dist"] = np.where(rows, rl["dist"] + ds, rl["dist"])
             rl["area"] = np.where(rows, rl["area"] + 0.5 * (np.abs(self.offset) + np.abs(offset)) * ds, rl["area"])
-        add = rows & (np.abs(offset) < LANE_KEEPING_OFFSET_M)
+        every = bool(rows.all())
+        add = np.abs(offset) < LANE_KEEPING_OFFSET_M
+        if not every:
+            add &= rows
         n = rl["n"] + add
         d = offset - rl["mean"]
         mean = np.where(add, rl["mean"] + d / np.where(add, n, 1.0), rl["mean"])
         rl["m2"] = np.where(add, rl["m2"] + d * (offset - mean), rl["m2"])
         rl["n"], rl["mean"] = n, mean
-        self.lat = np.where(rows, lat, self.lat)
-        self.lane = np.where(rows, lane, self.lane)
-        self.offset = np.where(rows, offset, self.offset)
+        if every:
+            self.lat, self.lane, self.offset = lat, lane, offset
+        else:
+            self.lat = np.where(rows, lat, self.lat)
+            self.lane = np.where(rows, lane, self.lane)
+            self.offset = np.where(rows, offset, self.offset)
         if self.needs_distance:
             self.prev_x = np.where(rows, s.x, self.prev_x)
             self.prev_z = np.where(rows, s.z, self.prev_z)

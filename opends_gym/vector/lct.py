@@ -66,11 +66,16 @@ class LctBatch(BatchCore):
     def _on_physics_step(self, rows: np.ndarray, k: int, c: BatchControls) -> None:
         d = self.start_z - self.s.z
         dev = np.abs(self.lat - self._norm_at(d))
-        prev = rows & self.has_prev
         mid = 0.5 * (dev + self.prev_dev)
         dd = d - self.prev_d
-        self.area = np.where(prev, self.area + mid * dd, self.area)
-        self.step_reward = np.where(prev, self.step_reward + np.maximum(0.0, 1.0 - mid / self.scale) * dd, self.step_reward)
+        area = self.area + mid * dd
+        reward = self.step_reward + np.maximum(0.0, 1.0 - mid / self.scale) * dd
+        if rows.all() and self.has_prev.all():  # the common case: no masks needed
+            self.area, self.step_reward, self.prev_d, self.prev_dev = area, reward, d, dev
+            return
+        prev = rows & self.has_prev
+        self.area = np.where(prev, area, self.area)
+        self.step_reward = np.where(prev, reward, self.step_reward)
         self.prev_d = np.where(rows, d, self.prev_d)
         self.prev_dev = np.where(rows, dev, self.prev_dev)
         self.has_prev |= rows
