@@ -47,7 +47,8 @@ def main() -> int:
     every = max(1, min(args.every, args.steps))
     print(f"{args.env} ({args.physics}), {args.steps:,} steps, random actions with resets")
     print(f"{'steps':>10} {'episodes':>9} {'RSS MB':>8} {'growth MB':>10} {'steps/s':>9}")
-    first = None
+    first: float | None = None
+    rss = float("nan")
     episodes = 0
     t0 = time.perf_counter()
     for i in range(1, args.steps + 1):
@@ -62,7 +63,7 @@ def main() -> int:
             rate = i / (time.perf_counter() - t0)
             print(f"{i:>10,} {episodes:>9,} {rss:>8.1f} {rss - first:>10.1f} {rate:>9,.0f}", flush=True)
     env.close()
-    growth = rss - first
+    growth = rss - (first if first is not None else rss)
     flat = growth < args.tolerance_mb
     print(f"growth after the first {every:,} steps: {growth:.1f} MB -> {'flat' if flat else 'GROWING'} (tolerance {args.tolerance_mb} MB)")
     return 0 if flat else 1

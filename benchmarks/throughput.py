@@ -43,7 +43,8 @@ CORPUS = Path(os.environ.get("OPENDS_CORPUS", ROOT.parent / "shared" / "opends-t
 MOTORWAY = str(CORPUS / "opends-cts" / "MotorwayTask")
 RESULTS = ROOT / "benchmarks" / "results" / "throughput.md"
 SCALING_SIZES = (1, 2, 4, 8, 16, 32, 64, 128, 256)
-VECTOR_ENVS = 4  # envs per vector in the main table
+VECTOR_ENVS = 4  # envs per gymnasium vector in the main table
+NATIVE_ENVS = 4096  # envs in one native batch in the main table
 
 
 @dataclass(frozen=True)
@@ -196,26 +197,29 @@ def measure_vector(case: Case, backend: str | None, mode: str, n: int, seconds: 
     return Row(case.label, backend or "-", mode, n, steps, steps / case.policy_hz, mb, cpu if mode == "sync" else float("nan"))
 
 
-def native_batch_available() -> bool:
-    return importlib.util.find_spec("opends_gym.vector") is not None
+def native_batch_available(env_id: str = "OpenDS/LaneChangeTest-v0") -> bool:
+    """Whether `gymnasium.make_vec(env_id, vectorization_mode="vector_entry_point")` has a
+    native batch (issue 9 item 2, `opends_gym.vector`) for this id."""
+    if importlib.util.find_spec("opends_gym.vector") is None:
+        return False
+    spec = gym.registry.get(env_id)
+    return spec is not None and getattr(spec, "vector_entry_point", None) is not None
 
 
 def measure_native(case: Case, backend: str, n: int, seconds: float) -> Row | None:
-    """The natively batched env of `opends_gym.vector` (issue 9 item 2), when it exists."""
-    if not native_batch_available():
-        return None
-    import opends_gym.vector as vector
-
-    make = getattr(vector, "make_batch", None) or getattr(vector, "make_vec", None)
-    if make is None:
+    """The natively batched env of `opends_gym.vector`, where one exists for this id and backend."""
+    if case.kwargs or not native_batch_available(case.env_id):
         return None
 
     def build() -> list[Any]:
-        v = make(case.env_id, num_envs=n, physics=backend, **case.kwargs)
+        v = gym.make_vec(case.env_id, num_envs=n, vectorization_mode="vector_entry_point", physics=backend)
         v.reset(seed=0)
         return [v]
 
-    grown, (vec,) = grown_mb(build)
+    try:
+        grown, (vec,) = grown_mb(build)
+    except Exception as e:  # e.g. a backend the batch does not support
+        return Row(case.label, backend, "native", n, 0, 0, 0, 0, note=f"n/a ({type(e).__name__}: {str(e)[:60]})")
     try:
         mb = grown / n
         vec.action_space.seed(0)
@@ -304,8 +308,8 @@ def scaling(seconds: float, sizes: tuple[int, ...], async_max: int) -> list[str]
             else:
                 a = measure_vector(lct, "fast", "async", n, seconds)
                 cells += [fmt(a.steps_per_s), fmt(a.mb_per_env, 1)]
-        nat = measure_native(lct, "fast", n, seconds) if native_batch_available() else None
-        cells.append(fmt(nat.steps_per_s) if nat else "n/a (not built)")
+        nat = measure_native(lct, "fast", n, seconds)
+        cells.append((nat.note or fmt(nat.steps_per_s)) if nat else "n/a (not built)")
         out.append("| " + " | ".join(cells) + " |")
         print(out[-1], flush=True)
     return out
@@ -343,8 +347,9 @@ def main() -> None:
             for mode in ("sync", "async"):
                 rows.append(measure_vector(case, backend, mode, VECTOR_ENVS, seconds))
                 print(table(rows[-1:])[-1], flush=True)
-            nat = measure_native(case, backend, 256, seconds) if case.label.startswith("LaneChangeTest") else None
-            rows.append(nat or Row(case.label, backend, "native", 256, 0, 0, 0, 0, note="n/a (not built)"))
+            nat = measure_native(case, backend, NATIVE_ENVS, seconds)
+            missing = "n/a (not built)" if importlib.util.find_spec("opends_gym.vector") is None else "n/a (no native batch for this env)"
+            rows.append(nat or Row(case.label, backend, "native", NATIVE_ENVS, 0, 0, 0, 0, note=missing))
     main_table = table(rows)
     goal_table = goals(rows)
     print("\n".join(["", *goal_table, ""]), flush=True)
@@ -357,7 +362,7 @@ def main() -> None:
         f"{os.cpu_count()} cores, Python {platform.python_version()}, {time.strftime('%Y-%m-%d %H:%M')}; "
         f"{seconds:.1f} s per measurement, {elapsed / 60:.1f} min in all.",
         "Random actions with resets; vector rows use "
-        f"{VECTOR_ENVS} envs (native: 256); MB/env is RSS growth in this process (async: worker PSS).",
+        f"{VECTOR_ENVS} envs (native: {NATIVE_ENVS}); MB/env is RSS growth in this process (async: worker PSS).",
         "",
     ]
     scale_intro = ["", "## Scaling: LaneChangeTest-v0 (fast backend), env-steps per second", ""]

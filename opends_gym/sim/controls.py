@@ -47,17 +47,15 @@ class DriverControls:
         """A copy with pedal and steering values forced into their ranges (NaN -> 0)."""
         c = object.__new__(DriverControls)  # a plain field copy: this runs every physics step
         c.__dict__.update(self.__dict__)
-        c.steering = _clip(float(self.steering), -1.0, 1.0)
-        c.accelerator = _clip(float(self.accelerator), 0.0, 1.0)
-        c.brake = _clip(float(self.brake), 0.0, 1.0)
-        c.clutch = _clip(float(self.clutch), 0.0, 1.0)
+        v = float(self.steering)
+        c.steering = 0.0 if v != v else -1.0 if v < -1.0 else 1.0 if v > 1.0 else v  # (v != v: NaN)
+        v = float(self.accelerator)
+        c.accelerator = 0.0 if v != v else 0.0 if v < 0.0 else 1.0 if v > 1.0 else v
+        v = float(self.brake)
+        c.brake = 0.0 if v != v else 0.0 if v < 0.0 else 1.0 if v > 1.0 else v
+        v = float(self.clutch)
+        c.clutch = 0.0 if v != v else 0.0 if v < 0.0 else 1.0 if v > 1.0 else v
         return c
-
-
-def _clip(v: float, lo: float, hi: float) -> float:
-    if v != v:  # NaN
-        return 0.0
-    return lo if v < lo else hi if v > hi else v
 
 
 @dataclass

@@ -101,7 +101,25 @@ class EgoCar:
             pt.shift(1)
         gas, brake = c.accelerator, c.brake
         v = self.body.state.u
-        # cruise control and ACC
+        # cruise control and ACC (nothing to do while it is off and not asked for)
+        if self.cruise_active or c.cruise_control is not None or c.cruise_speed_delta_mps:
+            gas, brake = self._cruise(c, v, gas, brake)
+        # the engine block's minSpeed: OpenDS keeps the car at least this fast off the brake
+        if self.min_speed_mps > 0.0 and brake == 0.0 and st.gear > 0 and v < self.min_speed_mps:
+            gas = max(gas, min(1.0, CRUISE_GAIN * (self.min_speed_mps - v) + 0.3))
+        steer = c.steering
+        offset, left = self.crosswind
+        if left > 0.0:
+            steer = max(-1.0, min(1.0, steer + offset))
+            self.crosswind = (offset, left - dt_s)
+        self.inputs = CarInputs(steer, gas, brake, c.clutch, c.hand_brake, c.turn_signal or self.inputs.turn_signal, c.horn)
+        if not physics_on:
+            return
+        out = pt.step(dt_s, v, gas * (1.0 - c.clutch), brake, 0.0, c.hand_brake)
+        self.body.step(dt_s, steer * MAX_WHEEL_ANGLE_RAD, out.drive_force_n, out.brake_force_n)
+
+    def _cruise(self, c: DriverControls, v: float, gas: float, brake: float) -> tuple[float, float]:
+        """Cruise control and ACC: (gas, brake) after the controller."""
         cc = self.car.cruise_control
         if c.cruise_control is True:
             self.cruise_active, self.cruise_target_mps = True, max(v, 0.0)
@@ -123,19 +141,7 @@ class EgoCar:
             gas = max(gas, min(1.0, CRUISE_GAIN * err)) if err > 0 else gas
             if err < -1.0:
                 brake = max(brake, min(1.0, -CRUISE_GAIN * (err + 1.0) * 0.5))
-        # the engine block's minSpeed: OpenDS keeps the car at least this fast off the brake
-        if self.min_speed_mps > 0.0 and brake == 0.0 and st.gear > 0 and v < self.min_speed_mps:
-            gas = max(gas, min(1.0, CRUISE_GAIN * (self.min_speed_mps - v) + 0.3))
-        steer = c.steering
-        offset, left = self.crosswind
-        if left > 0.0:
-            steer = max(-1.0, min(1.0, steer + offset))
-            self.crosswind = (offset, left - dt_s)
-        self.inputs = CarInputs(steer, gas, brake, c.clutch, c.hand_brake, c.turn_signal or self.inputs.turn_signal, c.horn)
-        if not physics_on:
-            return
-        out = pt.step(dt_s, v, gas * (1.0 - c.clutch), brake, 0.0, c.hand_brake)
-        self.body.step(dt_s, steer * MAX_WHEEL_ANGLE_RAD, out.drive_force_n, out.brake_force_n)
+        return gas, brake
 
     # ------------------------------------------------------------------ state
     def get_state(self) -> dict[str, Any]:

@@ -43,6 +43,7 @@ from .traffic_motion import (
     bend_speed,
     carrot_angle,
     carrot_speed,
+    forward_safety_m,
     longitudinal,
     obstacles,
     steer_and_move,
@@ -114,6 +115,12 @@ class TrafficManager(TrafficControls):
         segs = self.network.segments if self.network is not None else []
         self._seg_prio = np.array([bool(s.give_way) for s in segs] or [False], dtype=bool)
         self._seg_nb = np.array([s.left >= 0 or s.right >= 0 for s in segs] or [False], dtype=bool)
+        # fixed facts the per-step code tests (so it skips what a task does not have)
+        self._any_seg_prio = self.network is not None and bool(self._seg_prio.any())
+        self._any_seg_nb = self.network is not None and bool(self._seg_nb.any())
+        self._walker = ~self.is_car
+        self._any_walker = bool(self._walker.any())
+        self._half_diag = np.hypot(self.half_extents[:, 0], self.half_extents[:, 1])
         self.st = MotionState.empty(n)
         self.light_queue: list[list[tuple[int, float, float]]] = [[] for _ in range(n)]
         self.t_s = 0.0
@@ -213,41 +220,57 @@ class TrafficManager(TrafficControls):
             return
         for i in np.flatnonzero(live & (st.wait_until <= t + 1e-9)):
             self._finish_wait(int(i))
-        moving = live & ~st.halted & np.isnan(st.wait_until) & ~st.ext
+        free = np.isnan(st.wait_until)  # not waiting at a waypoint
+        moving = live & ~st.halted & free & ~st.ext
         cx, cy, cz, cyaw = self.paths.sample(np.maximum(st.pid, 0), st.s)
-        ang, d = carrot_angle(st, cx, cz)
+        sin_yaw, cos_yaw = np.sin(st.yaw), np.cos(st.yaw)
+        ang, d = carrot_angle(st, cx, cz, sin_yaw, cos_yaw)
         cv = carrot_speed(st, sp, d, ang)
         st.s = np.where(moving, st.s + cv * dt_s, st.s)
         arrived = np.flatnonzero(moving & (st.s >= st.leg_end - 1e-9))
         for i in arrived:
             self._arrive(int(i))
-        if arrived.size:
+        if arrived.size:  # new legs, waits or placed objects
+            free = np.isnan(st.wait_until)
             cx, cy, cz, cyaw = self.paths.sample(np.maximum(st.pid, 0), st.s)
-            ang, d = carrot_angle(st, cx, cz)
-        walk = live & ~self.is_car
-        if walk.any():
-            st.pos[walk] = np.column_stack([cx, cy, cz])[walk]
-            st.yaw = np.where(walk, cyaw, st.yaw)
-            st.speed = np.where(walk, np.where(moving & ~st.halted & np.isnan(st.wait_until), cv, 0.0), st.speed)
+            sin_yaw, cos_yaw = np.sin(st.yaw), np.cos(st.yaw)
+            ang, d = carrot_angle(st, cx, cz, sin_yaw, cos_yaw)
+        if self._any_walker:
+            walk = live & self._walker
+            if walk.any():
+                st.pos[walk] = np.column_stack([cx, cy, cz])[walk]
+                st.yaw = np.where(walk, cyaw, st.yaw)
+                st.speed = np.where(walk, np.where(moving & ~st.halted & free, cv, 0.0), st.speed)
         cars = live & self.is_car
         if cars.any():
-            self._drive(cars, cy, ang, d, dt_s)
+            self._drive(cars, cy, ang, d, dt_s, free, sin_yaw, cos_yaw)
         if t >= self._next_stuck_s - 1e-9:
             self._next_stuck_s += 1.0
             self._check_stuck(live & self._stuck_reset)
         self._refresh_outputs()
 
-    def _drive(self, cars: np.ndarray, carrot_y: np.ndarray, ang: np.ndarray, d: np.ndarray, dt_s: float) -> None:
+    def _drive(
+        self,
+        cars: np.ndarray,
+        carrot_y: np.ndarray,
+        ang: np.ndarray,
+        d: np.ndarray,
+        dt_s: float,
+        free: np.ndarray,
+        sin_yaw: np.ndarray,
+        cos_yaw: np.ndarray,
+    ) -> None:
+        """Cars: speed wish, obstacles, lights, give-way, pedals, steering (`free`: not waiting)."""
         st, sp = self.st, self.sp
         ego = self.world.ego.state
-        vt = np.minimum(target_speed(st, sp, d, ego.u), bend_speed(ang, d))
-        st.blocked = obstacles(st, cars & ~st.ext, (ego.x, ego.z))
+        vt = np.minimum(target_speed(st, sp, d, ego.u, ~free), bend_speed(ang, d))
+        fsafe = forward_safety_m(st)
+        st.blocked = obstacles(st, cars & ~st.ext, (ego.x, ego.z), fsafe, sin_yaw, cos_yaw)
         block = st.blocked.copy()
-        fsafe = np.maximum(st.min_fwd, np.where(st.speed_dep, 1.8 * st.speed, 0.0))
         if self.lights is not None and np.any(st.light_idx >= 0):
             red = (st.light_idx >= 0) & self.lights.stop_mask[np.maximum(st.light_idx, 0)]
             block |= red & (np.hypot(st.light_xz[:, 0] - st.pos[:, 0], st.light_xz[:, 1] - st.pos[:, 2]) < fsafe)
-        if self.network is not None and self._seg_prio.any():
+        if self._any_seg_prio:
             on_net = cars & (self.kind == KIND_NET)
             rows = on_net & self._seg_prio[np.where(on_net, st.leg, 0)] & (st.leg_end - st.s < self._give_way_m)
             if rows.any():
@@ -262,7 +285,7 @@ class TrafficManager(TrafficControls):
             ahead = -(st.light_xz[:, 0] - st.pos[:, 0]) * np.sin(st.yaw) - (st.light_xz[:, 1] - st.pos[:, 2]) * np.cos(st.yaw)
             for i in np.flatnonzero(lit & (ahead < 0.0)):
                 self._pop_light(int(i))
-        if self.network is not None and self._seg_nb.any():
+        if self._any_seg_nb:
             on_net = cars & (self.kind == KIND_NET) & ~st.ext
             self._passing_lanes(on_net & self._seg_nb[np.where(on_net, st.leg, 0)])
 
@@ -308,7 +331,7 @@ class TrafficManager(TrafficControls):
         if not self.ids:
             return set()
         st = self.st
-        reach = math.hypot(box.hx, box.hz) + np.hypot(self.half_extents[:, 0], self.half_extents[:, 1])
+        reach = math.hypot(box.hx, box.hz) + self._half_diag
         near = st.enabled & (np.hypot(st.pos[:, 0] - box.cx, st.pos[:, 2] - box.cz) < reach)
         out = set()
         for j in np.flatnonzero(near):

@@ -24,7 +24,7 @@ The rules (OPENDS.md section 1b):
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -96,7 +96,8 @@ class MotionState:
 
 @dataclass(frozen=True)
 class Specs:
-    """Fixed per-object parameters (from the task), one row each."""
+    """Fixed per-object parameters (from the task), one row each; the `_`-fields are derived
+    once here so the per-step functions do not recompute them."""
 
     is_car: np.ndarray
     accel: np.ndarray
@@ -106,6 +107,22 @@ class Specs:
     max_dist: np.ndarray
     max_speed: np.ndarray
     never_faster: np.ndarray
+    _span_ok: np.ndarray = field(init=False, repr=False, compare=False)
+    _span_safe: np.ndarray = field(init=False, repr=False, compare=False)
+    _friction: np.ndarray = field(init=False, repr=False, compare=False)
+    _any_never_faster: bool = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        span = self.max_dist - self.min_dist
+        ok = span > 1e-6
+        derived = {
+            "_span_ok": ok,
+            "_span_safe": np.where(ok, span, 1.0),
+            "_friction": FRICTION_SHARE * self.dec_free,
+            "_any_never_faster": bool(np.any(self.never_faster)),
+        }
+        for name, value in derived.items():
+            object.__setattr__(self, name, value)  # (a frozen dataclass's derived fields)
 
 
 def carrot_speed(st: MotionState, sp: Specs, d: np.ndarray, ang: np.ndarray) -> np.ndarray:
@@ -114,18 +131,31 @@ def carrot_speed(st: MotionState, sp: Specs, d: np.ndarray, ang: np.ndarray) -> 
     A carrot beside or behind its car (the car overshot a hairpin) runs on at full speed:
     a waiting carrot there would have the car circle it forever.
     """
-    span = sp.max_dist - sp.min_dist
     dc = np.minimum(np.maximum(d, sp.min_dist), sp.max_dist)  # (np.clip is several times slower)
-    factor = np.where(span > 1e-6, 1.0 - (dc - sp.min_dist) / np.where(span > 1e-6, span, 1.0), (d < sp.max_dist).astype(float))
+    factor = np.where(sp._span_ok, 1.0 - (dc - sp.min_dist) / sp._span_safe, (d < sp.max_dist).astype(float))
     factor = np.where(np.abs(ang) >= 0.5 * np.pi, 1.0, factor)
     return np.where(sp.is_car, (np.maximum(st.v_leg, st.speed) + CARROT_LEAD_MPS) * factor, np.minimum(st.v_leg, sp.max_speed))
 
 
-def obstacles(st: MotionState, rows: np.ndarray, ego_xz: tuple[float, float]) -> np.ndarray:
+def forward_safety_m(st: MotionState) -> np.ndarray:
+    """OpenDS's forward safety distance: max(minForward, 0.5 x speed in km/h) (minForward alone
+    when the speed-dependent rule is off)."""
+    return np.maximum(st.min_fwd, np.where(st.speed_dep, 1.8 * st.speed, 0.0))
+
+
+def obstacles(
+    st: MotionState,
+    rows: np.ndarray,
+    ego_xz: tuple[float, float],
+    fsafe: np.ndarray | None = None,
+    sin_yaw: np.ndarray | None = None,
+    cos_yaw: np.ndarray | None = None,
+) -> np.ndarray:
     """Which objects (of `rows`) have an obstacle (traffic, the ego car) within their safety distance.
 
     Only pairs closer than the reach of the safety box are examined, so the cost grows with
     the number of close pairs; the N x (N+1) distance test is the only quadratic part.
+    `fsafe` (`forward_safety_m`) and np.sin/np.cos of `st.yaw` may be passed when known.
     """
     n = len(st.speed)
     out = np.zeros(n, dtype=bool)
@@ -135,7 +165,8 @@ def obstacles(st: MotionState, rows: np.ndarray, ego_xz: tuple[float, float]) ->
     ox, oz = np.empty(n + 1), np.empty(n + 1)  # every object, then the ego car
     ox[:n], oz[:n] = st.pos[:, 0], st.pos[:, 2]
     ox[n], oz[n] = ego_xz
-    fsafe = np.maximum(st.min_fwd, 0.5 * 3.6 * st.speed * st.speed_dep)
+    if fsafe is None:
+        fsafe = forward_safety_m(st)
     reach = fsafe[idx] + st.lat_safe[idx]
     rx, rz = ox - ox[idx, None], oz - oz[idx, None]
     near = rx * rx + rz * rz < (reach * reach)[:, None]
@@ -145,7 +176,10 @@ def obstacles(st: MotionState, rows: np.ndarray, ego_xz: tuple[float, float]) ->
     if a.size == 0:
         return out
     rxa, rza, i = rx[a, b], rz[a, b], idx[a]
-    fx, fz = -np.sin(st.yaw[i]), -np.cos(st.yaw[i])
+    if sin_yaw is None or cos_yaw is None:
+        fx, fz = -np.sin(st.yaw[i]), -np.cos(st.yaw[i])
+    else:
+        fx, fz = -sin_yaw[i], -cos_yaw[i]
     ux, uz = st.end_xz[i, 0] - ox[i], st.end_xz[i, 1] - oz[i]
     un = np.hypot(ux, uz)
     ok = un > 1e-6
@@ -168,43 +202,70 @@ def obstacles(st: MotionState, rows: np.ndarray, ego_xz: tuple[float, float]) ->
     return out
 
 
-def target_speed(st: MotionState, sp: Specs, d: np.ndarray, ego_speed: float) -> np.ndarray:
-    """The path's wish (leg speed, anticipation of a slower next leg, caps and overrides)."""
+def target_speed(st: MotionState, sp: Specs, d: np.ndarray, ego_speed: float, waiting: np.ndarray | None = None) -> np.ndarray:
+    """The path's wish (leg speed, anticipation of a slower next leg, caps and overrides).
+
+    `waiting` (optional) is `~np.isnan(st.wait_until)`, when the caller has it already.
+    """
     vt = np.minimum(st.v_leg, sp.max_speed)
     dist_end = np.maximum(0.0, st.leg_end - (st.s - d))  # from the car (about d behind its carrot)
-    v_allow = np.sqrt(st.v_next**2 + 2.0 * 0.5 * sp.dec_brake * dist_end)
+    v_allow = np.sqrt(st.v_next**2 + sp.dec_brake * dist_end)  # v^2 + 2 (0.5 decelerationBrake) dist
     vt = np.where(st.v_next < vt, np.minimum(vt, v_allow), vt)
-    vt = np.where(sp.never_faster, np.minimum(vt, max(0.0, ego_speed)), vt)
+    if sp._any_never_faster:
+        vt = np.where(sp.never_faster, np.minimum(vt, max(0.0, ego_speed)), vt)
     vt = np.where(np.isnan(st.ov_speed), vt, st.ov_speed)
-    return np.where(st.halted | ~np.isnan(st.wait_until), 0.0, vt)
+    if waiting is None:
+        waiting = ~np.isnan(st.wait_until)
+    return np.where(st.halted | waiting, 0.0, vt)
 
 
 def longitudinal(st: MotionState, sp: Specs, vt: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """(new speed, braking) from OpenDS's pedal rule, overrides and external control."""
+    """(new speed, braking) from OpenDS's pedal rule, overrides and external control.
+
+    The override and external-control terms are evaluated only when some object has one
+    (they leave every other row as it is).
+    """
     v = st.speed
     vk, tk = 3.6 * v, 3.6 * vt
     below = v < vt
     above = vk > tk + 1.0
     brake = np.minimum(np.maximum((vk - tk - 1.0) / 2.0, 0.0), 1.0)
-    friction = FRICTION_SHARE * sp.dec_free
+    friction = sp._friction
     gas = np.where(st.engine_on, np.minimum(sp.accel, (vt - v) / dt), -friction)
     a = np.where(below, gas, np.where(above, -brake * sp.dec_brake - friction, -sp.dec_free))
-    forced = np.isfinite(st.ov_decel) & (v > vt)
-    a = np.where(forced, -st.ov_decel, a)
-    acc_cmd, brake_cmd = st.ext_cmd[:, 1], st.ext_cmd[:, 2]
-    a_ext = np.where(st.engine_on, acc_cmd * sp.accel, 0.0) - brake_cmd * sp.dec_brake - friction
-    a = np.where(st.ext, a_ext, a)
+    decel_set = np.isfinite(st.ov_decel)
+    forced = decel_set & (v > vt) if decel_set.any() else None
+    if forced is not None:
+        a = np.where(forced, -st.ov_decel, a)
+    ext = st.ext if st.ext.any() else None
+    if ext is not None:
+        acc_cmd, brake_cmd = st.ext_cmd[:, 1], st.ext_cmd[:, 2]
+        a_ext = np.where(st.engine_on, acc_cmd * sp.accel, 0.0) - brake_cmd * sp.dec_brake - friction
+        a = np.where(ext, a_ext, a)
     v_new = np.maximum(0.0, v + a * dt)
-    v_new = np.where(forced & ~st.ext, np.maximum(v_new, vt), v_new)
-    braking = np.where(st.ext, brake_cmd > 0.0, (above & ~below) | forced)
+    if forced is not None:
+        v_new = np.where(forced & ~st.ext, np.maximum(v_new, vt), v_new)
+    braking = above & ~below
+    if forced is not None:
+        braking |= forced
+    if ext is not None:
+        braking = np.where(ext, st.ext_cmd[:, 2] > 0.0, braking)
     return v_new, braking
 
 
-def carrot_angle(st: MotionState, cx: np.ndarray, cz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(angle to the carrot, positive to the left; distance to it) for every object."""
+def carrot_angle(
+    st: MotionState, cx: np.ndarray, cz: np.ndarray, sin_yaw: np.ndarray | None = None, cos_yaw: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """(angle to the carrot, positive to the left; distance to it) for every object.
+
+    `sin_yaw`/`cos_yaw` (optional) are np.sin/np.cos of `st.yaw`, when the caller has them.
+    """
+    if sin_yaw is None or cos_yaw is None:
+        sin_yaw, cos_yaw = np.sin(st.yaw), np.cos(st.yaw)
     dx, dz = cx - st.pos[:, 0], cz - st.pos[:, 2]
-    ahead = -dx * np.sin(st.yaw) - dz * np.cos(st.yaw)
-    side = -dx * np.cos(st.yaw) + dz * np.sin(st.yaw)
+    ndx = -dx
+    ahead = ndx * sin_yaw - dz * cos_yaw
+    side = ndx * cos_yaw + dz * sin_yaw
     return np.arctan2(side, ahead), np.hypot(dx, dz)
 
 
@@ -217,20 +278,26 @@ def bend_speed(ang: np.ndarray, d: np.ndarray) -> np.ndarray:
     tightest one (d/2) when the carrot is beside or behind the car. Ordinary tracking, with
     small angles, is never slowed.
     """
-    s = np.where(np.abs(ang) < 0.5 * np.pi, np.abs(np.sin(ang)), 1.0)
+    abs_ang = np.abs(ang)
+    bend = abs_ang > BEND_MIN_ANGLE_RAD
+    if not bend.any():  # the usual step: every carrot close to straight ahead
+        return np.full(len(ang), np.inf)
+    s = np.where(abs_ang < 0.5 * np.pi, np.abs(np.sin(ang)), 1.0)
     radius = 0.5 * d / np.maximum(s, 1e-9)
     v = np.sqrt(BEND_ACCEL_MPS2 * np.maximum(radius, 0.5 * WHEELBASE_M))
-    return np.where(np.abs(ang) > BEND_MIN_ANGLE_RAD, v, np.inf)
+    return np.where(bend, v, np.inf)
 
 
 def steer_and_move(st: MotionState, rows: np.ndarray, ang: np.ndarray, v_new: np.ndarray, dt: float) -> None:
     """Steer toward the carrot (`ang` from `carrot_angle`) or as commanded; integrate the bicycle."""
     yaw = st.yaw
     steer = np.sign(ang) * np.minimum(1.0, 4.0 * np.abs(ang) / np.pi)
-    steer = np.where(st.ext, st.ext_cmd[:, 0], steer)  # (set_external_control keeps it in [-1, 1])
+    if st.ext.any():
+        steer = np.where(st.ext, st.ext_cmd[:, 0], steer)  # (set_external_control keeps it in [-1, 1])
     new_yaw = yaw + v_new / WHEELBASE_M * np.tan(steer * MAX_WHEEL_ANGLE_RAD) * dt
     new_yaw = (new_yaw + np.pi) % (2.0 * np.pi) - np.pi
     st.yaw = np.where(rows, new_yaw, yaw)
-    st.pos[:, 0] = np.where(rows, st.pos[:, 0] - v_new * np.sin(st.yaw) * dt, st.pos[:, 0])
-    st.pos[:, 2] = np.where(rows, st.pos[:, 2] - v_new * np.cos(st.yaw) * dt, st.pos[:, 2])
+    px, pz = st.pos[:, 0], st.pos[:, 2]
+    st.pos[:, 0] = np.where(rows, px - v_new * np.sin(st.yaw) * dt, px)
+    st.pos[:, 2] = np.where(rows, pz - v_new * np.cos(st.yaw) * dt, pz)
     st.speed = np.where(rows, v_new, st.speed)

@@ -146,21 +146,25 @@ class PathBank:
                 idx[idx < 0] = np.flatnonzero(ok)[0]
                 y[:] = y[idx]
         self._seg_len, self._seg_yaw = seg, yaw
+        # per-piece and per-path terms of `sample`, computed once per build
+        ok = seg > 1e-9
+        self._seg_ok, self._seg_len_safe = ok, np.where(ok, seg, 1.0)
+        self._dx, self._dy, self._dz = dx, (np.diff(self._y) if len(self._y) > 1 else np.zeros(0)), dz
+        self._last_piece = np.maximum(self._first, self._last - 1)
         self._dirty = False
 
     def sample(self, pid: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(x, y, z, yaw) at arc length s (clamped to the path) on each path id, vectorised."""
-        self._build()
+        if self._dirty:
+            self._build()
         pid = np.asarray(pid, dtype=np.int64)
         g = self._off[pid] + np.minimum(np.maximum(s, 0.0), self._length[pid])  # (np.clip is slower)
         k = np.searchsorted(self._s, g, side="right") - 1
-        first = self._first[pid]
-        k = np.minimum(np.maximum(k, first), np.maximum(first, self._last[pid] - 1))
-        L = self._seg_len[k]
-        f = np.where(L > 1e-9, (g - self._s[k]) / np.where(L > 1e-9, L, 1.0), 0.0)
-        x = self._x[k] + f * (self._x[k + 1] - self._x[k])
-        y = self._y[k] + f * (self._y[k + 1] - self._y[k])
-        z = self._z[k] + f * (self._z[k + 1] - self._z[k])
+        k = np.minimum(np.maximum(k, self._first[pid]), self._last_piece[pid])
+        f = np.where(self._seg_ok[k], (g - self._s[k]) / self._seg_len_safe[k], 0.0)
+        x = self._x[k] + f * self._dx[k]
+        y = self._y[k] + f * self._dy[k]
+        z = self._z[k] + f * self._dz[k]
         return x, y, z, self._seg_yaw[k]
 
     def point(self, pid: int, s: float) -> tuple[float, float, float, float]:
