@@ -12,6 +12,8 @@ computes them with the guide's formulas.
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from ..envs.trace import COL, Trace
@@ -25,6 +27,12 @@ class TraceRing:
     def __init__(self, n: int, columns: tuple[str, ...], max_steps: int) -> None:
         self.columns = columns
         self.size = int(max_steps) + 2
+        need = self.size * n * len(columns) * 8
+        if need > 0.6 * _physical_memory():
+            raise MemoryError(
+                f"the episode traces of {n} envs need {need / 2**30:.1f} GiB (for episode_metrics); "
+                "use fewer envs, a shorter max_episode_s, or record_metrics=False"
+            )
         self.ring = {c: np.zeros((self.size, n)) for c in columns}
         self.first = {c: np.zeros(n) for c in columns}  # the reset row of each env's episode
         self.g = 0  # rows written so far (the next row goes to g % size)
@@ -78,6 +86,13 @@ class TraceRing:
             tr._stored = k
             tr._last = tuple(float(v) for v in data[k - 1])
         return tr
+
+
+def _physical_memory() -> float:
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):  # not POSIX: no check
+        return float("inf")
 
 
 def lane_columns(guide: RoadGuide, x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
