@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -11,7 +11,7 @@ import numpy as np
 from ..metrics.reaction import brake_reaction_time
 from ..task import DrivingTask
 from .platoon import PlatoonConfig, ThreeVehiclePlatoonEnv
-from .platoon_task import brake_geometry, build_platoon_task
+from .platoon_task import BRAKE_STIMULI, build_platoon_task
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,8 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
     with_follower = False
 
     def _make_task(self) -> DrivingTask:
-        return build_platoon_task(brake_geometry(self.config.track_seed, self.config.stimuli), name="brakeReaction")  # type: ignore[attr-defined]
+        # the platoon geometry from this env's options, without a follower and with brake stimuli
+        return build_platoon_task(replace(self.geometry(), follower=False, kinds=BRAKE_STIMULI), name="brakeReaction")
 
     def _setup(self) -> None:
         super()._setup()
