@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from dataclasses import replace
 from typing import Any
 
 import gymnasium as gym
@@ -79,10 +80,14 @@ def test_heavy_distraction_is_measurably_worse_on_mdev_and_reaction_time() -> No
     assert heavy_rt["Brake_mean_rt_s"] > attentive_rt["Brake_mean_rt_s"] + 0.3
 
 
-def test_distraction_none_is_the_rule_driver() -> None:
-    a, _ = drive("OpenDS/LaneChangeTest-v0", make_agent("rule"), max_episode_s=40.0)
-    b, _ = drive("OpenDS/LaneChangeTest-v0", make_agent("distracted:none"), max_episode_s=40.0)
-    assert a == b
+def test_attentive_level_is_the_rule_driver_with_a_human_reaction_time() -> None:
+    rule, _ = drive("OpenDS/ReactionTest-v0", make_agent("rule"), max_episode_s=120.0)
+    attentive = make_agent("distracted:none")
+    human, _ = drive("OpenDS/ReactionTest-v0", attentive, max_episode_s=120.0)
+    assert attentive.off_road_s == 0.0  # type: ignore[attr-defined]  (no secondary task, no glances)
+    assert human["reactions_correct"] == rule["reactions_correct"] > 0
+    # the 0.35 s perception-reaction time, quantised to the 10 Hz policy steps
+    assert human["Brake_mean_rt_s"] - rule["Brake_mean_rt_s"] == pytest.approx(0.35, abs=0.1)
 
 
 def test_distracted_driver_is_deterministic_per_seed() -> None:
@@ -114,6 +119,7 @@ def test_glances_are_deferred_during_a_manoeuvre() -> None:
 def test_distraction_levels_and_interpolation() -> None:
     assert params_for("heavy") == LEVELS["heavy"]
     assert params_for("0") == LEVELS["none"]
+    assert params_for("1") == replace(LEVELS["heavy"], task_episode_s=params_for("1").task_episode_s, on_road_glance_s=1.0)
     half = params_for("0.5")
     assert half.duty_cycle == pytest.approx(0.5 * LEVELS["heavy"].duty_cycle)
     with pytest.raises(ValueError, match="unknown distraction level"):

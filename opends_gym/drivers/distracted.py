@@ -14,9 +14,12 @@ with four documented mechanisms, each a parameter:
   stimuli go unnoticed until the eyes return. Drivers defer a glance that would start in
   the middle of a manoeuvre (a lane change under way), as observed drivers do (Schömig &
   Metz 2013, "Three levels of situation awareness in driving with secondary tasks");
-* **added perception-reaction delay** `reaction_delay_s`: discrete stimuli (a sign's
+* **perception-reaction delay** `reaction_delay_s`: discrete stimuli (a sign's
   instruction, a brake stimulus, a light, a DRT stimulus) reach the driver this much later
-  than they appear; continuous lane keeping uses what the eyes see now;
+  than they appear; continuous lane keeping uses what the eyes see now. Even the `none`
+  level has a human's 0.35 s (simple reaction times to an expected stimulus, as in
+  detection response tasks, are about 0.3-0.4 s); the distracted levels add 0.2, 0.4 and
+  0.7 s. (The bare rule driver reacts at its next decision.)
 * **steering noise** `steering_noise_sd`: Gaussian noise (steering input units, 1 = 450
   degrees of wheel) added to every steering command.
 
@@ -68,11 +71,12 @@ class DistractionParams:
             raise ValueError("glance_sd_s, reaction_delay_s and steering_noise_sd must be >= 0")
 
 
+ATTENTIVE_REACTION_S = 0.35
 LEVELS: dict[str, DistractionParams] = {
-    "none": DistractionParams(),
-    "light": DistractionParams(duty_cycle=0.2, glance_mean_s=0.8, glance_sd_s=0.3, reaction_delay_s=0.2, steering_noise_sd=0.002),
-    "moderate": DistractionParams(duty_cycle=0.4, glance_mean_s=1.2, glance_sd_s=0.5, reaction_delay_s=0.4, steering_noise_sd=0.004),
-    "heavy": DistractionParams(duty_cycle=0.7, glance_mean_s=1.8, glance_sd_s=0.7, reaction_delay_s=0.7, steering_noise_sd=0.008),
+    "none": DistractionParams(reaction_delay_s=ATTENTIVE_REACTION_S),
+    "light": DistractionParams(duty_cycle=0.2, glance_mean_s=0.8, glance_sd_s=0.3, reaction_delay_s=0.55, steering_noise_sd=0.002),
+    "moderate": DistractionParams(duty_cycle=0.4, glance_mean_s=1.2, glance_sd_s=0.5, reaction_delay_s=0.75, steering_noise_sd=0.004),
+    "heavy": DistractionParams(duty_cycle=0.7, glance_mean_s=1.8, glance_sd_s=0.7, reaction_delay_s=1.05, steering_noise_sd=0.008),
 }
 LEVEL_ORDER = ("none", "light", "moderate", "heavy")
 
@@ -92,7 +96,7 @@ def params_for(level: str) -> DistractionParams:
         duty_cycle=x * hi.duty_cycle,
         glance_mean_s=lo.glance_mean_s + x * (hi.glance_mean_s - lo.glance_mean_s),
         glance_sd_s=lo.glance_sd_s + x * (hi.glance_sd_s - lo.glance_sd_s),
-        reaction_delay_s=x * hi.reaction_delay_s,
+        reaction_delay_s=lo.reaction_delay_s + x * (hi.reaction_delay_s - lo.reaction_delay_s),
         steering_noise_sd=x * hi.steering_noise_sd,
     )
 
