@@ -129,6 +129,7 @@ def timed_steps(step: Callable[[int], None], seconds: float, batch: int = 20) ->
     """Call step(i) until `seconds` of wall time passed; (calls per second, cpu share)."""
     for i in range(3):  # warm-up
         step(i)
+    gc.collect()  # (garbage of the previous measurement is not this one's cost)
     n, t0, c0 = 0, time.perf_counter(), time.process_time()
     while True:
         for _ in range(batch):
@@ -292,6 +293,7 @@ def scaling(seconds: float, sizes: tuple[int, ...], async_max: int) -> list[str]
         "|---:|---:|---:|---:|---:|---:|",
     ]
     async_note = ""
+    per_worker_mb = 150.0  # until measured: a worker process with its own interpreter and env
     for n in sizes:
         s = measure_vector(lct, "fast", "sync", n, seconds)
         cells = [str(n), fmt(s.steps_per_s), fmt(s.mb_per_env, 1)]
@@ -301,13 +303,14 @@ def scaling(seconds: float, sizes: tuple[int, ...], async_max: int) -> list[str]
             async_note = f"skipped from {n}: beyond --async-max {async_max} (time budget)"
             cells += [async_note, ""]
         else:
-            need = n * 120.0 * 1.5  # a worker process holds roughly 100-150 MB PSS
+            need = n * per_worker_mb * 1.5
             if need > 0.5 * available_mb():
                 async_note = f"skipped from {n}: ~{need / 1024:.1f} GB of workers > half the free memory"
                 cells += [async_note, ""]
             else:
                 a = measure_vector(lct, "fast", "async", n, seconds)
                 cells += [fmt(a.steps_per_s), fmt(a.mb_per_env, 1)]
+                per_worker_mb = a.mb_per_env if a.mb_per_env == a.mb_per_env else per_worker_mb
         nat = measure_native(lct, "fast", n, seconds)
         cells.append((nat.note or fmt(nat.steps_per_s)) if nat else "n/a (not built)")
         out.append("| " + " | ".join(cells) + " |")
@@ -328,6 +331,7 @@ def main() -> None:
     seconds = args.seconds or (0.6 if quick else 2.0)
     async_max = args.async_max or (4 if quick else 64)
     sizes = (1, 4, 16, 64) if quick else SCALING_SIZES
+    native_envs = 1024 if quick else NATIVE_ENVS
     t_start = time.perf_counter()
     rows: list[Row] = []
     import highway_env  # noqa: F401  (registers highway ids)
@@ -347,9 +351,17 @@ def main() -> None:
             for mode in ("sync", "async"):
                 rows.append(measure_vector(case, backend, mode, VECTOR_ENVS, seconds))
                 print(table(rows[-1:])[-1], flush=True)
-            nat = measure_native(case, backend, NATIVE_ENVS, seconds)
-            missing = "n/a (not built)" if importlib.util.find_spec("opends_gym.vector") is None else "n/a (no native batch for this env)"
-            rows.append(nat or Row(case.label, backend, "native", NATIVE_ENVS, 0, 0, 0, 0, note=missing))
+    # native batches last: thousands of envs in one process leave a large heap behind them
+    missing = "n/a (not built)" if importlib.util.find_spec("opends_gym.vector") is None else "n/a (no native batch for this env)"
+    for case in opends_cases():
+        for backend in ("fast", "bullet"):
+            if quick and backend == "bullet":
+                continue
+            nat = measure_native(case, backend, native_envs, seconds)
+            rows.append(nat or Row(case.label, backend, "native", native_envs, 0, 0, 0, 0, note=missing))
+            print(table(rows[-1:])[-1], flush=True)
+    order = [c.label for c in (*HIGHWAY, *opends_cases())]
+    rows.sort(key=lambda r: order.index(r.label))  # (a stable sort: the modes keep their order)
     main_table = table(rows)
     goal_table = goals(rows)
     print("\n".join(["", *goal_table, ""]), flush=True)
@@ -362,7 +374,7 @@ def main() -> None:
         f"{os.cpu_count()} cores, Python {platform.python_version()}, {time.strftime('%Y-%m-%d %H:%M')}; "
         f"{seconds:.1f} s per measurement, {elapsed / 60:.1f} min in all.",
         "Random actions with resets; vector rows use "
-        f"{VECTOR_ENVS} envs (native: {NATIVE_ENVS}); MB/env is RSS growth in this process (async: worker PSS).",
+        f"{VECTOR_ENVS} envs (native: {native_envs}); MB/env is RSS growth in this process (async: worker PSS).",
         "",
     ]
     scale_intro = ["", "## Scaling: LaneChangeTest-v0 (fast backend), env-steps per second", ""]
