@@ -80,6 +80,16 @@ def test_hand_brake_holds_the_car() -> None:
     assert w.ego.state.u < 0.5
 
 
+def test_cruise_control_holds_its_speed_and_the_brake_disengages_it() -> None:
+    w = world(road(cruise_control=CruiseControl(initial_speed_mps=70 / 3.6)))
+    w.run(20.0)
+    assert w.ego.state.u * 3.6 == pytest.approx(70.0, abs=1.5)
+    w.step(DriverControls(brake=0.3))
+    assert not w.ego.cruise_active
+    w.run(20.0)
+    assert w.ego.state.u * 3.6 < 66.0  # coasting: free-wheel drag only
+
+
 def test_min_speed_keeps_the_car_rolling_off_the_brake() -> None:
     w = world(road(engine=Engine(min_speed_mps=20 / 3.6)))
     w.run(15.0)

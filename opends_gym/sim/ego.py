@@ -17,6 +17,9 @@ from .powertrain import Powertrain
 from .vehicle import MAX_WHEEL_ANGLE_RAD, BodyState, VehicleBackend, VehicleSpec
 
 CRUISE_GAIN = 0.5  # throttle (or brake) per m/s of speed error
+CRUISE_KI = 0.3  # throttle per (m/s x s): the integral holds the set speed against drag
+CRUISE_INTEGRAL_BAND_MPS = 2.0  # integrate only this close to the set speed (no wind-up)
+CRUISE_INTEGRAL_MAX = 0.8
 
 
 @dataclass
@@ -46,6 +49,7 @@ class EgoCar:
         self.inputs = CarInputs()
         self.cruise_active = False
         self.cruise_target_mps = 0.0
+        self.cruise_integral = 0.0
         self.crosswind = (0.0, 0.0)  # (steering offset, seconds left)
         self.lead: tuple[float, float] | None = None  # (gap m, lead speed m/s) for ACC, set by the world
 
@@ -68,6 +72,7 @@ class EgoCar:
         self.inputs = CarInputs()
         self.cruise_active = speed > 0.0
         self.cruise_target_mps = speed
+        self.cruise_integral = 0.0
         self.crosswind = (0.0, 0.0)
 
     def teleport(self, pose: Pose) -> None:
@@ -103,7 +108,7 @@ class EgoCar:
         v = self.body.state.u
         # cruise control and ACC (nothing to do while it is off and not asked for)
         if self.cruise_active or c.cruise_control is not None or c.cruise_speed_delta_mps:
-            gas, brake = self._cruise(c, v, gas, brake)
+            gas, brake = self._cruise(c, v, gas, brake, dt_s)
         # the engine block's minSpeed: OpenDS keeps the car at least this fast off the brake
         if self.min_speed_mps > 0.0 and brake == 0.0 and st.gear > 0 and v < self.min_speed_mps:
             gas = max(gas, min(1.0, CRUISE_GAIN * (self.min_speed_mps - v) + 0.3))
@@ -118,11 +123,12 @@ class EgoCar:
         out = pt.step(dt_s, v, gas * (1.0 - c.clutch), brake, 0.0, c.hand_brake)
         self.body.step(dt_s, steer * MAX_WHEEL_ANGLE_RAD, out.drive_force_n, out.brake_force_n)
 
-    def _cruise(self, c: DriverControls, v: float, gas: float, brake: float) -> tuple[float, float]:
-        """Cruise control and ACC: (gas, brake) after the controller."""
+    def _cruise(self, c: DriverControls, v: float, gas: float, brake: float, dt_s: float) -> tuple[float, float]:
+        """Cruise control and ACC: (gas, brake) after a PI speed controller."""
         cc = self.car.cruise_control
         if c.cruise_control is True:
             self.cruise_active, self.cruise_target_mps = True, max(v, 0.0)
+            self.cruise_integral = 0.0
         elif c.cruise_control is False:
             self.cruise_active = False
         if c.cruise_speed_delta_mps:
@@ -138,7 +144,10 @@ class EgoCar:
                 elif gap < (cc.safety_distance_forward_m or 0.5 * v * 3.6):
                     target = min(target, lead_v)
             err = target - v
-            gas = max(gas, min(1.0, CRUISE_GAIN * err)) if err > 0 else gas
+            if -CRUISE_INTEGRAL_BAND_MPS < err < CRUISE_INTEGRAL_BAND_MPS:
+                self.cruise_integral = min(CRUISE_INTEGRAL_MAX, max(0.0, self.cruise_integral + CRUISE_KI * err * dt_s))
+            throttle = CRUISE_GAIN * err + self.cruise_integral
+            gas = max(gas, min(1.0, throttle)) if throttle > 0 else gas
             if err < -1.0:
                 brake = max(brake, min(1.0, -CRUISE_GAIN * (err + 1.0) * 0.5))
         return gas, brake
@@ -149,7 +158,7 @@ class EgoCar:
             "body": self.body.get_state(),
             "powertrain": _copy_powertrain_state(self.powertrain),
             "inputs": CarInputs(**self.inputs.__dict__),
-            "cruise": (self.cruise_active, self.cruise_target_mps),
+            "cruise": (self.cruise_active, self.cruise_target_mps, self.cruise_integral),
             "crosswind": self.crosswind,
         }
 
@@ -157,7 +166,7 @@ class EgoCar:
         self.body.set_state(state["body"])
         self.powertrain.state = _copy_powertrain_state_from(state["powertrain"])
         self.inputs = CarInputs(**state["inputs"].__dict__)
-        self.cruise_active, self.cruise_target_mps = state["cruise"]
+        self.cruise_active, self.cruise_target_mps, self.cruise_integral = state["cruise"]
         self.crosswind = state["crosswind"]
 
 

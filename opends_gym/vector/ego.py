@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..sim import powertrain as ptm
-from ..sim.ego import CRUISE_GAIN
+from ..sim.ego import CRUISE_GAIN, CRUISE_INTEGRAL_BAND_MPS, CRUISE_INTEGRAL_MAX, CRUISE_KI
 from ..sim.physics_fast import DYNAMIC_ABOVE, KINEMATIC_BELOW, STOP_SPEED
 from ..sim.vehicle import MAX_WHEEL_ANGLE_RAD
 from . import libm
@@ -123,6 +123,7 @@ class EgoArrays:
     brake_in: np.ndarray
     cruise_on: np.ndarray
     cruise_target: np.ndarray
+    cruise_int: np.ndarray  # the cruise controller's integral (EgoCar.cruise_integral)
 
     @staticmethod
     def zeros(n: int) -> EgoArrays:
@@ -148,7 +149,7 @@ def reset_rows(p: EgoParams, s: EgoArrays, idx: np.ndarray) -> None:
     s.gear[idx], s.rpm[idx], s.prev_v[idx] = p.initial_gear, p.initial_rpm, speed
     s.fuel_used[idx], s.fuel_left[idx] = 0.0, p.initial_fuel
     s.steer_in[idx] = s.gas_in[idx] = s.brake_in[idx] = 0.0
-    s.cruise_on[idx], s.cruise_target[idx] = speed > 0.0, speed
+    s.cruise_on[idx], s.cruise_target[idx], s.cruise_int[idx] = speed > 0.0, speed, 0.0
 
 
 def _inner_friction(rpm: np.ndarray) -> np.ndarray:
@@ -174,7 +175,10 @@ def step(p: EgoParams, s: EgoArrays, dt: float, steer: np.ndarray, gas: np.ndarr
         s.cruise_on &= ~(brake > 0.0)
     err = s.cruise_target - v0
     on = s.cruise_on
-    gas = np.where(on & (err > 0), np.maximum(gas, np.minimum(1.0, CRUISE_GAIN * err)), gas)
+    near = on & (err > -CRUISE_INTEGRAL_BAND_MPS) & (err < CRUISE_INTEGRAL_BAND_MPS)
+    s.cruise_int = np.where(near, np.minimum(CRUISE_INTEGRAL_MAX, np.maximum(0.0, s.cruise_int + CRUISE_KI * err * dt)), s.cruise_int)
+    throttle = CRUISE_GAIN * err + s.cruise_int
+    gas = np.where(on & (throttle > 0), np.maximum(gas, np.minimum(1.0, throttle)), gas)
     brake = np.where(on & (err < -1.0), np.maximum(brake, np.minimum(1.0, -CRUISE_GAIN * (err + 1.0) * 0.5)), brake)
     if p.min_speed > 0.0:
         low = (brake == 0.0) & (s.gear > 0) & (v0 < p.min_speed)
