@@ -18,6 +18,7 @@ import gymnasium as gym
 
 import opends_gym  # noqa: F401  (registers the ids)
 from opends_gym.drivers.agents import make_agent
+from opends_gym.drivers.episodes import run_episode
 from opends_gym.metrics.stats import mean_ci
 
 POLICIES = Path(__file__).resolve().parent / "policies"
@@ -40,15 +41,8 @@ def run(env_id: str, agent_spec: str, episodes: int, seed: int) -> dict[str, flo
     try:
         for k in range(episodes):
             agent = make_agent(agent_spec)
-            obs, info = env.reset(seed=seed + k)
-            agent.reset(env, seed + k)
-            ret = 0.0
-            while True:
-                obs, reward, terminated, truncated, info = env.step(agent.act(obs, info))
-                ret += float(reward)
-                if terminated or truncated:
-                    break
-            rows.append({"return": ret, **info["episode_metrics"]})
+            ep = run_episode(env, agent, seed + k)
+            rows.append({"return": ep.ret, **ep.metrics})
     finally:
         env.close()
     return {key: mean_ci(float(r[key]) for r in rows).mean for key in rows[0] if isinstance(rows[0][key], (int, float))}

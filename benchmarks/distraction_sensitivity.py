@@ -26,6 +26,7 @@ import numpy as np
 
 import opends_gym  # noqa: F401  (registers the ids)
 from opends_gym.drivers.distracted import LEVEL_ORDER, DistractedDriver
+from opends_gym.drivers.episodes import run_episode
 from opends_gym.envs.drt import DetectionResponseTask
 from opends_gym.metrics.stats import mean_ci
 
@@ -70,22 +71,12 @@ ENVS: dict[str, Callable[[], gym.Env[Any, Any]]] = {
 }
 
 
-def run_episode(env: gym.Env[Any, Any], level: str, seed: int) -> dict[str, float]:
-    driver = DistractedDriver(level)
-    obs, info = env.reset(seed=seed)
-    driver.reset(env, seed)
-    while True:
-        obs, _, terminated, truncated, info = env.step(driver.act(obs, info))
-        if terminated or truncated:
-            return dict(info["episode_metrics"])
-
-
 def collect(episodes: int, seed: int) -> dict[tuple[str, str], list[dict[str, float]]]:
     results: dict[tuple[str, str], list[dict[str, float]]] = {}
     for env_name, make in ENVS.items():
         env = make()
         for level in LEVEL_ORDER:
-            results[(env_name, level)] = [run_episode(env, level, seed + k) for k in range(episodes)]
+            results[(env_name, level)] = [run_episode(env, DistractedDriver(level), seed + k).metrics for k in range(episodes)]
             print(f"  {env_name:8s} {level:9s} done", file=sys.stderr)
         env.close()
     return results

@@ -11,7 +11,6 @@ import json
 import math
 import re
 import sys
-import time
 from typing import Any
 
 import gymnasium as gym
@@ -23,7 +22,9 @@ PER_ITEM = re.compile(r"^sign\d+_|\[")  # per-sign / per-track keys stay in the 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("target", nargs="?", default="OpenDS/LaneChangeTest-v0", help="env id or task (default: the lane change test)")
-    p.add_argument("--agent", default="rule", help="rule (default) | distracted[:LEVEL] | ppo:PATH | sac:PATH | random | constant[:STEER,PEDAL]")
+    p.add_argument(
+        "--agent", default="rule", help="rule (default) | distracted[:LEVEL] | ppo:PATH | sac:PATH | random | constant[:STEER,PEDAL]"
+    )
     p.add_argument("--episodes", type=int, default=1)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--physics", choices=("fast", "bullet"), default="fast")
@@ -58,6 +59,7 @@ def _parse_value(text: str) -> Any:
 
 def run_episodes(args: argparse.Namespace) -> dict[str, Any]:
     from ..drivers.agents import make_agent
+    from ..drivers.episodes import run_episode
 
     env_id, kwargs = resolve_env_id(args.target)
     kwargs["physics"] = args.physics
@@ -76,24 +78,16 @@ def run_episodes(args: argparse.Namespace) -> dict[str, Any]:
     try:
         for k in range(args.episodes):
             seed = args.seed + k
-            obs, info = env.reset(seed=seed)
-            agent.reset(env, seed)
-            steps, ret, start = 0, 0.0, time.perf_counter()
-            while True:
-                obs, reward, terminated, truncated, info = env.step(agent.act(obs, info))
-                ret += float(reward)
-                steps += 1
-                if terminated or truncated:
-                    break
+            ep = run_episode(env, agent, seed)
             row = {
                 "episode": k,
                 "seed": seed,
-                "return": ret,
-                "steps": steps,
-                "terminated": bool(terminated),
-                "wall_s": time.perf_counter() - start,
+                "return": ep.ret,
+                "steps": ep.steps,
+                "terminated": ep.terminated,
+                "wall_s": ep.wall_s,
             }
-            row.update(info.get("episode_metrics", {}))
+            row.update(ep.metrics)
             recorded = getattr(env, "paths", None)  # RecordDrive's files so far
             if recorded:
                 row["recording"] = str(recorded[-1])

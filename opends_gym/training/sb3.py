@@ -116,6 +116,7 @@ def write_curve(monitor_dir: Path, out_csv: Path, window: int = 10) -> list[tupl
 
 def evaluate_policy_file(cfg: TrainConfig, model_path: Path, episodes: int = 3, seed: int = 1000) -> dict[str, Any]:
     """Run the saved policy through the same driver interface as `opends-gym run`."""
+    from ..drivers.episodes import run_episode
     from ..drivers.policy import PolicyDriver
 
     driver = PolicyDriver(cfg.algorithm, model_path)
@@ -123,15 +124,8 @@ def evaluate_policy_file(cfg: TrainConfig, model_path: Path, episodes: int = 3, 
     per_episode = []
     try:
         for k in range(episodes):
-            obs, info = env.reset(seed=seed + k)
-            driver.reset(env, seed + k)
-            ret = 0.0
-            while True:
-                obs, reward, terminated, truncated, info = env.step(driver.act(obs, info))
-                ret += float(reward)
-                if terminated or truncated:
-                    break
-            per_episode.append({"return": ret, **info.get("episode_metrics", {})})
+            ep = run_episode(env, driver, seed + k)
+            per_episode.append({"return": ep.ret, **ep.metrics})
     finally:
         env.close()
     keys = [k for k, v in per_episode[0].items() if isinstance(v, (int, float))]

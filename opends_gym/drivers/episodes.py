@@ -1,0 +1,37 @@
+"""Run one episode of an env with a driver: the loop the CLI, training, benchmarks and
+evaluation scripts share, so every driver is scored the same way."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium as gym
+
+
+@dataclass
+class Episode:
+    """What one episode gave: its return, length, end and the env's `episode_metrics`."""
+
+    seed: int
+    ret: float
+    steps: int
+    terminated: bool
+    wall_s: float
+    metrics: dict[str, Any] = field(default_factory=dict)
+
+
+def run_episode(env: gym.Env[Any, Any], agent: Any, seed: int) -> Episode:
+    """Reset `env` and `agent` with `seed` and drive until the episode ends."""
+    start = time.perf_counter()
+    obs, info = env.reset(seed=seed)
+    agent.reset(env, seed)
+    ret, steps = 0.0, 0
+    while True:
+        obs, reward, terminated, truncated, info = env.step(agent.act(obs, info))
+        ret += float(reward)
+        steps += 1
+        if terminated or truncated:
+            break
+    return Episode(seed, ret, steps, bool(terminated), time.perf_counter() - start, dict(info.get("episode_metrics", {})))
