@@ -123,8 +123,8 @@ def evaluate_policy_file(cfg: TrainConfig, model_path: Path, episodes: int = 3, 
     env = make_env(cfg.env, dict(cfg.env_kwargs))
     per_episode = []
     try:
-        for k in range(episodes):
-            ep = run_episode(env, driver, seed + k)
+        for i in range(episodes):
+            ep = run_episode(env, driver, seed + i)
             per_episode.append({"return": ep.ret, **ep.metrics})
     finally:
         env.close()
