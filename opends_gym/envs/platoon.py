@@ -32,11 +32,12 @@ class PlatoonConfig(EnvConfig):
     follower_gap_m: float = 10.0
     track_seed: int = 1
     action: str = "continuous_buttons"
-    reward_progress_per_m: float = 0.01
-    reward_deviation_per_m: float = 0.02
+    reward_progress_per_m: float = 0.1
+    reward_deviation_per_m: float = 0.01
     reward_deviation_cap_m: float = 10.0
     off_road_margin_m: float = 1.5
-    off_road_penalty: float = 10.0
+    off_road_penalty: float = 50.0
+    collision_penalty: float = 50.0
 
 
 class ThreeVehiclePlatoonEnv(OpenDSEnv):
@@ -59,11 +60,13 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
     0 off, 1 left, 2 right, 3 both).
 
     ## Reward
-    `reward_progress_per_m` (0.01) per metre driven, minus `reward_deviation_per_m` (0.02)
+    `reward_progress_per_m` (0.1) per metre driven, minus `reward_deviation_per_m` (0.01)
     x the longitudinal + lateral deviation outside the bands (m, capped at
     `reward_deviation_cap_m` = 10 m) per step; +1 per correct reaction, -1 per miss,
-    -10 per collision, -`off_road_penalty` (10) for leaving the road. The progress term
-    keeps ending the episode early from paying.
+    -`collision_penalty` (50) per collision, -`off_road_penalty` (50) for leaving the
+    road. At the platoon's speed the progress term (+0.22 per step) outweighs the largest
+    deviation penalty (-0.1 per step), so driving on always pays more than crashing or
+    stopping.
 
     ## Episode end
     Terminated at the end of the track (the task pauses the simulation), on a collision,
@@ -150,7 +153,7 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
         for res in results[self._seen_results :]:
             r += 1.0 if res == 1 else -1.0
         self._seen_results = len(results)
-        return r - 10.0 * float(info["new_collisions"])
+        return r - cfg.collision_penalty * float(info["new_collisions"])  # type: ignore[attr-defined]
 
     def _episode_metrics(self) -> dict[str, float]:
         return self.platoon.metrics()

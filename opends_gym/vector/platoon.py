@@ -76,6 +76,7 @@ class PlatoonBatch(BatchCore):
         cfg: Any = template.config
         self.dev_cap, self.dev_per_m = cfg.reward_deviation_cap_m, cfg.reward_deviation_per_m
         self.progress_per_m, self.off_road_penalty = cfg.reward_progress_per_m, cfg.off_road_penalty
+        self.collision_penalty = cfg.collision_penalty
         self.off_road_limit = len(self.world.road.lanes) * cfg.lane_width_m / 2 + cfg.off_road_margin_m
         self.reward_acc = np.zeros(n)
         self.seen = np.zeros(n, dtype=np.int64)
@@ -294,7 +295,7 @@ class PlatoonBatch(BatchCore):
             r[e] = re
             self.seen[e] = len(results)
         self.dirty[:] = False
-        return r - 10.0 * info["new_collisions"].astype(np.float64)
+        return r - self.collision_penalty * info["new_collisions"].astype(np.float64)
 
     def _load_episode(self, e: int) -> None:
         assert self.ring is not None
