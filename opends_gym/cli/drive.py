@@ -9,11 +9,11 @@ settings.xml `controllers/keyboard` remaps them).
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from typing import Any
 
+from ..jsonsafe import dump_json
 from .run import _parse_value
 
 
@@ -131,8 +131,7 @@ def run(args: argparse.Namespace) -> int:
         result = session.run()
     out = summary(result)
     if args.json:
-        json.dump(out, sys.stdout, default=lambda o: None if isinstance(o, float) and math.isnan(o) else str(o))
-        sys.stdout.write("\n")
+        dump_json(out, sys.stdout)
         return 0
     print(f"{out['env_id']}: {out['end_reason']} after {out['sim_time_s']:.2f} s simulated in {out['wall_s']:.2f} s")
     if out["frames"]:

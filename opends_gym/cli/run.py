@@ -7,7 +7,6 @@ task (folder, entry file, bundled name), which runs in `OpenDS/DrivingTask-v0`.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import re
 import sys
@@ -15,6 +14,7 @@ from typing import Any
 
 import gymnasium as gym
 
+from ..jsonsafe import dump_json
 from ..metrics.stats import mean_ci
 
 PER_ITEM = re.compile(r"^sign\d+_|\[")  # per-sign / per-track keys stay in the JSON only
@@ -129,8 +129,7 @@ def print_tables(result: dict[str, Any]) -> None:
 def run(args: argparse.Namespace) -> int:
     result = run_episodes(args)
     if args.json:
-        json.dump(result, sys.stdout, default=lambda o: None if isinstance(o, float) and math.isnan(o) else str(o))
-        sys.stdout.write("\n")
+        dump_json(result, sys.stdout)
     else:
         print_tables(result)
         for e in result["episodes"]:

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
+from ..jsonsafe import dump_json
 from .run import _parse_value
 
 
@@ -45,9 +45,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"opends-gym train: {args.config}: {e}", file=sys.stderr)
             return 2
     else:
-        from ..training.sb3 import json_safe, train
+        from ..training.sb3 import train
 
-        metrics = json_safe(train(cfg, base, out))
-    json.dump({k: v for k, v in metrics.items() if k != "episodes"}, sys.stdout, indent=2)
-    sys.stdout.write("\n")
+        metrics = train(cfg, base, out)
+    dump_json({k: v for k, v in metrics.items() if k != "episodes"}, sys.stdout, indent=2)
     return 0

@@ -33,8 +33,8 @@ from typing import Any
 
 import gymnasium as gym
 
+from ..jsonsafe import json_safe
 from .config import TrainConfig
-from .sb3 import json_safe
 
 ENV_PREFIX = "opends_gym/"
 

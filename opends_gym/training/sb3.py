@@ -22,6 +22,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from ..jsonsafe import json_safe
 from .config import TrainConfig
 
 
@@ -134,14 +135,3 @@ def evaluate_policy_file(cfg: TrainConfig, model_path: Path, episodes: int = 3, 
         values = [float(e[k]) for e in per_episode]
         summary[k] = float(np.nanmean(values)) if any(math.isfinite(v) for v in values) else math.nan
     return {"env": cfg.env, "algorithm": cfg.algorithm, "total_steps": cfg.total_steps, "episodes": per_episode, "mean": summary}
-
-
-def json_safe(o: Any) -> Any:
-    """NaN and infinities become null (JSON has no such numbers)."""
-    if isinstance(o, float):
-        return o if math.isfinite(o) else None
-    if isinstance(o, dict):
-        return {str(k): json_safe(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [json_safe(v) for v in o]
-    return o
