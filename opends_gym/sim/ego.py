@@ -120,8 +120,8 @@ class EgoCar:
         self.inputs = CarInputs(steer, gas, brake, c.clutch, c.hand_brake, c.turn_signal or self.inputs.turn_signal, c.horn)
         if not physics_on:
             return
-        out = pt.step(dt_s, v, gas * (1.0 - c.clutch), brake, 0.0, c.hand_brake)
-        self.body.step(dt_s, steer * MAX_WHEEL_ANGLE_RAD, out.drive_force_n, out.brake_force_n)
+        drive, brake_force = pt.forces(dt_s, v, gas * (1.0 - c.clutch), brake, 0.0, c.hand_brake)
+        self.body.step(dt_s, steer * MAX_WHEEL_ANGLE_RAD, drive, brake_force)
 
     def _cruise(self, c: DriverControls, v: float, gas: float, brake: float, dt_s: float) -> tuple[float, float]:
         """Cruise control and ACC: (gas, brake) after a PI speed controller."""

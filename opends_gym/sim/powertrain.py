@@ -9,20 +9,20 @@ body. The gear "power share" OpenDS read from fitted per-gear polynomials is com
 the same bmep engine curve (the fitted coefficients are not public) and picks the gear.
 Both are documented deviations; fuel follows OpenDS's formula exactly.
 
-Pure Python floats: this runs every physics step of every env, where numpy scalars cost
-more than they save.
+The per-step maths is a compiled kernel (`ego_kernels.powertrain_step`), shared with the
+native batch; the Python functions here are the formulas, for tests and tables.
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
 from ..task.model_car import Car
+from . import ego_kernels as ek
 
 G = 9.81
 BMEP_COEFFS = (-19950.8, 3479.90, -231.809, 8.25775, -0.169919, 0.00202259, -1.2921e-5, 3.42208e-8)  # kPa, n in 1/s
@@ -118,26 +118,87 @@ def fuel_grams(p_engine_kw: float, dt_s: float, rpm: float) -> float:
     return p_engine_kw * dt_s / FUEL_LHV_KJ_PER_G * fuel_rpm_factor(rpm)
 
 
-@dataclass
-class PowertrainState:
-    gear: int = 1  # -1 reverse, 0 neutral, 1..n forward
-    automatic: bool = True
-    engine_on: bool = True
-    rpm: float = 0.0
-    prev_v_mps: float = 0.0
-    fuel_used_l: float = 0.0
-    fuel_left_l: float = 60.0
-    p_engine_kw: float = 0.0
-    p_load_kw: float = 0.0
+_STATE_FIELDS = {
+    "gear": (ek.S_GEAR, int),  # -1 reverse, 0 neutral, 1..n forward
+    "automatic": (ek.S_AUTOMATIC, bool),
+    "engine_on": (ek.S_ENGINE_ON, bool),
+    "rpm": (ek.S_RPM, float),
+    "prev_v_mps": (ek.S_PREV_V, float),
+    "fuel_used_l": (ek.S_FUEL_USED, float),
+    "fuel_left_l": (ek.S_FUEL_LEFT, float),
+    "p_engine_kw": (ek.S_P_ENGINE, float),
+    "p_load_kw": (ek.S_P_LOAD, float),
     # consumption display (OpenDS: 2 s window, refreshed every 500 ms)
-    window: deque[tuple[float, float, float]] = field(default_factory=deque)  # (t, litres, metres)
-    window_l: float = 0.0
-    window_m: float = 0.0
-    since_update_s: float = 0.0
-    l_per_100km: float = 0.0
-    l_per_h: float = 0.0
-    t_s: float = 0.0
-    odometer_m: float = 0.0
+    "window_l": (ek.S_WINDOW_L, float),
+    "window_m": (ek.S_WINDOW_M, float),
+    "since_update_s": (ek.S_SINCE_UPDATE, float),
+    "l_per_100km": (ek.S_L_PER_100KM, float),
+    "l_per_h": (ek.S_L_PER_H, float),
+    "t_s": (ek.S_T, float),
+    "odometer_m": (ek.S_ODOMETER, float),
+}
+_RING_ROWS = 256  # the display window's rows (t, litres, metres); grown when a small dt needs more
+
+
+class PowertrainState:
+    """The powertrain's changing state. The values live in one float array (`values`, slots
+    `ego_kernels.S_*`) that the compiled step updates in place; the attributes read and write
+    it. `ring` holds the consumption display's 2 s window."""
+
+    gear: int
+    automatic: bool
+    engine_on: bool
+    rpm: float
+    prev_v_mps: float
+    fuel_used_l: float
+    fuel_left_l: float
+    p_engine_kw: float
+    p_load_kw: float
+    window_l: float
+    window_m: float
+    since_update_s: float
+    l_per_100km: float
+    l_per_h: float
+    t_s: float
+    odometer_m: float
+
+    def __init__(self, **values: float) -> None:
+        self.values = np.zeros(ek.N_STATE)
+        self.ring = np.zeros((_RING_ROWS, 3))
+        defaults = {"gear": 1, "automatic": True, "engine_on": True, "fuel_left_l": 60.0}
+        for name, value in (defaults | values).items():
+            if name not in _STATE_FIELDS:
+                raise TypeError(f"PowertrainState has no field {name!r}")
+            setattr(self, name, value)
+
+    def ensure_ring_room(self) -> None:
+        """Keep a free row in the display window (the window holds 2 s of steps)."""
+        count = int(self.values[ek.S_RING_COUNT])
+        if count + 1 < len(self.ring):
+            return
+        head = int(self.values[ek.S_RING_HEAD])
+        order = (head + np.arange(count)) % len(self.ring)
+        ring = np.zeros((2 * len(self.ring), 3))
+        ring[:count] = self.ring[order]
+        self.ring = ring
+        self.values[ek.S_RING_HEAD] = 0.0
+
+    def __repr__(self) -> str:
+        return "PowertrainState(" + ", ".join(f"{k}={getattr(self, k)!r}" for k in _STATE_FIELDS) + ")"
+
+
+def _state_property(slot: int, kind: type) -> property:
+    def get(self: PowertrainState) -> object:
+        return kind(self.values[slot])
+
+    def put(self: PowertrainState, value: float) -> None:
+        self.values[slot] = float(value)
+
+    return property(get, put)
+
+
+for _name, (_slot, _kind) in _STATE_FIELDS.items():
+    setattr(PowertrainState, _name, _state_property(_slot, _kind))
 
 
 class PowertrainOutput(NamedTuple):
@@ -169,6 +230,21 @@ class Powertrain:
         self._max_rpm, self._min_rpm = self.engine.max_rpm, self.engine.min_rpm
         self._accel_mps2 = self.engine.acceleration_mps2
         self._dec_brake, self._dec_free = self.brake.deceleration_brake_mps2, self.brake.deceleration_free_wheel_mps2
+        params = np.zeros(8)
+        params[ek.P_MASS], params[ek.P_MAX_RPM], params[ek.P_MIN_RPM], params[ek.P_ACCEL] = (
+            mass_kg,
+            self._max_rpm,
+            self._min_rpm,
+            self._accel_mps2,
+        )
+        params[ek.P_DEC_BRAKE], params[ek.P_DEC_FREE] = self._dec_brake, self._dec_free
+        params[ek.P_CAP_FROM_KMH], params[ek.P_REVERSE_RATIO] = self._cap_from_kmh, self.reverse_ratio
+        self._kernel_args = (
+            params,
+            np.asarray(self.ratios, dtype=np.float64),
+            np.asarray(self._power_table, dtype=np.float64),
+            np.asarray(self._best_gear_table, dtype=np.int64),
+        )
 
     # ------------------------------------------------------------------ gears
     def power_share(self, gear: int, v_mps: float) -> float:
@@ -212,107 +288,20 @@ class Powertrain:
         f = x / _RPM_TABLE_STEP - i
         return table[i] + (table[i + 1] - table[i]) * f
 
+    def forces(
+        self, dt_s: float, v_mps: float, gas: float, brake: float, slope_rad: float = 0.0, hand_brake: bool = False
+    ) -> tuple[float, float]:
+        """Advance one physics step at forward speed v (negative when rolling backwards);
+        (drive force N, brake force N). The maths is `ego_kernels.powertrain_step`."""
+        st = self.state
+        if st.values[ek.S_RING_COUNT] + 2.0 > len(st.ring):
+            st.ensure_ring_room()
+        k = self._kernel_args
+        return ek.powertrain_step(k[0], k[1], k[2], k[3], st.values, st.ring, dt_s, v_mps, gas, brake, slope_rad, hand_brake)
+
     def step(
         self, dt_s: float, v_mps: float, gas: float, brake: float, slope_rad: float = 0.0, hand_brake: bool = False
     ) -> PowertrainOutput:
-        """Advance one physics step at forward speed v (negative when rolling backwards)."""
-        st = self.state
-        st.t_s += dt_s
-        speed = -v_mps if v_mps < 0.0 else v_mps
-        if st.automatic and st.gear > 0:
-            st.gear = self.best_gear(speed)
-        gear = st.gear
-        engine_on = st.engine_on
-        max_rpm = self._max_rpm
-        if not engine_on or st.fuel_left_l <= 0.0:
-            gas = 0.0
-        elif gear > 0:
-            # OpenDS's speed cap: power scaled by (maxSpeed - v) in the last km/h, 0 above
-            over = speed * 3.6 - self._cap_from_kmh
-            if over > 0.0:
-                gas *= 0.0 if over >= 1.0 else 1.0 - over
-        ratio = self.reverse_ratio if gear < 0 else self.ratios[gear - 1] if gear > 0 else 0.0
-        gear_rpm_now = speed * 3.6 * ratio / WHEEL_CONSTANT
-        if not engine_on:
-            target_rpm = 0.0
-        elif gear == 0:
-            target_rpm = gas * max_rpm
-        else:
-            target_rpm = max_rpm if gear_rpm_now > max_rpm else self._min_rpm if gear_rpm_now < self._min_rpm else gear_rpm_now
-        max_change = RPM_RATE_LIMIT * dt_s
-        d_rpm = target_rpm - st.rpm
-        st.rpm += max_change if d_rpm > max_change else -max_change if d_rpm < -max_change else d_rpm
-        rpm = st.rpm
-        # power balance (kW), OpenDS's terms
-        prev = -st.prev_v_mps if st.prev_v_mps < 0.0 else st.prev_v_mps
-        dv = speed - prev
-        st.prev_v_mps = v_mps
-        p_engine = self._full_power_kw(rpm) * gas if engine_on and gear != 0 else 0.0
-        m = self.mass_kg
-        sin_slope = math.sin(-slope_rad if gear < 0 else slope_rad) if slope_rad else 0.0
-        inner_kw = inner_friction_kw(rpm)
-        p_load = (
-            (
-                ROLLING_COEFF * m * G * speed
-                + _AIR_K * speed * speed * speed
-                + 0.5 * INERTIA_MASS_FACTOR * m * dv * (dv if dv > 0 else -dv) / dt_s
-                + m * G * speed * sin_slope
-            )
-            / 1000.0
-            + ACCESSORIES_KW
-            + (inner_kw if engine_on else 10.9)
-        )
-        st.p_engine_kw = p_engine
-        st.p_load_kw = p_load
-        # drive force: OpenDS's P_accel = P_engine - P_load, with the road loads (tyre, air,
-        # grade) applied as forces on the body below and the inertia term being the
-        # acceleration itself; what remains to subtract are accessories and engine friction
-        drive = 0.0
-        if gas > 0.0 and gear != 0 and engine_on and gear_rpm_now <= max_rpm:
-            p_wheel_kw = p_engine - ACCESSORIES_KW - inner_kw
-            if p_wheel_kw > 0.0:
-                v = speed if speed > MIN_DRIVE_SPEED else MIN_DRIVE_SPEED
-                cap = m * self._accel_mps2 * gas
-                drive = 1000.0 * p_wheel_kw / v
-                if drive > cap:
-                    drive = cap
-                if gear < 0:
-                    drive = -drive
-        # brakes: pedal, hand brake, and the engine/free-wheel drag when off the gas
-        brake_force = brake * m * self._dec_brake
-        if hand_brake:
-            brake_force = max(brake_force, m * self._dec_brake * 0.6)
-        if gas > 0.0:
-            # rolling and air resistance; off the gas OpenDS's free-wheel drag stands for them
-            brake_force += ROLLING_COEFF * m * G + _AIR_K * speed * speed
-        else:
-            surplus_kw = p_load - p_engine
-            coeff = (surplus_kw - 10.0) / 50.0
-            coeff = 0.2 if coeff < 0.2 else 1.0 if coeff > 1.0 else coeff
-            brake_force += m * self._dec_free * coeff
-        self._fuel(dt_s, p_engine, rpm, speed)
-        return PowertrainOutput(drive, brake_force, rpm, gear)
-
-    def _fuel(self, dt_s: float, p_engine_kw: float, rpm: float, v_mps: float) -> None:
-        st = self.state
-        litres = fuel_grams(p_engine_kw, dt_s, rpm) / FUEL_DENSITY_G_PER_L if p_engine_kw > 0.0 else 0.0
-        if litres == 0.0 and st.engine_on and rpm <= self.engine.min_rpm + 1e-6:
-            litres = IDLE_FUEL_L_PER_S * dt_s
-        st.fuel_used_l += litres
-        st.fuel_left_l = max(0.0, st.fuel_left_l - litres)
-        dist = v_mps * dt_s
-        st.odometer_m += dist
-        win = st.window
-        win.append((st.t_s, litres, dist))
-        st.window_l += litres
-        st.window_m += dist
-        while win and st.t_s - win[0][0] >= CONSUMPTION_WINDOW_S - 1e-9:
-            _, old_l, old_m = win.popleft()
-            st.window_l -= old_l
-            st.window_m -= old_m
-        st.since_update_s += dt_s
-        if st.since_update_s >= CONSUMPTION_UPDATE_S - 1e-9:
-            st.since_update_s = 0.0
-            span = min(CONSUMPTION_WINDOW_S, st.t_s)
-            st.l_per_h = st.window_l / span * 3600.0 if span > 0 else 0.0
-            st.l_per_100km = st.window_l / st.window_m * 100_000.0 if st.window_m > 1e-3 else 0.0
+        """`forces` with the step's rpm and gear."""
+        drive, brake_force = self.forces(dt_s, v_mps, gas, brake, slope_rad, hand_brake)
+        return PowertrainOutput(drive, brake_force, self.state.rpm, self.state.gear)

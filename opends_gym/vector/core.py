@@ -184,16 +184,9 @@ class BatchCore:
         return reward, terminated & rows, truncated & rows, info
 
     def _physics_step(self, live: np.ndarray, c: BatchControls) -> None:
-        all_live = bool(live.all())
-        idx = None if all_live else np.flatnonzero(live)
         self.step_count += live
         self.t = self.step_count * self.dt
-        if idx is None:
-            ego.step(self.p, self.s, self.dt, c.steer, c.gas, c.brake)
-        else:
-            part = self.s.take(idx)
-            ego.step(self.p, part, self.dt, c.steer[idx], c.gas[idx], c.brake[idx])
-            self.s.put(idx, part)
+        ego.step(self.p, self.s, self.dt, c.steer, c.gas, c.brake, live)
         self._traffic_step(live)
         s = self.s
         cx = s.x - self.car_shift * np.sin(s.yaw)

@@ -1,10 +1,10 @@
 """The ego cars of a native batch: controls -> cruise/minSpeed -> powertrain -> single-track body.
 
 Why: this is `sim.ego.EgoCar.step` + `sim.powertrain.Powertrain.step` +
-`sim.physics_fast.FastVehicle.step` for N cars at once, one numpy array per state
-variable. Every expression keeps the single env's operand order, so the results are the
-same floats (see `libm` for the transcendental functions); branches become masks. Only
-what the three batched tasks use is modelled: automatic gearbox, cruise control without
+`sim.physics_fast.FastVehicle.step` for N cars, one numpy array per state variable. A
+compiled loop over the cars calls the single env's own kernels (`sim.ego_kernels`), so the
+results are the same floats by construction; the cruise control keeps `EgoCar`'s
+expressions. Only what the three batched tasks use is modelled: automatic gearbox, cruise control without
 ACC, the engine's minSpeed, no crosswind, clutch, hand brake, slope or manual shifting
 (`EgoParams.from_world` refuses a car that needs more).
 """
@@ -16,17 +16,18 @@ from typing import Any
 
 import numpy as np
 
-from ..sim import powertrain as ptm
 from ..sim.ego import CRUISE_GAIN, CRUISE_INTEGRAL_BAND_MPS, CRUISE_INTEGRAL_MAX, CRUISE_KI
-from ..sim.physics_fast import DYNAMIC_ABOVE, KINEMATIC_BELOW, STOP_SPEED
+from ..sim.ego_kernels import body_step, powertrain_core
+from ..sim.jit import kernel
 from ..sim.vehicle import MAX_WHEEL_ANGLE_RAD
-from . import libm
 
 
 @dataclass(frozen=True)
 class EgoParams:
     """Constants of the car, read from a single env's World so they are the same floats."""
 
+    body: np.ndarray  # the single env's `FastVehicle` and `Powertrain` kernel parameters
+    pt: np.ndarray
     mass: float
     lf: float
     lr: float
@@ -71,6 +72,8 @@ class EgoParams:
         spec = body.spec
         pose = world.start_pose
         return EgoParams(
+            body=body._params,
+            pt=pt._kernel_args[0],
             mass=spec.mass_kg,
             lf=spec.cog_to_front_m,
             lr=spec.wheelbase_m - spec.cog_to_front_m,
@@ -90,10 +93,10 @@ class EgoParams:
             decel_free=pt.brake.deceleration_free_wheel_mps2,
             engine_on=bool(ego._initial_powertrain.engine_on),
             suppress_cruise_off=bool(car.cruise_control.suppress_deactivation_by_brake),
-            ratios=np.asarray(pt.ratios, dtype=np.float64),
+            ratios=pt._kernel_args[1],
             reverse_ratio=float(pt.reverse_ratio),
-            power_table=np.asarray(pt._power_table, dtype=np.float64),
-            gear_table=np.asarray(pt._best_gear_table, dtype=np.int64),
+            power_table=pt._kernel_args[2],
+            gear_table=pt._kernel_args[3],
             reset_pose=(float(pose.position_m[0]), float(pose.position_m[1]), float(pose.position_m[2]), float(pose.yaw_rad)),
             initial_speed=float(car.cruise_control.initial_speed_mps),
             initial_gear=int(ego._initial_powertrain.gear),
@@ -152,174 +155,126 @@ def reset_rows(p: EgoParams, s: EgoArrays, idx: np.ndarray) -> None:
     s.cruise_on[idx], s.cruise_target[idx], s.cruise_int[idx] = speed > 0.0, speed, 0.0
 
 
-def _inner_friction(rpm: np.ndarray) -> np.ndarray:
-    return 7e-7 * rpm * rpm - 5e-4 * rpm + 10.9
-
-
-def _full_power(p: EgoParams, rpm: np.ndarray) -> np.ndarray:
-    x = np.minimum(np.maximum(rpm, ptm.POWER_RPM_MIN), ptm.POWER_RPM_MAX) - ptm.POWER_RPM_MIN
-    q = x / ptm._RPM_TABLE_STEP
-    i = q.astype(np.int64)  # int() of a non-negative float
-    last = len(p.power_table) - 1
-    ic = np.minimum(i, last - 1)
-    t0, t1 = p.power_table[ic], p.power_table[ic + 1]
-    return np.where(i >= last, p.power_table[-1], t0 + (t1 - t0) * (q - i))
-
-
-def step(p: EgoParams, s: EgoArrays, dt: float, steer: np.ndarray, gas: np.ndarray, brake: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One physics step of every row of `s` (in place). Returns the front-wheel angle and the
-    applied gas for callers that need them."""
-    v0 = s.u
-    # ---- EgoCar: cruise control (no ACC) and the engine's minSpeed
-    if not p.suppress_cruise_off:
-        s.cruise_on &= ~(brake > 0.0)
-    err = s.cruise_target - v0
-    on = s.cruise_on
-    near = on & (err > -CRUISE_INTEGRAL_BAND_MPS) & (err < CRUISE_INTEGRAL_BAND_MPS)
-    s.cruise_int = np.where(near, np.minimum(CRUISE_INTEGRAL_MAX, np.maximum(0.0, s.cruise_int + CRUISE_KI * err * dt)), s.cruise_int)
-    throttle = CRUISE_GAIN * err + s.cruise_int
-    gas = np.where(on & (throttle > 0), np.maximum(gas, np.minimum(1.0, throttle)), gas)
-    brake = np.where(on & (err < -1.0), np.maximum(brake, np.minimum(1.0, -CRUISE_GAIN * (err + 1.0) * 0.5)), brake)
-    if p.min_speed > 0.0:
-        low = (brake == 0.0) & (s.gear > 0) & (v0 < p.min_speed)
-        gas = np.where(low, np.maximum(gas, np.minimum(1.0, CRUISE_GAIN * (p.min_speed - v0) + 0.3)), gas)
-    s.steer_in, s.gas_in, s.brake_in = steer, gas, brake
-    drive, brake_force = _powertrain(p, s, dt, v0, gas, brake)
-    _body(p, s, dt, steer * MAX_WHEEL_ANGLE_RAD, drive, brake_force)
-    return drive, gas
-
-
-def _powertrain(
-    p: EgoParams, s: EgoArrays, dt: float, v_mps: np.ndarray, gas: np.ndarray, brake: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    m = p.mass
-    speed = np.abs(v_mps)
-    i = (speed / ptm._TABLE_STEP + 0.5).astype(np.int64)
-    all_fwd = bool(np.all(s.gear > 0))
-    best = p.gear_table[np.minimum(i, len(p.gear_table) - 1)]
-    s.gear = best if all_fwd else np.where(s.gear > 0, best, s.gear)
-    gear = s.gear
-    fwd = gear > 0
-    if not p.engine_on:
-        gas = np.zeros_like(gas)
-    over = speed * 3.6 - (p.max_speed * 3.6 - 1.0)
-    capped = fwd & (over > 0.0)
-    gas = np.where(s.fuel_left <= 0.0, 0.0, np.where(capped, gas * np.where(over >= 1.0, 0.0, 1.0 - over), gas))
-    ratio = p.ratios[gear - 1] if all_fwd else np.where(fwd, p.ratios[np.maximum(gear, 1) - 1], np.where(gear < 0, p.reverse_ratio, 0.0))
-    gear_rpm_now = speed * 3.6 * ratio / ptm.WHEEL_CONSTANT
-    if p.engine_on:
-        clamp = np.where(gear_rpm_now > p.max_rpm, p.max_rpm, np.where(gear_rpm_now < p.min_rpm, p.min_rpm, gear_rpm_now))
-        target = clamp if all_fwd else np.where(gear == 0, gas * p.max_rpm, clamp)
-    else:
-        target = np.zeros_like(speed)
-    max_change = ptm.RPM_RATE_LIMIT * dt
-    d = target - s.rpm
-    s.rpm = s.rpm + np.where(d > max_change, max_change, np.where(d < -max_change, -max_change, d))
-    rpm = s.rpm
-    dv = speed - np.abs(s.prev_v)
-    s.prev_v = v_mps
-    p_engine = _full_power(p, rpm) * gas if p.engine_on else np.zeros_like(rpm)
-    if not all_fwd:
-        p_engine = np.where(gear != 0, p_engine, 0.0)
-    inner = _inner_friction(rpm) if p.engine_on else np.full_like(rpm, 10.9)
-    p_load = (
-        (
-            ptm.ROLLING_COEFF * m * ptm.G * speed
-            + ptm._AIR_K * speed * speed * speed
-            + 0.5 * ptm.INERTIA_MASS_FACTOR * m * dv * np.abs(dv) / dt
-        )
-        / 1000.0
-        + ptm.ACCESSORIES_KW
-        + inner
+def step(p: EgoParams, s: EgoArrays, dt: float, steer: np.ndarray, gas: np.ndarray, brake: np.ndarray, live: np.ndarray) -> None:
+    """One physics step of the rows `live` of `s`, in place."""
+    _step_rows(
+        p.body,
+        p.pt,
+        p.ratios,
+        p.power_table,
+        p.gear_table,
+        p.engine_on,
+        p.suppress_cruise_off,
+        p.min_speed,
+        dt,
+        live,
+        s.x,
+        s.z,
+        s.yaw,
+        s.u,
+        s.v,
+        s.r,
+        s.gear,
+        s.rpm,
+        s.prev_v,
+        s.fuel_used,
+        s.fuel_left,
+        s.steer_in,
+        s.gas_in,
+        s.brake_in,
+        s.cruise_on,
+        s.cruise_target,
+        s.cruise_int,
+        np.ascontiguousarray(steer, dtype=np.float64),
+        np.ascontiguousarray(gas, dtype=np.float64),
+        np.ascontiguousarray(brake, dtype=np.float64),
     )
-    # drive force
-    p_wheel = p_engine - ptm.ACCESSORIES_KW - _inner_friction(rpm)
-    can = (gas > 0.0) & (gear != 0) & (gear_rpm_now <= p.max_rpm) & (p_wheel > 0.0) & p.engine_on
-    v_eff = np.where(speed > ptm.MIN_DRIVE_SPEED, speed, ptm.MIN_DRIVE_SPEED)
-    drive = np.minimum(1000.0 * p_wheel / v_eff, m * p.accel * gas)
-    drive = np.where(can, np.where(gear < 0, -drive, drive), 0.0)
-    # brakes and drag
-    brake_force = brake * m * p.decel_brake
-    coeff = (p_load - p_engine - 10.0) / 50.0
-    coeff = np.where(coeff < 0.2, 0.2, np.where(coeff > 1.0, 1.0, coeff))
-    on_gas = gas > 0.0
-    brake_force = brake_force + np.where(on_gas, ptm.ROLLING_COEFF * m * ptm.G + ptm._AIR_K * speed * speed, m * p.decel_free * coeff)
-    # fuel (OpenDS's formula; the consumption display is not kept here)
-    factor = np.where(rpm <= 3600.0, 1.0, np.where(rpm >= 4800.0, 1.5, 1.0 + 0.5 * (rpm - 3600.0) / 1200.0))
-    litres = np.where(p_engine > 0.0, p_engine * dt / ptm.FUEL_LHV_KJ_PER_G * factor / ptm.FUEL_DENSITY_G_PER_L, 0.0)
-    if p.engine_on:
-        litres = np.where((litres == 0.0) & (rpm <= p.min_rpm + 1e-6), ptm.IDLE_FUEL_L_PER_S * dt, litres)
-    s.fuel_used = s.fuel_used + litres
-    s.fuel_left = np.maximum(0.0, s.fuel_left - litres)
-    return drive, brake_force
 
 
-def _body(p: EgoParams, s: EgoArrays, dt: float, steer_rad: np.ndarray, drive: np.ndarray, brake_force: np.ndarray) -> None:
-    m, lf, lr = p.mass, p.lf, p.lr
-    u, v, r = s.u, s.v, s.r
-    fx = np.where(drive > p.max_long, p.max_long, np.where(drive < -p.max_long, -p.max_long, drive))
-    brake = np.where(brake_force < p.max_long, brake_force, p.max_long)
-    # the common case, every car moving forward faster than DYNAMIC_ABOVE, skips the branches
-    # that cannot apply (the same operations on the same values otherwise)
-    cruising = bool(np.all(u >= DYNAMIC_ABOVE))
-    if cruising:
-        fx = fx - brake
-        uu = u
-    else:
-        still = (u == 0.0) & (-brake <= fx) & (fx <= brake)
-        fx = np.where(u > 0.0, fx - brake, np.where(u < 0.0, fx + brake, np.where(still, 0.0, fx - np.copysign(brake, fx))))
-        au = np.abs(u)
-        w_dyn = np.where(
-            au < DYNAMIC_ABOVE, np.where(au <= KINEMATIC_BELOW, 0.0, (au - KINEMATIC_BELOW) / (DYNAMIC_ABOVE - KINEMATIC_BELOW)), 1.0
+@kernel
+def _step_rows(
+    body: np.ndarray,
+    pt: np.ndarray,
+    ratios: np.ndarray,
+    power_table: np.ndarray,
+    gear_table: np.ndarray,
+    engine_on: bool,
+    suppress_cruise_off: bool,
+    min_speed: float,
+    dt: float,
+    live: np.ndarray,
+    x: np.ndarray,
+    z: np.ndarray,
+    yaw: np.ndarray,
+    u: np.ndarray,
+    v: np.ndarray,
+    r: np.ndarray,
+    gear: np.ndarray,
+    rpm: np.ndarray,
+    prev_v: np.ndarray,
+    fuel_used: np.ndarray,
+    fuel_left: np.ndarray,
+    steer_in: np.ndarray,
+    gas_in: np.ndarray,
+    brake_in: np.ndarray,
+    cruise_on: np.ndarray,
+    cruise_target: np.ndarray,
+    cruise_int: np.ndarray,
+    steer: np.ndarray,
+    gas: np.ndarray,
+    brake: np.ndarray,
+) -> None:
+    """`EgoCar.step` per row: cruise control (no ACC) and minSpeed in `EgoCar`'s expressions,
+    then the single env's own powertrain and body kernels."""
+    for e in range(len(u)):
+        if not live[e]:
+            continue
+        v0 = u[e]
+        g, b = gas[e], brake[e]
+        if cruise_on[e] and b > 0.0 and not suppress_cruise_off:
+            cruise_on[e] = False
+        if cruise_on[e]:
+            err = cruise_target[e] - v0
+            if -CRUISE_INTEGRAL_BAND_MPS < err < CRUISE_INTEGRAL_BAND_MPS:
+                acc = cruise_int[e] + CRUISE_KI * err * dt
+                acc = acc if acc > 0.0 else 0.0
+                cruise_int[e] = acc if acc < CRUISE_INTEGRAL_MAX else CRUISE_INTEGRAL_MAX
+            throttle = CRUISE_GAIN * err + cruise_int[e]
+            if throttle > 0:
+                t1 = throttle if throttle < 1.0 else 1.0
+                g = t1 if t1 > g else g
+            if err < -1.0:
+                b1 = -CRUISE_GAIN * (err + 1.0) * 0.5
+                b1 = b1 if b1 < 1.0 else 1.0
+                b = b1 if b1 > b else b
+        if min_speed > 0.0 and b == 0.0 and gear[e] > 0 and v0 < min_speed:
+            g1 = CRUISE_GAIN * (min_speed - v0) + 0.3
+            g1 = g1 if g1 < 1.0 else 1.0
+            g = g1 if g1 > g else g
+        steer_in[e], gas_in[e], brake_in[e] = steer[e], g, b
+        gear[e], rpm[e], drive, brake_n, _, _, _, fuel_used[e], fuel_left[e] = powertrain_core(
+            pt,
+            ratios,
+            power_table,
+            gear_table,
+            gear[e],
+            True,
+            engine_on,
+            rpm[e],
+            prev_v[e],
+            fuel_used[e],
+            fuel_left[e],
+            dt,
+            v0,
+            g * 1.0,
+            b,
+            0.0,
+            False,
         )
-        uu = np.where(au > 0.5, u, np.copysign(0.5, np.where(u != 0.0, u, 1.0)))
-    u_new = u + fx / m * dt
-    # dynamic bicycle model (computed for all rows, used where w_dyn > 0)
-    cos_d = np.cos(steer_rad)
-    sin_d = np.sin(steer_rad)
-    if cruising:  # sign = 1.0: 1.0 * a == a and -1.0 * a == -a exactly
-        alpha_f = steer_rad - libm.arctan((v + lf * r) / uu)
-        alpha_r = -libm.arctan((v - lr * r) / uu)
-    else:
-        sign = np.where(uu > 0.0, 1.0, -1.0)
-        alpha_f = sign * (steer_rad - libm.arctan((v + lf * r) / uu))
-        alpha_r = -sign * libm.arctan((v - lr * r) / uu)
-    fyf = p.max_front * libm.tanh(p.c_front * alpha_f / p.max_front)
-    fyr = p.max_rear * libm.tanh(p.c_rear * alpha_r / p.max_rear)
-    dv_dyn = (fyf * cos_d + fyr + 0.0) / m - u * r
-    dr_dyn = (lf * fyf * cos_d - lr * fyr) / p.yaw_inertia
-    if cruising:
-        u_new = u_new + (-fyf * sin_d / m + v * r) * dt
-        v_new = v + dv_dyn * dt
-        r_new = r + dr_dyn * dt
-        kin = np.zeros(0, dtype=np.int64)
-    else:
-        dyn = w_dyn > 0.0
-        u_new = np.where(dyn, u_new + (-fyf * sin_d / m + v * r) * dt, u_new)
-        v_new = np.where(dyn, v + dv_dyn * dt, 0.0)
-        r_new = np.where(dyn, r + dr_dyn * dt, 0.0)
-        kin = np.flatnonzero(w_dyn < 1.0)
-    if kin.size:  # kinematic bicycle model at walking pace (rare: compute on those rows only)
-        sk, uk, wk = steer_rad[kin], u_new[kin], w_dyn[kin]
-        tan_d = libm.tan(sk)
-        beta = libm.arctan(lr * tan_d / p.wheelbase)
-        r_kin = uk * np.cos(beta) * tan_d / p.wheelbase
-        v_kin = uk * libm.tan(beta)
-        v_new[kin] = wk * v_new[kin] + (1.0 - wk) * v_kin
-        r_new[kin] = wk * r_new[kin] + (1.0 - wk) * r_kin
-    held = np.abs(drive) <= brake
-    if cruising:
-        u_new = np.where((u_new < 0.0) & held, 0.0, u_new)
-    else:
-        u_new = np.where((((u > 0.0) & (u_new < 0.0)) | ((u < 0.0) & (u_new > 0.0))) & held, 0.0, u_new)
-    stop = (np.abs(u_new) < STOP_SPEED) & (np.abs(drive) <= brake + 1e-9)
-    s.u = np.where(stop, 0.0, u_new)
-    s.v = np.where(stop, 0.0, v_new)
-    s.r = np.where(stop, 0.0, r_new)
-    s.yaw = s.yaw + s.r * dt
-    sy, cy = np.sin(s.yaw), np.cos(s.yaw)
-    s.x = s.x + (-s.u * sy - s.v * cy) * dt
-    s.z = s.z + (-s.u * cy + s.v * sy) * dt
+        prev_v[e] = v0
+        x[e], z[e], yaw[e], u[e], v[e], r[e] = body_step(
+            body, x[e], z[e], yaw[e], u[e], v[e], r[e], dt, steer[e] * MAX_WHEEL_ANGLE_RAD, drive, brake_n, 0.0
+        )
 
 
 def check_finite_pose(s: EgoArrays) -> None:

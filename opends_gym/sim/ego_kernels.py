@@ -1,0 +1,344 @@
+"""The ego car's per-step maths as compiled kernels: fast-backend body and powertrain.
+
+Why: these run every physics step of every env. Each is one scalar function of one car,
+called by the single env (`FastVehicle.step`, `Powertrain.step`) and, in a loop over
+envs, by the native batch (`opends_gym.vector.ego`), so both compute the same floats by
+construction. The expressions keep the operand order of the Python they replaced, and the
+kernels use C-library `math` like CPython (`sim.jit`), so results did not change.
+
+Units: SI (m, s, kg, N, rad); powers in kW and rpm as in OpenDS's formulas
+(`sim.powertrain`). Parameter and state slots are the constants below.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .jit import kernel
+
+KINEMATIC_BELOW = 1.0  # m/s: purely kinematic below this forward speed
+DYNAMIC_ABOVE = 3.0  # m/s: purely dynamic above this
+STOP_SPEED = 0.05  # m/s: at rest below this when no drive force
+
+# body parameters (`body_params`)
+B_MASS, B_LF, B_LR, B_WHEELBASE, B_YAW_INERTIA, B_MAX_LONG, B_C_FRONT, B_C_REAR, B_MAX_FRONT, B_MAX_REAR = range(10)
+
+# powertrain parameters
+P_MASS, P_MAX_RPM, P_MIN_RPM, P_ACCEL, P_DEC_BRAKE, P_DEC_FREE, P_CAP_FROM_KMH, P_REVERSE_RATIO = range(8)
+
+G = 9.81
+ROLLING_COEFF = 0.008
+AIR_K = 0.5 * 1.3 * 0.3 * 2.0  # 0.5 rho_air c_w A
+ACCESSORIES_KW = 0.75
+INERTIA_MASS_FACTOR = 1.03
+FUEL_LHV_KJ_PER_G = 43.7
+FUEL_DENSITY_G_PER_L = 760.0
+IDLE_FUEL_L_PER_S = 0.0003
+WHEEL_CONSTANT = 380.0 * 0.00006  # rpm = v_kmh * ratio / WHEEL_CONSTANT
+RPM_RATE_LIMIT = 5000.0  # rpm per second
+POWER_RPM_MIN, POWER_RPM_MAX = 1500.0, 5100.0
+MIN_DRIVE_SPEED = 2.0  # m/s: below this, drive force is the engine-block acceleration cap
+TABLE_STEP = 0.1  # m/s resolution of the automatic gearbox table
+RPM_TABLE_STEP = 10.0
+
+
+def body_params(
+    mass: float,
+    lf: float,
+    wheelbase: float,
+    yaw_inertia: float,
+    max_long: float,
+    c_front: float,
+    c_rear: float,
+    max_front: float,
+    max_rear: float,
+) -> np.ndarray:
+    p = np.zeros(10)
+    p[B_MASS], p[B_LF], p[B_LR], p[B_WHEELBASE], p[B_YAW_INERTIA] = mass, lf, wheelbase - lf, wheelbase, yaw_inertia
+    p[B_MAX_LONG], p[B_C_FRONT], p[B_C_REAR], p[B_MAX_FRONT], p[B_MAX_REAR] = max_long, c_front, c_rear, max_front, max_rear
+    return p
+
+
+@kernel
+def body_step(
+    p: np.ndarray,
+    x: float,
+    z: float,
+    yaw: float,
+    u: float,
+    v: float,
+    r: float,
+    dt: float,
+    steer_rad: float,
+    drive_n: float,
+    brake_n: float,
+    side_n: float,
+) -> tuple[float, float, float, float, float, float]:
+    """One step of the single-track model: (x, z, yaw, u, v, r) after `dt`.
+
+    x, z m; yaw rad (0 faces -Z); u forward, v left m/s; r rad/s; forces N.
+    """
+    m, lf, lr = p[B_MASS], p[B_LF], p[B_LR]
+    max_long = p[B_MAX_LONG]
+    # longitudinal force: drive minus brakes (brakes oppose motion, never reverse it)
+    fx = drive_n
+    if fx > max_long:
+        fx = max_long
+    elif fx < -max_long:
+        fx = -max_long
+    brake = brake_n if brake_n < max_long else max_long
+    if u > 0.0:
+        fx -= brake
+    elif u < 0.0:
+        fx += brake
+    elif -brake <= fx <= brake:
+        fx = 0.0
+    else:
+        fx -= math.copysign(brake, fx)
+    au = abs(u)
+    if au < DYNAMIC_ABOVE:
+        w_dyn = 0.0 if au <= KINEMATIC_BELOW else (au - KINEMATIC_BELOW) / (DYNAMIC_ABOVE - KINEMATIC_BELOW)
+    else:
+        w_dyn = 1.0
+    u_new = u + fx / m * dt
+    v_dyn = r_dyn = 0.0
+    if w_dyn > 0.0:
+        # dynamic bicycle model with tanh-saturated tyre forces
+        cos_d = math.cos(steer_rad)
+        sin_d = math.sin(steer_rad)
+        uu = u if au > 0.5 else math.copysign(0.5, u if u != 0.0 else 1.0)
+        # slip angles; the force opposes the tyre's sideways slip, so reversing flips them
+        sign = 1.0 if uu > 0.0 else -1.0
+        alpha_f = sign * (steer_rad - math.atan((v + lf * r) / uu))
+        alpha_r = -sign * math.atan((v - lr * r) / uu)
+        fyf = p[B_MAX_FRONT] * math.tanh(p[B_C_FRONT] * alpha_f / p[B_MAX_FRONT])
+        fyr = p[B_MAX_REAR] * math.tanh(p[B_C_REAR] * alpha_r / p[B_MAX_REAR])
+        dv_dyn = (fyf * cos_d + fyr + side_n) / m - u * r
+        dr_dyn = (lf * fyf * cos_d - lr * fyr) / p[B_YAW_INERTIA]
+        u_new += (-fyf * sin_d / m + v * r) * dt
+        v_dyn = v + dv_dyn * dt
+        r_dyn = r + dr_dyn * dt
+    if w_dyn < 1.0:
+        # kinematic bicycle model: no tyre slip at walking pace
+        wb = p[B_WHEELBASE]
+        tan_d = math.tan(steer_rad)
+        beta = math.atan(lr * tan_d / wb)
+        r_kin = u_new * math.cos(beta) * tan_d / wb
+        v_kin = u_new * math.tan(beta)
+        v_new = w_dyn * v_dyn + (1.0 - w_dyn) * v_kin
+        r_new = w_dyn * r_dyn + (1.0 - w_dyn) * r_kin
+    else:
+        v_new, r_new = v_dyn, r_dyn
+    # brakes stop the car; they do not push it backwards
+    if (u > 0.0 > u_new or u < 0.0 < u_new) and abs(drive_n) <= brake:
+        u_new = 0.0
+    if abs(u_new) < STOP_SPEED and abs(drive_n) <= brake + 1e-9:
+        u_new = v_new = r_new = 0.0
+    yaw = yaw + r_new * dt
+    sy, cy = math.sin(yaw), math.cos(yaw)
+    # forward (-sin, -cos), left (-cos, +sin) in (x, z)
+    x = x + (-u_new * sy - v_new * cy) * dt
+    z = z + (-u_new * cy + v_new * sy) * dt
+    return x, z, yaw, u_new, v_new, r_new
+
+
+@kernel
+def full_power_kw(power_table: np.ndarray, rpm: float) -> float:
+    """Engine power at full gas (kW), interpolated in the 10-rpm table from 1500 rpm."""
+    x = (POWER_RPM_MIN if rpm < POWER_RPM_MIN else POWER_RPM_MAX if rpm > POWER_RPM_MAX else rpm) - POWER_RPM_MIN
+    i = int(x / RPM_TABLE_STEP)
+    last = len(power_table) - 1
+    if i >= last:
+        return float(power_table[last])
+    f = x / RPM_TABLE_STEP - i
+    return float(power_table[i] + (power_table[i + 1] - power_table[i]) * f)
+
+
+@kernel
+def powertrain_core(
+    p: np.ndarray,
+    ratios: np.ndarray,
+    power_table: np.ndarray,
+    gear_table: np.ndarray,
+    gear: int,
+    automatic: bool,
+    engine_on: bool,
+    rpm: float,
+    prev_v: float,
+    fuel_used: float,
+    fuel_left: float,
+    dt: float,
+    v_mps: float,
+    gas: float,
+    brake: float,
+    slope_rad: float,
+    hand_brake: bool,
+) -> tuple[int, float, float, float, float, float, float, float, float]:
+    """One powertrain step at forward speed v (m/s, negative rolling backwards).
+
+    Returns (gear, rpm, drive N, brake N, P_engine kW, P_load kW, fuel litres this step,
+    fuel used L, fuel left L); see `sim.powertrain` for the formulas.
+    """
+    speed = -v_mps if v_mps < 0.0 else v_mps
+    if automatic and gear > 0:
+        i = int(speed / TABLE_STEP + 0.5)
+        gear = int(gear_table[i]) if i < len(gear_table) else int(gear_table[len(gear_table) - 1])
+    max_rpm, min_rpm = p[P_MAX_RPM], p[P_MIN_RPM]
+    if not engine_on or fuel_left <= 0.0:
+        gas = 0.0
+    elif gear > 0:
+        # OpenDS's speed cap: power scaled by (maxSpeed - v) in the last km/h, 0 above
+        over = speed * 3.6 - p[P_CAP_FROM_KMH]
+        if over > 0.0:
+            gas *= 0.0 if over >= 1.0 else 1.0 - over
+    ratio = p[P_REVERSE_RATIO] if gear < 0 else ratios[gear - 1] if gear > 0 else 0.0
+    gear_rpm_now = speed * 3.6 * ratio / WHEEL_CONSTANT
+    if not engine_on:
+        target_rpm = 0.0
+    elif gear == 0:
+        target_rpm = gas * max_rpm
+    else:
+        target_rpm = max_rpm if gear_rpm_now > max_rpm else min_rpm if gear_rpm_now < min_rpm else gear_rpm_now
+    max_change = RPM_RATE_LIMIT * dt
+    d_rpm = target_rpm - rpm
+    rpm += max_change if d_rpm > max_change else -max_change if d_rpm < -max_change else d_rpm
+    # power balance (kW), OpenDS's terms
+    prev = -prev_v if prev_v < 0.0 else prev_v
+    dv = speed - prev
+    p_engine = full_power_kw(power_table, rpm) * gas if engine_on and gear != 0 else 0.0
+    m = p[P_MASS]
+    sin_slope = (math.sin(-slope_rad if gear < 0 else slope_rad)) if slope_rad != 0.0 else 0.0
+    inner_kw = 7e-7 * rpm * rpm - 5e-4 * rpm + 10.9
+    p_load = (
+        (
+            ROLLING_COEFF * m * G * speed
+            + AIR_K * speed * speed * speed
+            + 0.5 * INERTIA_MASS_FACTOR * m * dv * (dv if dv > 0 else -dv) / dt
+            + m * G * speed * sin_slope
+        )
+        / 1000.0
+        + ACCESSORIES_KW
+        + (inner_kw if engine_on else 10.9)
+    )
+    # drive force: P_accel = P_engine - P_load, with the road loads as body forces and the
+    # inertia term being the acceleration itself; accessories and engine friction remain
+    drive = 0.0
+    if gas > 0.0 and gear != 0 and engine_on and gear_rpm_now <= max_rpm:
+        p_wheel_kw = p_engine - ACCESSORIES_KW - inner_kw
+        if p_wheel_kw > 0.0:
+            v = speed if speed > MIN_DRIVE_SPEED else MIN_DRIVE_SPEED
+            cap = m * p[P_ACCEL] * gas
+            drive = 1000.0 * p_wheel_kw / v
+            if drive > cap:
+                drive = cap
+            if gear < 0:
+                drive = -drive
+    # brakes: pedal, hand brake, and the engine/free-wheel drag when off the gas
+    brake_force = brake * m * p[P_DEC_BRAKE]
+    if hand_brake:
+        held = m * p[P_DEC_BRAKE] * 0.6
+        brake_force = held if held > brake_force else brake_force
+    if gas > 0.0:
+        # rolling and air resistance; off the gas OpenDS's free-wheel drag stands for them
+        brake_force += ROLLING_COEFF * m * G + AIR_K * speed * speed
+    else:
+        surplus_kw = p_load - p_engine
+        coeff = (surplus_kw - 10.0) / 50.0
+        coeff = 0.2 if coeff < 0.2 else 1.0 if coeff > 1.0 else coeff
+        brake_force += m * p[P_DEC_FREE] * coeff
+    # fuel: grams = P_engine dt / 43.7 kJ/g, times 1..1.5 above 3600 rpm; idle 0.0003 L/s
+    litres = 0.0
+    if p_engine > 0.0:
+        factor = 1.0 if rpm <= 3600.0 else 1.5 if rpm >= 4800.0 else 1.0 + 0.5 * (rpm - 3600.0) / 1200.0
+        litres = p_engine * dt / FUEL_LHV_KJ_PER_G * factor / FUEL_DENSITY_G_PER_L
+    if litres == 0.0 and engine_on and rpm <= min_rpm + 1e-6:
+        litres = IDLE_FUEL_L_PER_S * dt
+    fuel_used += litres
+    rest = fuel_left - litres
+    fuel_left = rest if rest > 0.0 else 0.0
+    return gear, rpm, drive, brake_force, p_engine, p_load, litres, fuel_used, fuel_left
+
+
+# the single env's powertrain state (`sim.powertrain.PowertrainState.values`)
+S_GEAR, S_AUTOMATIC, S_ENGINE_ON, S_RPM, S_PREV_V, S_FUEL_USED, S_FUEL_LEFT, S_P_ENGINE, S_P_LOAD = range(9)
+S_WINDOW_L, S_WINDOW_M, S_SINCE_UPDATE, S_L_PER_100KM, S_L_PER_H, S_T, S_ODOMETER, S_RING_HEAD, S_RING_COUNT = range(9, 18)
+N_STATE = 18
+CONSUMPTION_WINDOW_S = 2.0
+CONSUMPTION_UPDATE_S = 0.5
+
+
+@kernel
+def powertrain_step(
+    p: np.ndarray,
+    ratios: np.ndarray,
+    power_table: np.ndarray,
+    gear_table: np.ndarray,
+    s: np.ndarray,
+    ring: np.ndarray,
+    dt: float,
+    v_mps: float,
+    gas: float,
+    brake: float,
+    slope_rad: float,
+    hand_brake: bool,
+) -> tuple[float, float]:
+    """`powertrain_core` on the state slots `s`, plus the consumption display; (drive N, brake N).
+
+    `ring` (rows t s, litres, metres) holds the display's 2 s window from row `s[S_RING_HEAD]`;
+    the caller keeps a free row in it.
+    """
+    s[S_T] += dt
+    gear, rpm, drive, brake_force, p_engine, p_load, litres, used, left = powertrain_core(
+        p,
+        ratios,
+        power_table,
+        gear_table,
+        int(s[S_GEAR]),
+        s[S_AUTOMATIC] != 0.0,
+        s[S_ENGINE_ON] != 0.0,
+        s[S_RPM],
+        s[S_PREV_V],
+        s[S_FUEL_USED],
+        s[S_FUEL_LEFT],
+        dt,
+        v_mps,
+        gas,
+        brake,
+        slope_rad,
+        hand_brake,
+    )
+    s[S_GEAR], s[S_RPM], s[S_PREV_V], s[S_P_ENGINE], s[S_P_LOAD], s[S_FUEL_USED], s[S_FUEL_LEFT] = (
+        gear,
+        rpm,
+        v_mps,
+        p_engine,
+        p_load,
+        used,
+        left,
+    )
+    # consumption display (OpenDS: 2 s window, refreshed every 500 ms)
+    dist = (-v_mps if v_mps < 0.0 else v_mps) * dt
+    s[S_ODOMETER] += dist
+    cap = ring.shape[0]
+    head, count = int(s[S_RING_HEAD]), int(s[S_RING_COUNT])
+    k = (head + count) % cap
+    ring[k, 0], ring[k, 1], ring[k, 2] = s[S_T], litres, dist
+    count += 1
+    s[S_WINDOW_L] += litres
+    s[S_WINDOW_M] += dist
+    while count > 0 and s[S_T] - ring[head, 0] >= CONSUMPTION_WINDOW_S - 1e-9:
+        s[S_WINDOW_L] -= ring[head, 1]
+        s[S_WINDOW_M] -= ring[head, 2]
+        head = (head + 1) % cap
+        count -= 1
+    s[S_RING_HEAD], s[S_RING_COUNT] = head, count
+    s[S_SINCE_UPDATE] += dt
+    if s[S_SINCE_UPDATE] >= CONSUMPTION_UPDATE_S - 1e-9:
+        s[S_SINCE_UPDATE] = 0.0
+        t = s[S_T]
+        span = t if t < CONSUMPTION_WINDOW_S else CONSUMPTION_WINDOW_S
+        s[S_L_PER_H] = s[S_WINDOW_L] / span * 3600.0 if span > 0 else 0.0
+        s[S_L_PER_100KM] = s[S_WINDOW_L] / s[S_WINDOW_M] * 100_000.0 if s[S_WINDOW_M] > 1e-3 else 0.0
+    return drive, brake_force

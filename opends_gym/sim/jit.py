@@ -1,0 +1,91 @@
+"""numba's `njit` with this project's settings, and maths that equals CPython's bit for bit.
+
+Why: the per-step maths of the ego car, traffic and the native batch runs as compiled
+kernels (issue 9). The settings matter for results, so they live here, once:
+
+* never `fastmath`: it allows FMA contraction and reassociation, which change the last bits
+  and make results depend on the machine; without it LLVM keeps IEEE-754 semantics, so a
+  kernel computes exactly what the same Python expression computes;
+* `cache=True`: compiled machine code is kept next to the module (or in numba's user cache
+  when that folder is read-only), so only the first process on a machine compiles; later
+  processes (SubprocVecEnv workers included) load it in milliseconds;
+* `nogil=True`: the native batch steps shards in threads.
+
+numba's `math.sin/cos/tan/atan/atan2/tanh/sqrt` call the same C library functions as
+CPython's `math` (checked in the tests), and `%` on floats has Python's semantics. Only
+`math.hypot` differs (CPython has its own algorithm), hence `py_hypot`.
+
+`NUMBA_DISABLE_JIT=1` runs every kernel as plain Python (for debugging), with the same
+results: kernels use only what Python and numba agree on.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, TypeVar, cast
+
+from numba import njit
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+_SPLIT = 134217729.0  # 2**27 + 1: Veltkamp's split of a double into two 26-bit halves
+_DBL_MIN = 2.2250738585072014e-308
+
+
+def kernel(fn: F) -> F:
+    """Compile `fn` with the project's numba settings (see the module docstring)."""
+    return cast(F, njit(cache=True, nogil=True)(fn))
+
+
+@kernel
+def _square_error(x: float, p: float) -> float:
+    """x*x - p exactly, for p = fl(x*x) (Dekker's product; what CPython's fma() gives)."""
+    t = _SPLIT * x
+    hi = t - (t - x)
+    lo = x - hi
+    return ((hi * hi - p) + 2.0 * hi * lo) + lo * lo
+
+
+@kernel
+def _norm2(ax: float, ay: float, mx: float) -> float:
+    """CPython 3.11's `vector_norm` for two finite, non-negative values of maximum mx > 0."""
+    _, e = math.frexp(mx)
+    scale = math.ldexp(1.0, -e)
+    csum, frac1, frac2 = 1.0, 0.0, 0.0
+    s = ax * scale  # lossless scaling
+    p = s * s
+    frac1 += _square_error(s, p)
+    hi = csum + p
+    frac2 += (csum - hi) + p
+    csum = hi
+    s = ay * scale
+    p = s * s
+    frac1 += _square_error(s, p)
+    hi = csum + p
+    frac2 += (csum - hi) + p
+    csum = hi
+    h = math.sqrt(csum - 1.0 + (frac1 + frac2))
+    p = -h * h
+    frac1 += -_square_error(h, -p)  # the exact error of (-h)*h is minus that of h*h
+    hi = csum + p
+    frac2 += (csum - hi) + p
+    csum = hi
+    h = h + (csum - 1.0 + (frac1 + frac2)) / (2.0 * h)  # differential correction
+    return h / scale
+
+
+@kernel
+def py_hypot(x: float, y: float) -> float:
+    """`math.hypot(x, y)` exactly as CPython 3.11 computes it."""
+    ax, ay = abs(x), abs(y)
+    mx = ax if ax > ay else ay
+    if math.isinf(ax) or math.isinf(ay):
+        return math.inf
+    if math.isnan(ax) or math.isnan(ay):
+        return math.nan
+    if mx == 0.0:
+        return 0.0
+    if math.frexp(mx)[1] < -1023:  # tiny: CPython scales by DBL_MIN first
+        return _DBL_MIN * _norm2(ax / _DBL_MIN, ay / _DBL_MIN, mx / _DBL_MIN)
+    return _norm2(ax, ay, mx)
