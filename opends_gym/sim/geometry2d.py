@@ -11,6 +11,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from .jit import inline, kernel
+
 
 @dataclass(frozen=True)
 class Obb:
@@ -35,18 +37,41 @@ class Obb:
 
 def obb_overlap(a: Obb, b: Obb) -> bool:
     """Separating-axis test for two oriented rectangles."""
-    dx, dz = b.cx - a.cx, b.cz - a.cz
+    return bool(_overlap(a.cx, a.cz, a.yaw, a.hx, a.hz, b.cx, b.cz, b.yaw, b.hx, b.hz))
+
+
+@inline
+def _separated(dx: float, dz: float, ux: float, uz: float, a: tuple[float, float, float, float, float, float],
+               b: tuple[float, float, float, float, float, float]) -> bool:  # fmt: skip
+    """Do the boxes' projections on axis (ux, uz) not overlap? (a, b: hx, hz, then the two local axes.)"""
+    proj_a = a[0] * abs(a[2] * ux + a[3] * uz) + a[1] * abs(a[4] * ux + a[5] * uz)
+    proj_b = b[0] * abs(b[2] * ux + b[3] * uz) + b[1] * abs(b[4] * ux + b[5] * uz)
+    return abs(dx * ux + dz * uz) > proj_a + proj_b
+
+
+@inline
+def boxes_overlap(acx: float, acz: float, ayaw: float, ahx: float, ahz: float, bcx: float, bcz: float, byaw: float, bhx: float,
+                  bhz: float) -> bool:  # fmt: skip
+    """The separating-axis test on plain numbers (compiled; the Python `obb_overlap` and the
+    traffic and trigger kernels share it)."""
+    dx, dz = bcx - acx, bcz - acz
     # quick reject on bounding circles
-    ra = a.hx * a.hx + a.hz * a.hz
-    rb = b.hx * b.hx + b.hz * b.hz
+    ra = ahx * ahx + ahz * ahz
+    rb = bhx * bhx + bhz * bhz
     d2 = dx * dx + dz * dz
     if d2 > ra + rb + 2.0 * math.sqrt(ra * rb):
         return False
-    a_axes = a.axes()
-    b_axes = b.axes()
-    for ux, uz in (*a_axes, *b_axes):
-        proj_a = a.hx * abs(a_axes[0][0] * ux + a_axes[0][1] * uz) + a.hz * abs(a_axes[1][0] * ux + a_axes[1][1] * uz)
-        proj_b = b.hx * abs(b_axes[0][0] * ux + b_axes[0][1] * uz) + b.hz * abs(b_axes[1][0] * ux + b_axes[1][1] * uz)
-        if abs(dx * ux + dz * uz) > proj_a + proj_b:
+    ca, sa = math.cos(ayaw), math.sin(ayaw)
+    cb, sb = math.cos(byaw), math.sin(byaw)
+    a = (ahx, ahz, ca, -sa, sa, ca)
+    b = (bhx, bhz, cb, -sb, sb, cb)
+    for ux, uz in ((ca, -sa), (sa, ca), (cb, -sb), (sb, cb)):  # noqa: SIM110  (numba compiles no generators)
+        if _separated(dx, dz, ux, uz, a, b):
             return False
     return True
+
+
+@kernel
+def _overlap(acx: float, acz: float, ayaw: float, ahx: float, ahz: float, bcx: float, bcz: float, byaw: float, bhx: float,
+             bhz: float) -> bool:  # fmt: skip
+    return boxes_overlap(acx, acz, ayaw, ahx, ahz, bcx, bcz, byaw, bhx, bhz)  # (inlined helpers are not callable from Python)

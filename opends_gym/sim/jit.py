@@ -38,6 +38,14 @@ def kernel(fn: F) -> F:
     return cast(F, njit(cache=True, nogil=True)(fn))
 
 
+def inline(fn: F) -> F:
+    """A `kernel` that is inlined into the kernels calling it: a call between compiled
+    functions passes every array as a struct of seven words and updates its reference count,
+    which costs more than the small helpers themselves. Call it only from kernels (numba
+    would compile it afresh in every process that calls it from Python)."""
+    return cast(F, njit(cache=True, nogil=True, inline="always")(fn))
+
+
 @kernel
 def _square_error(x: float, p: float) -> float:
     """x*x - p exactly, for p = fl(x*x) (Dekker's product; what CPython's fma() gives)."""

@@ -1,7 +1,7 @@
 """What the ego car can see of traffic: the lead vehicle, gaps and closing speeds.
 
 Why: headway, TTC, adaptive cruise control, the rule driver and observations all ask
-"who is ahead of me in my lane". One vectorised answer over the traffic arrays.
+"who is ahead of me in my lane". One compiled loop over the traffic arrays.
 """
 
 from __future__ import annotations
@@ -9,8 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
+from .traffic_queries import nearest_ahead
 from .world import World
 
 
@@ -31,17 +30,11 @@ def lead_vehicle(world: World, half_width_m: float = 1.5, max_range_m: float = 2
     s = world.ego.state
     fx, fz = -math.sin(s.yaw), -math.cos(s.yaw)
     lx, lz = -math.cos(s.yaw), math.sin(s.yaw)
-    dx = traffic.positions[:, 0] - s.x
-    dz = traffic.positions[:, 2] - s.z
-    ahead = dx * fx + dz * fz
-    side = dx * lx + dz * lz
-    ok = traffic.enabled & (ahead > 0.0) & (np.abs(side) <= half_width_m) & (ahead < max_range_m)
-    if not np.any(ok):
+    j, ahead = nearest_ahead(traffic.positions, traffic.enabled, traffic._all_rows, s.x, s.z, fx, fz, lx, lz, half_width_m, max_range_m)
+    if j < 0:
         return None
-    idx = np.flatnonzero(ok)
-    j = int(idx[np.argmin(ahead[idx])])
     half_len = float(traffic.half_extents[j, 1])
-    gap = float(ahead[j]) - half_len - 0.5 * world.ego.spec.length_m
+    gap = float(ahead) - half_len - 0.5 * world.ego.spec.length_m
     vyaw = float(traffic.yaw[j])
     v_along = float(traffic.speed[j]) * (-math.sin(vyaw) * fx - math.cos(vyaw) * fz)
     return Lead(j, gap, v_along, 2.0 * half_len, bool(traffic.brake_light[j]))

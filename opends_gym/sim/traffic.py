@@ -34,23 +34,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..task.model_traffic import ODVehicle, Pedestrian, TrafficVehicle
-from .geometry2d import Obb, obb_overlap
+from .geometry2d import Obb
 from .traffic_controls import TrafficControls
 from .traffic_legs import KIND_NET, KIND_NONE, KIND_OD, KIND_OWN
-from .traffic_motion import (
-    MotionState,
-    Specs,
-    bend_speed,
-    carrot_angle,
-    carrot_speed,
-    forward_safety_m,
-    longitudinal,
-    obstacles,
-    steer_and_move,
-    target_speed,
-)
+from .traffic_motion import ARRIVED, BLOCK, N_WORK, NOTHING_LIVE, PASSED_LIGHT, WAIT_OVER, WAITS_OVER, advance_carrots, drive
 from .traffic_paths import PathBank
+from .traffic_queries import nearest_ahead, touching
 from .traffic_routes import OwnPath, PositionResolver, RoadNetwork, build_own_path
+from .traffic_state import MotionState, Specs
 
 if TYPE_CHECKING:
     from .world import World
@@ -118,11 +109,19 @@ class TrafficManager(TrafficControls):
         # fixed facts the per-step code tests (so it skips what a task does not have)
         self._any_seg_prio = self.network is not None and bool(self._seg_prio.any())
         self._any_seg_nb = self.network is not None and bool(self._seg_nb.any())
-        self._walker = ~self.is_car
-        self._any_walker = bool(self._walker.any())
         self._half_diag = np.hypot(self.half_extents[:, 0], self.half_extents[:, 1])
         self.st = MotionState.empty(n)
         self.light_queue: list[list[tuple[int, float, float]]] = [[] for _ in range(n)]
+        # the kernels' per-step inputs and scratch (allocated once)
+        self._work = np.zeros((N_WORK, n))
+        self._flags = np.zeros(n, dtype=np.int64)
+        self._all_rows = np.ones(n, dtype=bool)
+        self._t_now = np.zeros(1)
+        self._ego = np.zeros((3, 1))
+        self._no_lights = np.zeros(1, dtype=bool)
+        self._hits = np.zeros(n, dtype=np.int64)
+        self.brake_light = np.zeros(n, dtype=bool)
+        self.turn_signal = np.zeros(n, dtype=np.int64)
         self.t_s = 0.0
         self._next_stuck_s = 1.0
         self.reset()
@@ -213,81 +212,51 @@ class TrafficManager(TrafficControls):
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt_s: float) -> None:
+        """One physics step: two compiled kernels (`traffic_motion`), with the rare per-object
+        events (waits over, legs ended, lights passed, lane changes) in Python between them."""
         self.t_s += dt_s
-        st, sp, t = self.st, self.sp, self.t_s
-        live = st.enabled & (st.pid >= 0)
-        if not live.any():
+        st, work, flags = self.st, self._work, self._flags
+        pf, pp, pi = self.paths.arrays()
+        n = max(1, len(self.ids))
+        self._t_now[0] = self.t_s
+        args = (st.f, st.i, st.b, st.pos, self.sp.packed, pf, pp, pi, n, self._all_rows, self._t_now, dt_s, work, flags)
+        code = advance_carrots(*args)
+        if code == NOTHING_LIVE:
             return
-        for i in np.flatnonzero(live & (st.wait_until <= t + 1e-9)):
-            self._finish_wait(int(i))
-        free = np.isnan(st.wait_until)  # not waiting at a waypoint
-        moving = live & ~st.halted & free & ~st.ext
-        cx, cy, cz, cyaw = self.paths.sample(np.maximum(st.pid, 0), st.s)
-        sin_yaw, cos_yaw = np.sin(st.yaw), np.cos(st.yaw)
-        ang, d = carrot_angle(st, cx, cz, sin_yaw, cos_yaw)
-        cv = carrot_speed(st, sp, d, ang)
-        st.s = np.where(moving, st.s + cv * dt_s, st.s)
-        arrived = np.flatnonzero(moving & (st.s >= st.leg_end - 1e-9))
-        for i in arrived:
-            self._arrive(int(i))
-        if arrived.size:  # new legs, waits or placed objects
-            free = np.isnan(st.wait_until)
-            cx, cy, cz, cyaw = self.paths.sample(np.maximum(st.pid, 0), st.s)
-            sin_yaw, cos_yaw = np.sin(st.yaw), np.cos(st.yaw)
-            ang, d = carrot_angle(st, cx, cz, sin_yaw, cos_yaw)
-        if self._any_walker:
-            walk = live & self._walker
-            if walk.any():
-                st.pos[walk] = np.column_stack([cx, cy, cz])[walk]
-                st.yaw = np.where(walk, cyaw, st.yaw)
-                st.speed = np.where(walk, np.where(moving & ~st.halted & free, cv, 0.0), st.speed)
-        cars = live & self.is_car
-        if cars.any():
-            self._drive(cars, cy, ang, d, dt_s, free, sin_yaw, cos_yaw)
-        if t >= self._next_stuck_s - 1e-9:
-            self._next_stuck_s += 1.0
-            self._check_stuck(live & self._stuck_reset)
-        self._refresh_outputs()
-
-    def _drive(
-        self,
-        cars: np.ndarray,
-        carrot_y: np.ndarray,
-        ang: np.ndarray,
-        d: np.ndarray,
-        dt_s: float,
-        free: np.ndarray,
-        sin_yaw: np.ndarray,
-        cos_yaw: np.ndarray,
-    ) -> None:
-        """Cars: speed wish, obstacles, lights, give-way, pedals, steering (`free`: not waiting)."""
-        st, sp = self.st, self.sp
-        ego = self.world.ego.state
-        vt = np.minimum(target_speed(st, sp, d, ego.u, ~free), bend_speed(ang, d))
-        fsafe = forward_safety_m(st)
-        st.blocked = obstacles(st, cars & ~st.ext, (ego.x, ego.z), fsafe, sin_yaw, cos_yaw)
-        block = st.blocked.copy()
-        if self.lights is not None and np.any(st.light_idx >= 0):
-            red = (st.light_idx >= 0) & self.lights.stop_mask[np.maximum(st.light_idx, 0)]
-            block |= red & (np.hypot(st.light_xz[:, 0] - st.pos[:, 0], st.light_xz[:, 1] - st.pos[:, 2]) < fsafe)
+        if code == WAITS_OVER:
+            for i in np.flatnonzero(flags & WAIT_OVER):
+                self._finish_wait(int(i))
+            pf, pp, pi = self.paths.arrays()
+            code = advance_carrots(st.f, st.i, st.b, st.pos, self.sp.packed, pf, pp, pi, *args[8:])
+        if code > 0:
+            for i in np.flatnonzero(flags & ARRIVED):
+                self._arrive(int(i))
+            pf, pp, pi = self.paths.arrays()
         if self._any_seg_prio:
-            on_net = cars & (self.kind == KIND_NET)
-            rows = on_net & self._seg_prio[np.where(on_net, st.leg, 0)] & (st.leg_end - st.s < self._give_way_m)
-            if rows.any():
-                block |= self._give_way(rows, self._observe_m, self._clearance_s)
-        vt = np.where(block, 0.0, vt)
-        v_new, braking = longitudinal(st, sp, vt, dt_s)
-        st.braking = np.where(cars, braking, st.braking)
-        steer_and_move(st, cars, ang, v_new, dt_s)
-        st.pos[:, 1] = np.where(cars, carrot_y, st.pos[:, 1])
-        lit = cars & (st.light_idx >= 0)
-        if lit.any():
-            ahead = -(st.light_xz[:, 0] - st.pos[:, 0]) * np.sin(st.yaw) - (st.light_xz[:, 1] - st.pos[:, 2]) * np.cos(st.yaw)
-            for i in np.flatnonzero(lit & (ahead < 0.0)):
+            self._hold_for_priority(flags)
+        ego = self.world.ego.state
+        self._ego[0, 0], self._ego[1, 0], self._ego[2, 0] = ego.x, ego.z, ego.u
+        stop = self.lights.stop_mask if self.lights is not None and len(self.lights.stop_mask) else self._no_lights
+        passed = drive(st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, self.sp.packed, pf, pp, pi, n, self._all_rows,
+                       self._ego, dt_s, work, flags, code > 0, stop)  # fmt: skip
+        if passed:
+            for i in np.flatnonzero(flags & PASSED_LIGHT):
                 self._pop_light(int(i))
         if self._any_seg_nb:
-            on_net = cars & (self.kind == KIND_NET) & ~st.ext
+            on_net = st.enabled & (st.pid >= 0) & self.is_car & (self.kind == KIND_NET) & ~st.ext
             self._passing_lanes(on_net & self._seg_nb[np.where(on_net, st.leg, 0)])
+        if self.t_s >= self._next_stuck_s - 1e-9:
+            self._next_stuck_s += 1.0
+            self._check_stuck(st.enabled & (st.pid >= 0) & self._stuck_reset)
+        self._refresh_outputs()
+
+    def _hold_for_priority(self, flags: np.ndarray) -> None:
+        """Cars on a `giveWayTo` segment near its end hold while prioritised traffic arrives too."""
+        st = self.st
+        on_net = st.enabled & (st.pid >= 0) & self.is_car & (self.kind == KIND_NET)
+        rows = on_net & self._seg_prio[np.where(on_net, st.leg, 0)] & (st.leg_end - st.s < self._give_way_m)
+        if rows.any():
+            flags[self._give_way(rows, self._observe_m, self._clearance_s)] |= BLOCK
 
     def _check_stuck(self, rows: np.ndarray) -> None:
         st = self.st
@@ -316,29 +285,21 @@ class TrafficManager(TrafficControls):
         ego = self.world.ego
         s = ego.state
         fx, fz = -math.sin(s.yaw), -math.cos(s.yaw)
-        dx, dz = self.st.pos[:, 0] - s.x, self.st.pos[:, 2] - s.z
-        ahead = dx * fx + dz * fz
-        side = -dx * fz + dz * fx
-        ok = self.st.enabled & self.is_car & (ahead > 0.0) & (np.abs(side) <= LEAD_HALF_WIDTH_M) & (ahead < LEAD_RANGE_M)
-        if not ok.any():
+        st = self.st
+        j, ahead = nearest_ahead(st.pos, st.enabled, self.is_car, s.x, s.z, fx, fz, -fz, fx, LEAD_HALF_WIDTH_M, LEAD_RANGE_M)
+        if j < 0:
             return None
-        j = int(np.flatnonzero(ok)[np.argmin(ahead[ok])])
-        gap = float(ahead[j] - self.half_extents[j, 1] - 0.5 * ego.spec.length_m)
-        return gap, float(self.st.speed[j] * math.cos(self.st.yaw[j] - s.yaw))
+        gap = float(ahead - self.half_extents[j, 1] - 0.5 * ego.spec.length_m)
+        return gap, float(st.speed[j] * math.cos(st.yaw[j] - s.yaw))
 
     def colliding_with(self, box: Obb) -> set[str]:
         """Ids of enabled objects whose boxes overlap `box` (the ego car's)."""
         if not self.ids:
             return set()
         st = self.st
-        reach = math.hypot(box.hx, box.hz) + self._half_diag
-        near = st.enabled & (np.hypot(st.pos[:, 0] - box.cx, st.pos[:, 2] - box.cz) < reach)
-        out = set()
-        for j in np.flatnonzero(near):
-            other = Obb(float(st.pos[j, 0]), float(st.pos[j, 2]), float(st.yaw[j]), *map(float, self.half_extents[j]))
-            if obb_overlap(box, other):
-                out.add(self.ids[j])
-        return out
+        reach = self._half_diag + math.hypot(box.hx, box.hz)
+        n = touching(st.pos, st.yaw, self.half_extents, st.enabled, reach, box.cx, box.cz, box.yaw, box.hx, box.hz, self._hits)
+        return {self.ids[j] for j in self._hits[:n]} if n else set()
 
     def road_position_of(self, obj_id: str) -> tuple[str, int, float] | None:
         """(OpenDRIVE road id, lane id, s) of an object, or None (no map, off the roads)."""

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..task.model_traffic import ODVehicle
 from .traffic_legs import KIND_NET, KIND_OD, LANE_HOLD_S, LegLogic
+from .traffic_motion import outputs
 from .traffic_routes import TURN_CODES
 
 log = logging.getLogger(__name__)
@@ -52,9 +53,8 @@ class TrafficControls(LegLogic):
         self._place_car(i)
 
     def _refresh_outputs(self) -> None:
-        st = self.st
-        self.brake_light = np.where(st.ov_brake >= 0, st.ov_brake == 1, np.where(st.brake_path >= 0, st.brake_path == 1, st.braking))
-        self.turn_signal = np.where(st.ov_turn >= 0, st.ov_turn, st.turn_path)
+        """`brake_light` and `turn_signal` (updated in place) from the overrides, paths and braking."""
+        outputs(self.st.i, self.st.b, self.brake_light, self.turn_signal)
 
     # ------------------------------------------------------------------ commands
     def request_lane_change(self, obj_id: str, direction: int, target_lane: int | None = None) -> bool:

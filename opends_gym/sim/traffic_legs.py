@@ -18,9 +18,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .traffic_motion import MotionState
 from .traffic_paths import PathBank
 from .traffic_routes import OwnPath, RoadNetwork, WaypointInfo
+from .traffic_state import MotionState
 
 if TYPE_CHECKING:
     from .world import World

@@ -1,14 +1,18 @@
-"""Per-step traffic maths over all objects at once: follow box, obstacles, speed, steering.
+"""Per-step traffic maths as compiled kernels: follow box, obstacles, speed, steering.
 
-Why: issue 9 wants dozens of cars at many times real time, so every per-step rule of
-OpenDS's `FollowBox` and `TrafficCar` is written here as numpy array operations over all
-objects; per-object Python runs only on rare events (a leg ends, a light is passed).
+Why: issue 9 wants dozens of cars at many times real time, and the brake and platoon tests
+(one or two cars) paid ~270 us per step in fixed numpy overhead. So every per-step rule of
+OpenDS's `FollowBox` and `TrafficCar` is a loop over the objects here, compiled with numba
+(`sim.jit`); per-object Python runs only on rare events (a wait ends, a leg ends, a light
+is passed), between the two kernels of a step. The native batch calls the same kernels on
+the cars of all its envs (`group` objects per world), so its traffic is the single env's.
 
 The rules (OPENDS.md section 1b):
 * the follow box ("carrot") runs along the path at (path speed + 10 km/h) scaled by
   1 - (d - minDist)/(maxDist - minDist), d = car-carrot distance clamped to the range, so
   it waits for its car (it also runs at least as fast as the car, so a car told to go
-  faster than its path never overtakes its own carrot);
+  faster than its path never overtakes its own carrot); a carrot beside or behind its car
+  runs on at full speed (a waiting carrot there would have the car circle it forever);
 * steering toward the carrot = sign * min(1, 4 * angle / pi) of the wheel lock;
 * target speed: the leg's speed, lowered ahead of a slower next leg so that the car slows
   at 50 % of its brake deceleration; 0 for an obstacle (the ego car, other traffic) with
@@ -20,256 +24,95 @@ The rules (OPENDS.md section 1b):
   (v - target - 1)/2 (km/h) of `decelerationBrake`, plus OpenDS's constant friction of
   0.2 x `decelerationFreeWheel` (without it a car told to stop creeps on at 1 km/h);
   otherwise free-wheel at `decelerationFreeWheel`. Cars move as kinematic bicycles.
+* two cars that wait for each other (crossing paths) would wait forever: the one listed
+  first goes (OpenDS has no such rule; its stuck cars were reset by `resetWhenStuck`).
+
+Units: metres, seconds, m/s, rad (yaw 0 faces -Z, positive turns left).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+import math
 
 import numpy as np
 
+from . import traffic_state as ts
+from .jit import inline, kernel
+from .traffic_paths import sample_point
+from .traffic_state import MotionState, Specs
 from .vehicle import MAX_WHEEL_ANGLE_RAD
+
+__all__ = ["MotionState", "Specs", "advance_carrots", "bend_speed", "drive", "outputs"]
 
 CARROT_LEAD_MPS = 10.0 / 3.6
 WHEELBASE_M = 2.7
 BEND_ACCEL_MPS2 = 4.0  # lateral acceleration a car accepts when its carrot asks for a tight turn
-BEND_MIN_ANGLE_RAD = 0.25 * np.pi  # ... that is, when the carrot lies more than 45 degrees off its heading
-FRICTION_SHARE = 0.2  # OpenDS always applies 0.2 x the free-wheel force as friction
+BEND_MIN_ANGLE_RAD = 0.25 * math.pi  # ... that is, when the carrot lies more than 45 degrees off its heading
+# rows of the per-step scratch array `work` (one column per object)
+W_CX, W_CY, W_CZ, W_CYAW, W_ANG, W_D, W_CV, W_VT, W_FSAFE, W_FX, W_FZ, W_UX, W_UZ, W_HINT, W_KEY = range(15)
+N_WORK = 15
+# bits of `flags` (one per object): what Python must handle between and after the kernels
+WAIT_OVER, ARRIVED, MOVING, PASSED_LIGHT, BLOCK, LIVE, CAR = 1, 2, 4, 8, 16, 32, 64
+NOTHING_LIVE, WAITS_OVER = -2, -1
+SORT_ABOVE = 8  # worlds with more objects look for obstacles along a sorted axis
+
+# The helpers below take and return numbers only: a compiled call that passes an array
+# updates its reference count, which costs more than these few operations. The loops over
+# the objects (and all array reads and writes) are in the kernels.
 
 
-@dataclass
-class MotionState:
-    """Everything about the objects that changes during a run (numpy arrays, one row each)."""
-
-    pos: np.ndarray  # (N,3) world metres
-    yaw: np.ndarray
-    speed: np.ndarray
-    enabled: np.ndarray
-    engine_on: np.ndarray
-    pid: np.ndarray  # current path id (-1: no route)
-    s: np.ndarray  # carrot arc length on that path
-    leg: np.ndarray  # Gen A: leg index; Gen B: segment index
-    next_seg: np.ndarray  # Gen B: segment after this one (-1 end point)
-    leg_end: np.ndarray  # arc length where the current leg ends
-    v_leg: np.ndarray
-    v_next: np.ndarray
-    end_xz: np.ndarray  # (N,2) position of the leg's end waypoint
-    wait_until: np.ndarray  # NaN unless waiting at a waypoint
-    waited: np.ndarray  # the wait at the current leg end is over
-    halted: np.ndarray  # at an end point for good
-    light_idx: np.ndarray  # next lighted waypoint's light (-1 none)
-    light_xz: np.ndarray
-    turn_path: np.ndarray
-    brake_path: np.ndarray  # -1 not set by the path, 0 off, 1 on
-    head_light: np.ndarray
-    braking: np.ndarray
-    blocked: np.ndarray  # an obstacle within the safety distance
-    ov_speed: np.ndarray  # NaN: no override
-    ov_decel: np.ndarray
-    ov_brake: np.ndarray  # -1 none
-    ov_turn: np.ndarray  # -1 none
-    ext: np.ndarray
-    ext_cmd: np.ndarray  # (N,3) steering, accelerator, brake
-    min_fwd: np.ndarray
-    lat_safe: np.ndarray
-    speed_dep: np.ndarray
-    stuck_hist: np.ndarray  # (N,7,2) positions once a second
-    stuck_n: np.ndarray
-    lane_hold_until: np.ndarray  # a requested lane change suspends automatic lane choice until then
-
-    @staticmethod
-    def empty(n: int) -> MotionState:
-        f = lambda v=0.0: np.full(n, v, dtype=float)  # noqa: E731
-        i = lambda v=-1: np.full(n, v, dtype=np.int64)  # noqa: E731
-        b = lambda v=False: np.full(n, v, dtype=bool)  # noqa: E731
-        return MotionState(
-            pos=np.zeros((n, 3)), yaw=f(), speed=f(), enabled=b(True), engine_on=b(True), pid=i(), s=f(), leg=i(0),
-            next_seg=i(), leg_end=f(), v_leg=f(), v_next=f(), end_xz=np.zeros((n, 2)), wait_until=f(np.nan), waited=b(),
-            halted=b(), light_idx=i(), light_xz=np.zeros((n, 2)), turn_path=i(0), brake_path=i(), head_light=f(), braking=b(),
-            blocked=b(), ov_speed=f(np.nan), ov_decel=f(np.nan), ov_brake=i(), ov_turn=i(), ext=b(), ext_cmd=np.zeros((n, 3)),
-            min_fwd=f(8.0), lat_safe=f(2.0), speed_dep=b(True), stuck_hist=np.zeros((n, 7, 2)), stuck_n=i(0), lane_hold_until=f(-1.0),
-        )  # fmt: skip
-
-    def copy(self) -> MotionState:
-        return MotionState(**{f.name: getattr(self, f.name).copy() for f in fields(self)})
+@inline
+def _dist(dx: float, dz: float) -> float:
+    """Length of (dx, dz): sqrt of the sum of squares (IEEE-exact operations, so compiled and
+    plain-Python runs agree; hypot's extra care is not needed at road scale)."""
+    return math.sqrt(dx * dx + dz * dz)
 
 
-@dataclass(frozen=True)
-class Specs:
-    """Fixed per-object parameters (from the task), one row each; the `_`-fields are derived
-    once here so the per-step functions do not recompute them."""
-
-    is_car: np.ndarray
-    accel: np.ndarray
-    dec_brake: np.ndarray
-    dec_free: np.ndarray
-    min_dist: np.ndarray
-    max_dist: np.ndarray
-    max_speed: np.ndarray
-    never_faster: np.ndarray
-    _span_ok: np.ndarray = field(init=False, repr=False, compare=False)
-    _span_safe: np.ndarray = field(init=False, repr=False, compare=False)
-    _friction: np.ndarray = field(init=False, repr=False, compare=False)
-    _any_never_faster: bool = field(init=False, repr=False, compare=False)
-
-    def __post_init__(self) -> None:
-        span = self.max_dist - self.min_dist
-        ok = span > 1e-6
-        derived = {
-            "_span_ok": ok,
-            "_span_safe": np.where(ok, span, 1.0),
-            "_friction": FRICTION_SHARE * self.dec_free,
-            "_any_never_faster": bool(np.any(self.never_faster)),
-        }
-        for name, value in derived.items():
-            object.__setattr__(self, name, value)  # (a frozen dataclass's derived fields)
-
-
-def carrot_speed(st: MotionState, sp: Specs, d: np.ndarray, ang: np.ndarray) -> np.ndarray:
-    """How fast each carrot moves along its path this step (pedestrians: their own speed).
-
-    A carrot beside or behind its car (the car overshot a hairpin) runs on at full speed:
-    a waiting carrot there would have the car circle it forever.
-    """
-    dc = np.minimum(np.maximum(d, sp.min_dist), sp.max_dist)  # (np.clip is several times slower)
-    factor = np.where(sp._span_ok, 1.0 - (dc - sp.min_dist) / sp._span_safe, (d < sp.max_dist).astype(float))
-    factor = np.where(np.abs(ang) >= 0.5 * np.pi, 1.0, factor)
-    return np.where(sp.is_car, (np.maximum(st.v_leg, st.speed) + CARROT_LEAD_MPS) * factor, np.minimum(st.v_leg, sp.max_speed))
-
-
-def forward_safety_m(st: MotionState) -> np.ndarray:
-    """OpenDS's forward safety distance: max(minForward, 0.5 x speed in km/h) (minForward alone
-    when the speed-dependent rule is off)."""
-    return np.maximum(st.min_fwd, np.where(st.speed_dep, 1.8 * st.speed, 0.0))
-
-
-def obstacles(
-    st: MotionState,
-    rows: np.ndarray,
-    ego_xz: tuple[float, float],
-    fsafe: np.ndarray | None = None,
-    sin_yaw: np.ndarray | None = None,
-    cos_yaw: np.ndarray | None = None,
-) -> np.ndarray:
-    """Which objects (of `rows`) have an obstacle (traffic, the ego car) within their safety distance.
-
-    Only pairs closer than the reach of the safety box are examined, so the cost grows with
-    the number of close pairs; the N x (N+1) distance test is the only quadratic part.
-    `fsafe` (`forward_safety_m`) and np.sin/np.cos of `st.yaw` may be passed when known.
-    """
-    n = len(st.speed)
-    out = np.zeros(n, dtype=bool)
-    idx = np.flatnonzero(rows)
-    if idx.size == 0:
-        return out
-    ox, oz = np.empty(n + 1), np.empty(n + 1)  # every object, then the ego car
-    ox[:n], oz[:n] = st.pos[:, 0], st.pos[:, 2]
-    ox[n], oz[n] = ego_xz
-    if fsafe is None:
-        fsafe = forward_safety_m(st)
-    reach = fsafe[idx] + st.lat_safe[idx]
-    rx, rz = ox - ox[idx, None], oz - oz[idx, None]
-    near = rx * rx + rz * rz < (reach * reach)[:, None]
-    near[:, :n] &= st.enabled
-    near[np.arange(idx.size), idx] = False
-    a, b = near.nonzero()
-    if a.size == 0:
-        return out
-    rxa, rza, i = rx[a, b], rz[a, b], idx[a]
-    if sin_yaw is None or cos_yaw is None:
-        fx, fz = -np.sin(st.yaw[i]), -np.cos(st.yaw[i])
-    else:
-        fx, fz = -sin_yaw[i], -cos_yaw[i]
-    ux, uz = st.end_xz[i, 0] - ox[i], st.end_xz[i, 1] - oz[i]
-    un = np.hypot(ux, uz)
-    ok = un > 1e-6
-    inv = np.divide(1.0, un, out=np.zeros_like(un), where=ok)
-    ux, uz = np.where(ok, ux * inv, fx), np.where(ok, uz * inv, fz)
-    lat_safe, fs = st.lat_safe[i], fsafe[i]
-    f1, f2 = rxa * fx + rza * fz, rxa * ux + rza * uz  # along the heading, and toward the next waypoint
-    hit = (np.abs(rxa * fz - rza * fx) < lat_safe) & (f1 > 0.0) & (f1 < fs)
-    hit |= (np.abs(rxa * uz - rza * ux) < lat_safe) & (f2 > 0.0) & (f2 < fs)
-    near[a, b] = hit
-    # two cars that wait for each other (crossing paths) would wait forever: the one listed
-    # first goes (OpenDS has no such rule; its stuck cars were reset by `resetWhenStuck`)
-    row_of = np.full(n + 1, -1)
-    row_of[idx] = np.arange(idx.size)
-    ha, hb = a[hit], b[hit]
-    rb = row_of[hb]
-    mutual = (rb >= 0) & (idx[ha] < hb)
-    mutual[mutual] = near[rb[mutual], idx[ha[mutual]]]
-    out[idx[ha[~mutual]]] = True
-    return out
-
-
-def target_speed(st: MotionState, sp: Specs, d: np.ndarray, ego_speed: float, waiting: np.ndarray | None = None) -> np.ndarray:
-    """The path's wish (leg speed, anticipation of a slower next leg, caps and overrides).
-
-    `waiting` (optional) is `~np.isnan(st.wait_until)`, when the caller has it already.
-    """
-    vt = np.minimum(st.v_leg, sp.max_speed)
-    dist_end = np.maximum(0.0, st.leg_end - (st.s - d))  # from the car (about d behind its carrot)
-    v_allow = np.sqrt(st.v_next**2 + sp.dec_brake * dist_end)  # v^2 + 2 (0.5 decelerationBrake) dist
-    vt = np.where(st.v_next < vt, np.minimum(vt, v_allow), vt)
-    if sp._any_never_faster:
-        vt = np.where(sp.never_faster, np.minimum(vt, max(0.0, ego_speed)), vt)
-    vt = np.where(np.isnan(st.ov_speed), vt, st.ov_speed)
-    if waiting is None:
-        waiting = ~np.isnan(st.wait_until)
-    return np.where(st.halted | waiting, 0.0, vt)
-
-
-def longitudinal(st: MotionState, sp: Specs, vt: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """(new speed, braking) from OpenDS's pedal rule, overrides and external control.
-
-    The override and external-control terms are evaluated only when some object has one
-    (they leave every other row as it is).
-    """
-    v = st.speed
-    vk, tk = 3.6 * v, 3.6 * vt
-    below = v < vt
-    above = vk > tk + 1.0
-    brake = np.minimum(np.maximum((vk - tk - 1.0) / 2.0, 0.0), 1.0)
-    friction = sp._friction
-    gas = np.where(st.engine_on, np.minimum(sp.accel, (vt - v) / dt), -friction)
-    a = np.where(below, gas, np.where(above, -brake * sp.dec_brake - friction, -sp.dec_free))
-    decel_set = np.isfinite(st.ov_decel)
-    forced = decel_set & (v > vt) if decel_set.any() else None
-    if forced is not None:
-        a = np.where(forced, -st.ov_decel, a)
-    ext = st.ext if st.ext.any() else None
-    if ext is not None:
-        acc_cmd, brake_cmd = st.ext_cmd[:, 1], st.ext_cmd[:, 2]
-        a_ext = np.where(st.engine_on, acc_cmd * sp.accel, 0.0) - brake_cmd * sp.dec_brake - friction
-        a = np.where(ext, a_ext, a)
-    v_new = np.maximum(0.0, v + a * dt)
-    if forced is not None:
-        v_new = np.where(forced & ~st.ext, np.maximum(v_new, vt), v_new)
-    braking = above & ~below
-    if forced is not None:
-        braking |= forced
-    if ext is not None:
-        braking = np.where(ext, st.ext_cmd[:, 2] > 0.0, braking)
-    return v_new, braking
-
-
-def carrot_angle(
-    st: MotionState, cx: np.ndarray, cz: np.ndarray, sin_yaw: np.ndarray | None = None, cos_yaw: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """(angle to the carrot, positive to the left; distance to it) for every object.
-
-    `sin_yaw`/`cos_yaw` (optional) are np.sin/np.cos of `st.yaw`, when the caller has them.
-    """
-    if sin_yaw is None or cos_yaw is None:
-        sin_yaw, cos_yaw = np.sin(st.yaw), np.cos(st.yaw)
-    dx, dz = cx - st.pos[:, 0], cz - st.pos[:, 2]
+@inline
+def _aim(cx: float, cz: float, x: float, z: float, yaw: float) -> tuple[float, float]:
+    """(angle to the carrot at (cx, cz), positive to the left; distance to it) from (x, z, yaw)."""
+    sin_yaw, cos_yaw = math.sin(yaw), math.cos(yaw)
+    dx, dz = cx - x, cz - z
     ndx = -dx
     ahead = ndx * sin_yaw - dz * cos_yaw
     side = ndx * cos_yaw + dz * sin_yaw
-    return np.arctan2(side, ahead), np.hypot(dx, dz)
+    return math.atan2(side, ahead), _dist(dx, dz)
 
 
-def bend_speed(ang: np.ndarray, d: np.ndarray) -> np.ndarray:
+@inline
+def _carrot_speed(d: float, ang: float, lo: float, hi: float, span_ok: bool, span: float, is_car: bool, v: float, v_leg: float,
+                  cap: float) -> float:  # fmt: skip
+    """How fast the carrot moves along its path this step (pedestrians: their own speed)."""
+    dc = d if d > lo else lo
+    dc = dc if dc < hi else hi
+    factor = 1.0 - (dc - lo) / span if span_ok else (1.0 if d < hi else 0.0)
+    if abs(ang) >= 0.5 * math.pi:
+        factor = 1.0
+    if is_car:
+        return ((v if v > v_leg else v_leg) + CARROT_LEAD_MPS) * factor
+    return cap if cap < v_leg else v_leg
+
+
+@inline
+def _target_speed(v_leg: float, cap: float, to_end: float, v_next: float, dec_brake: float, never_faster: bool, ego_speed: float,
+                  ov_speed: float, stopped: bool) -> float:  # fmt: skip
+    """The path's wish: leg speed, anticipation of a slower next leg `to_end` metres on, caps
+    and overrides; 0 when halted or waiting."""
+    vt = cap if cap < v_leg else v_leg
+    dist_end = to_end if to_end > 0.0 else 0.0
+    if v_next < vt:
+        v_allow = math.sqrt(v_next * v_next + dec_brake * dist_end)  # v^2 + 2 (0.5 decelerationBrake) dist
+        vt = v_allow if v_allow < vt else vt
+    if never_faster:
+        ego = ego_speed if ego_speed > 0.0 else 0.0
+        vt = ego if ego < vt else vt
+    if not math.isnan(ov_speed):
+        vt = ov_speed
+    return 0.0 if stopped else vt
+
+
+@kernel
+def bend_speed(ang: float, d: float) -> float:
     """Speed at which the arc to the carrot stays within BEND_ACCEL_MPS2 of lateral acceleration.
 
     OpenDS's physical cars lose speed in turns they cannot make; a kinematic car would
@@ -278,26 +121,270 @@ def bend_speed(ang: np.ndarray, d: np.ndarray) -> np.ndarray:
     tightest one (d/2) when the carrot is beside or behind the car. Ordinary tracking, with
     small angles, is never slowed.
     """
-    abs_ang = np.abs(ang)
-    bend = abs_ang > BEND_MIN_ANGLE_RAD
-    if not bend.any():  # the usual step: every carrot close to straight ahead
-        return np.full(len(ang), np.inf)
-    s = np.where(abs_ang < 0.5 * np.pi, np.abs(np.sin(ang)), 1.0)
-    radius = 0.5 * d / np.maximum(s, 1e-9)
-    v = np.sqrt(BEND_ACCEL_MPS2 * np.maximum(radius, 0.5 * WHEELBASE_M))
-    return np.where(bend, v, np.inf)
+    abs_ang = abs(ang)
+    if not abs_ang > BEND_MIN_ANGLE_RAD:
+        return math.inf
+    s = abs(math.sin(ang)) if abs_ang < 0.5 * math.pi else 1.0
+    radius = 0.5 * d / (s if s > 1e-9 else 1e-9)
+    r = radius if radius > 0.5 * WHEELBASE_M else 0.5 * WHEELBASE_M
+    return math.sqrt(BEND_ACCEL_MPS2 * r)
 
 
-def steer_and_move(st: MotionState, rows: np.ndarray, ang: np.ndarray, v_new: np.ndarray, dt: float) -> None:
-    """Steer toward the carrot (`ang` from `carrot_angle`) or as commanded; integrate the bicycle."""
-    yaw = st.yaw
-    steer = np.sign(ang) * np.minimum(1.0, 4.0 * np.abs(ang) / np.pi)
-    if st.ext.any():
-        steer = np.where(st.ext, st.ext_cmd[:, 0], steer)  # (set_external_control keeps it in [-1, 1])
-    new_yaw = yaw + v_new / WHEELBASE_M * np.tan(steer * MAX_WHEEL_ANGLE_RAD) * dt
-    new_yaw = (new_yaw + np.pi) % (2.0 * np.pi) - np.pi
-    st.yaw = np.where(rows, new_yaw, yaw)
-    px, pz = st.pos[:, 0], st.pos[:, 2]
-    st.pos[:, 0] = np.where(rows, px - v_new * np.sin(st.yaw) * dt, px)
-    st.pos[:, 2] = np.where(rows, pz - v_new * np.cos(st.yaw) * dt, pz)
-    st.speed = np.where(rows, v_new, st.speed)
+@inline
+def _sees(x: float, z: float, fx: float, fz: float, ux: float, uz: float, fsafe: float, lat_safe: float, ox: float, oz: float) -> bool:
+    """Does an object at (x, z), heading (fx, fz), next waypoint in direction (ux, uz), see the
+    point (ox, oz) in its safety box: closer than `fsafe` ahead along its heading or toward
+    its next waypoint, and within `lat_safe` across?"""
+    rx, rz = ox - x, oz - z
+    reach = fsafe + lat_safe
+    if not rx * rx + rz * rz < reach * reach:
+        return False
+    f1, f2 = rx * fx + rz * fz, rx * ux + rz * uz
+    if abs(rx * fz - rz * fx) < lat_safe and 0.0 < f1 < fsafe:
+        return True
+    return abs(rx * uz - rz * ux) < lat_safe and 0.0 < f2 < fsafe
+
+
+@inline
+def _longitudinal(v: float, vt: float, dt: float, engine_on: bool, accel: float, dec_brake: float, dec_free: float, friction: float,
+                  ov_decel: float, ext: bool, ext_gas: float, ext_brake: float) -> tuple[float, bool]:  # fmt: skip
+    """(new speed, braking) from OpenDS's pedal rule, overrides and external control."""
+    vk, tk = 3.6 * v, 3.6 * vt
+    below = v < vt
+    above = vk > tk + 1.0
+    if below:
+        want = (vt - v) / dt
+        a = (want if want < accel else accel) if engine_on else -friction
+    elif above:
+        brake = (vk - tk - 1.0) / 2.0
+        brake = brake if brake > 0.0 else 0.0
+        brake = brake if brake < 1.0 else 1.0
+        a = -brake * dec_brake - friction
+    else:
+        a = -dec_free
+    forced = math.isfinite(ov_decel) and v > vt
+    if forced:
+        a = -ov_decel
+    if ext:
+        a = (ext_gas * accel if engine_on else 0.0) - ext_brake * dec_brake - friction
+    v_new = v + a * dt
+    v_new = v_new if v_new > 0.0 else 0.0
+    if forced and not ext and vt > v_new:
+        v_new = vt
+    if ext:
+        return v_new, ext_brake > 0.0
+    return v_new, (above and not below) or forced
+
+
+@inline
+def _move(x: float, z: float, yaw: float, steer: float, v_new: float, dt: float) -> tuple[float, float, float]:
+    """The kinematic bicycle: (x, z, yaw) after `dt` at speed v_new and steering input `steer`."""
+    yaw = yaw + v_new / WHEELBASE_M * math.tan(steer * MAX_WHEEL_ANGLE_RAD) * dt
+    yaw = (yaw + math.pi) % (2.0 * math.pi) - math.pi
+    return x - v_new * math.sin(yaw) * dt, z - v_new * math.cos(yaw) * dt, yaw
+
+
+@inline
+def _carrots(f: np.ndarray, i: np.ndarray, pos: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, work: np.ndarray,
+             flags: np.ndarray) -> None:  # fmt: skip
+    """Every live carrot's point on its path, and its angle and distance from its object."""
+    for k in range(len(flags)):
+        if flags[k] & LIVE:
+            pid = i[ts.I_PID, k]
+            cx, cy, cz, cyaw, hint = sample_point(pf, pp, pi, pid, f[ts.F_S, k], int(work[W_HINT, k]))
+            work[W_HINT, k] = hint
+            work[W_CX, k], work[W_CY, k], work[W_CZ, k], work[W_CYAW, k] = cx, cy, cz, cyaw
+            work[W_ANG, k], work[W_D, k] = _aim(cx, cz, pos[k, 0], pos[k, 2], f[ts.F_YAW, k])
+
+
+@kernel
+def advance_carrots(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray,
+                    pi: np.ndarray, group: int, active: np.ndarray, t_group: np.ndarray, dt: float, work: np.ndarray,
+                    flags: np.ndarray) -> int:  # fmt: skip
+    """Move every live carrot along its path (the first kernel of a traffic step).
+
+    Returns NOTHING_LIVE; WAITS_OVER (nothing changed; `flags` marks the objects whose wait
+    at a waypoint is over: Python ends those waits and calls again); or the number of
+    carrots flagged ARRIVED at the end of their leg (Python decides what comes next).
+    `active` selects the worlds that step (`group` objects each, at times `t_group`).
+    """
+    n = f.shape[1]
+    live = waits = 0
+    for k in range(n):
+        flags[k] = 0
+        if active[k] and b[ts.B_ENABLED, k] and i[ts.I_PID, k] >= 0:
+            flags[k] = LIVE
+            live += 1
+            if f[ts.F_WAIT_UNTIL, k] <= t_group[k // group] + 1e-9:
+                flags[k] |= WAIT_OVER
+                waits += 1
+    if live == 0:
+        return NOTHING_LIVE
+    if waits:
+        return WAITS_OVER
+    _carrots(f, i, pos, pf, pp, pi, work, flags)
+    arrived = 0
+    for k in range(n):
+        if not flags[k] & LIVE:
+            continue
+        is_car, span_ok = sp[ts.S_IS_CAR, k] != 0.0, sp[ts.S_SPAN_OK, k] != 0.0
+        lo, hi, span, cap = sp[ts.S_MIN_DIST, k], sp[ts.S_MAX_DIST, k], sp[ts.S_SPAN_SAFE, k], sp[ts.S_MAX_SPEED, k]
+        cv = _carrot_speed(work[W_D, k], work[W_ANG, k], lo, hi, span_ok, span, is_car, f[ts.F_SPEED, k], f[ts.F_V_LEG, k], cap)
+        work[W_CV, k] = cv
+        if not b[ts.B_HALTED, k] and math.isnan(f[ts.F_WAIT_UNTIL, k]) and not b[ts.B_EXT, k]:
+            flags[k] |= MOVING
+            f[ts.F_S, k] = f[ts.F_S, k] + cv * dt
+            if f[ts.F_S, k] >= f[ts.F_LEG_END, k] - 1e-9:
+                flags[k] |= ARRIVED
+                arrived += 1
+    return arrived
+
+
+@inline
+def _sort_worlds(pos: np.ndarray, group: int, order: np.ndarray, rank: np.ndarray, axes: np.ndarray, work: np.ndarray) -> None:
+    """Each world's objects sorted along the coordinate (x or z) they spread most on."""
+    for lo in range(0, len(order), group):
+        hi = lo + group
+        axis = 0 if np.ptp(pos[lo:hi, 0]) >= np.ptp(pos[lo:hi, 2]) else 2
+        axes[lo // group] = axis
+        for k in range(lo, hi):
+            work[W_KEY, k] = pos[k, axis]
+        sorted_k = np.argsort(work[W_KEY, lo:hi], kind="mergesort")
+        for p in range(group):
+            order[lo + p] = lo + sorted_k[p]
+            rank[lo + sorted_k[p]] = lo + p
+
+
+@inline
+def _obstacles(f: np.ndarray, b: np.ndarray, pos: np.ndarray, group: int, active: np.ndarray, ego: np.ndarray, work: np.ndarray,
+               flags: np.ndarray) -> None:  # fmt: skip
+    """`blocked` of every car of an active world: an enabled object of its world, or that
+    world's ego car, in its safety box; of two cars that see each other, the one listed first
+    goes. Candidates are visited from the car outwards along a sorted coordinate (in larger
+    worlds) and only as far as the car's reach: objects farther along it cannot be in the box.
+    """
+    n = len(flags)
+    checked = np.zeros(n, dtype=np.bool_)
+    for k in range(n):
+        checked[k] = flags[k] & CAR and not b[ts.B_EXT, k]
+    order, rank, axes = np.arange(n), np.arange(n), np.zeros(n // group, dtype=np.int64)
+    if group > SORT_ABOVE:
+        _sort_worlds(pos, group, order, rank, axes, work)
+    for k in range(n):
+        if not active[k]:
+            continue
+        hit = False
+        if checked[k]:
+            g = k // group
+            x, z, fsafe, lat = pos[k, 0], pos[k, 2], work[W_FSAFE, k], f[ts.F_LAT_SAFE, k]
+            fx, fz, ux, uz = work[W_FX, k], work[W_FZ, k], work[W_UX, k], work[W_UZ, k]
+            hit = _sees(x, z, fx, fz, ux, uz, fsafe, lat, ego[0, g], ego[1, g])
+            reach = fsafe + lat
+            lo, hi = g * group, (g + 1) * group
+            axis = axes[g]
+            for step in (-1, 1):
+                p = rank[k] + step
+                while not hit and lo <= p < hi:
+                    j = order[p]
+                    p += step
+                    if group > SORT_ABOVE and abs(pos[j, axis] - pos[k, axis]) >= reach:
+                        break
+                    if j == k or not b[ts.B_ENABLED, j] or not _sees(x, z, fx, fz, ux, uz, fsafe, lat, pos[j, 0], pos[j, 2]):
+                        continue
+                    if checked[j] and k < j and _sees(pos[j, 0], pos[j, 2], work[W_FX, j], work[W_FZ, j], work[W_UX, j],
+                                                      work[W_UZ, j], work[W_FSAFE, j], f[ts.F_LAT_SAFE, j], x, z):  # fmt: skip
+                        continue  # they see each other: k goes
+                    hit = True
+        b[ts.B_BLOCKED, k] = hit
+
+
+@kernel
+def drive(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray, ext_cmd: np.ndarray,
+          sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, group: int, active: np.ndarray, ego: np.ndarray, dt: float,
+          work: np.ndarray, flags: np.ndarray, resample: bool, stop_mask: np.ndarray) -> int:  # fmt: skip
+    """The second kernel of a traffic step, after `advance_carrots` (and Python's leg events).
+
+    Pedestrians walk on their carrots; cars: speed wish, obstacles (all seen before any car
+    moves), red lights, give-way holds (flagged BLOCK by Python), pedals, steering and
+    motion. `ego` (rows x, z, speed) is each world's ego car; `stop_mask` tells which
+    traffic lights stop cars. `resample`: carrots moved since `advance_carrots` (leg
+    events), so their points and angles are taken again. Returns how many cars passed the
+    traffic light they were queued for (flagged PASSED_LIGHT for Python).
+    """
+    n = f.shape[1]
+    if resample:
+        _carrots(f, i, pos, pf, pp, pi, work, flags)
+    any_car = False
+    for k in range(n):
+        if not flags[k] & LIVE:
+            continue
+        if sp[ts.S_IS_CAR, k] != 0.0:
+            flags[k] |= CAR
+            any_car = True
+        else:  # a pedestrian stands on its carrot
+            pos[k, 0], pos[k, 1], pos[k, 2] = work[W_CX, k], work[W_CY, k], work[W_CZ, k]
+            f[ts.F_YAW, k] = work[W_CYAW, k]
+            go = flags[k] & MOVING and not b[ts.B_HALTED, k] and math.isnan(f[ts.F_WAIT_UNTIL, k])
+            f[ts.F_SPEED, k] = work[W_CV, k] if go else 0.0
+    if not any_car:
+        return 0
+    for k in range(n):  # speed wishes, safety distances and headings, before anything moves
+        if not flags[k] & CAR:
+            continue
+        stopped = b[ts.B_HALTED, k] or not math.isnan(f[ts.F_WAIT_UNTIL, k])
+        to_end = f[ts.F_LEG_END, k] - (f[ts.F_S, k] - work[W_D, k])  # from the car (about d behind its carrot)
+        vt = _target_speed(f[ts.F_V_LEG, k], sp[ts.S_MAX_SPEED, k], to_end, f[ts.F_V_NEXT, k], sp[ts.S_DEC_BRAKE, k],
+                           sp[ts.S_NEVER_FASTER, k] != 0.0, ego[2, k // group], f[ts.F_OV_SPEED, k], stopped)  # fmt: skip
+        vb = bend_speed(work[W_ANG, k], work[W_D, k])
+        work[W_VT, k] = vb if vb < vt else vt
+        # forward safety distance: max(minForward, 0.5 x speed in km/h), or minForward alone
+        by_speed = 1.8 * f[ts.F_SPEED, k] if b[ts.B_SPEED_DEP, k] else 0.0
+        work[W_FSAFE, k] = by_speed if by_speed > f[ts.F_MIN_FWD, k] else f[ts.F_MIN_FWD, k]
+        yaw = f[ts.F_YAW, k]
+        fx, fz = -math.sin(yaw), -math.cos(yaw)
+        ux, uz = end_xz[k, 0] - pos[k, 0], end_xz[k, 1] - pos[k, 2]
+        un = _dist(ux, uz)
+        if un > 1e-6:
+            inv = 1.0 / un
+            ux, uz = ux * inv, uz * inv
+        else:
+            ux, uz = fx, fz
+        work[W_FX, k], work[W_FZ, k], work[W_UX, k], work[W_UZ, k] = fx, fz, ux, uz
+    _obstacles(f, b, pos, group, active, ego, work, flags)
+    passed = 0
+    for k in range(n):
+        if not flags[k] & CAR:
+            continue
+        block = b[ts.B_BLOCKED, k] or (flags[k] & BLOCK) != 0
+        li = i[ts.I_LIGHT_IDX, k]
+        if li >= 0 and stop_mask[li]:
+            block = block or _dist(light_xz[k, 0] - pos[k, 0], light_xz[k, 1] - pos[k, 2]) < work[W_FSAFE, k]
+        ext = b[ts.B_EXT, k]
+        v_new, braking = _longitudinal(f[ts.F_SPEED, k], 0.0 if block else work[W_VT, k], dt, b[ts.B_ENGINE_ON, k], sp[ts.S_ACCEL, k],
+                                       sp[ts.S_DEC_BRAKE, k], sp[ts.S_DEC_FREE, k], sp[ts.S_FRICTION, k], f[ts.F_OV_DECEL, k], ext,
+                                       ext_cmd[k, 1], ext_cmd[k, 2])  # fmt: skip
+        b[ts.B_BRAKING, k] = braking
+        # steer toward the carrot: sign * min(1, 4 angle / pi) of the wheel lock (or as commanded)
+        ang = work[W_ANG, k]
+        q = 4.0 * abs(ang) / math.pi
+        steer = ext_cmd[k, 0] if ext else (1.0 if ang > 0.0 else -1.0 if ang < 0.0 else 0.0) * (q if q < 1.0 else 1.0)
+        pos[k, 0], pos[k, 2], f[ts.F_YAW, k] = _move(pos[k, 0], pos[k, 2], f[ts.F_YAW, k], steer, v_new, dt)
+        f[ts.F_SPEED, k] = v_new
+        pos[k, 1] = work[W_CY, k]
+        if li >= 0:
+            yaw = f[ts.F_YAW, k]
+            ahead = -(light_xz[k, 0] - pos[k, 0]) * math.sin(yaw) - (light_xz[k, 1] - pos[k, 2]) * math.cos(yaw)
+            if ahead < 0.0:
+                flags[k] |= PASSED_LIGHT
+                passed += 1
+    return passed
+
+
+@kernel
+def outputs(i: np.ndarray, b: np.ndarray, brake_light: np.ndarray, turn_signal: np.ndarray) -> None:
+    """Brake lights and turn signals: an override, else the path's setting, else braking."""
+    for k in range(i.shape[1]):
+        ob, bp = i[ts.I_OV_BRAKE, k], i[ts.I_BRAKE_PATH, k]
+        brake_light[k] = ob == 1 if ob >= 0 else bp == 1 if bp >= 0 else b[ts.B_BRAKING, k]
+        ot = i[ts.I_OV_TURN, k]
+        turn_signal[k] = ot if ot >= 0 else i[ts.I_TURN_PATH, k]

@@ -15,6 +15,8 @@ import math
 
 import numpy as np
 
+from .jit import inline, kernel
+
 SAMPLE_SPACING_M = 1.0  # curved pieces are sampled about this finely (straight ones exactly)
 PATH_GAP_M = 1.0  # spacing between paths on the global arc-length axis
 
@@ -60,6 +62,52 @@ def polyline(ctrl: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         p = pts if len(pts) else np.zeros((1, 3))
         return np.vstack([p[:1], p[:1]]), np.array([0, 1])
     return pts, np.arange(len(pts))
+
+
+# rows of `PathBank.arrays()`: per sample (pf), per path (pp floats, pi ints)
+PF_X, PF_Y, PF_Z, PF_S, PF_DX, PF_DY, PF_DZ, PF_OK, PF_LEN, PF_YAW = range(10)
+PP_OFF, PP_LEN = 0, 1
+PI_FIRST, PI_LAST_PIECE = 0, 1
+
+
+@inline
+def sample_point(pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, pid: int, s: float, hint: int) -> tuple[float, float, float, float, int]:
+    """(x, y, z, yaw, piece) at arc length s (clamped to the path) on path `pid` (m, rad).
+
+    `piece` is the sample the point lies after; passed back as `hint` next time, the usual
+    lookup (a carrot moved a little) skips the binary search. The result never depends on it.
+    """
+    length = pp[PP_LEN, pid]
+    g = pp[PP_OFF, pid] + ((s if s > 0.0 else 0.0) if s < length else length)
+    first, last = pi[PI_FIRST, pid], pi[PI_LAST_PIECE, pid] + 1
+    # the last sample at or before g (the path's first one is at its offset, so there is one)
+    if first <= hint < last and pf[PF_S, hint] <= g < pf[PF_S, hint + 1]:
+        lo = hint
+    elif first <= hint < last - 1 and pf[PF_S, hint + 1] <= g < pf[PF_S, hint + 2]:
+        lo = hint + 1
+    else:
+        lo, hi = first, last
+        while lo < hi:
+            mid = (lo + hi + 1) // 2
+            if pf[PF_S, mid] <= g:
+                lo = mid
+            else:
+                hi = mid - 1
+    k = lo if lo < last - 1 else last - 1
+    f = (g - pf[PF_S, k]) / pf[PF_LEN, k] if pf[PF_OK, k] != 0.0 else 0.0
+    return pf[PF_X, k] + f * pf[PF_DX, k], pf[PF_Y, k] + f * pf[PF_DY, k], pf[PF_Z, k] + f * pf[PF_DZ, k], pf[PF_YAW, k], k
+
+
+@kernel
+def _sample_many(pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, pid: np.ndarray, s: np.ndarray, out: np.ndarray) -> None:
+    for k in range(len(pid)):
+        out[0, k], out[1, k], out[2, k], out[3, k], _ = sample_point(pf, pp, pi, pid[k], s[k], -1)
+
+
+@kernel
+def _point(pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, pid: int, s: float) -> tuple[float, float, float, float]:
+    x, y, z, yaw, _ = sample_point(pf, pp, pi, pid, s, -1)
+    return x, y, z, yaw
 
 
 class PathBank:
@@ -145,31 +193,36 @@ class PathBank:
                 idx = np.maximum.accumulate(idx)
                 idx[idx < 0] = np.flatnonzero(ok)[0]
                 y[:] = y[idx]
-        self._seg_len, self._seg_yaw = seg, yaw
-        # per-piece and per-path terms of `sample`, computed once per build
-        ok = seg > 1e-9
-        self._seg_ok, self._seg_len_safe = ok, np.where(ok, seg, 1.0)
-        self._dx, self._dy, self._dz = dx, (np.diff(self._y) if len(self._y) > 1 else np.zeros(0)), dz
-        self._last_piece = np.maximum(self._first, self._last - 1)
+        m = len(self._x)
+        pf = np.zeros((10, m))
+        pf[PF_X], pf[PF_Y], pf[PF_Z], pf[PF_S] = self._x, self._y, self._z, self._s
+        if m > 1:
+            ok = seg > 1e-9
+            pf[PF_DX, :-1], pf[PF_DY, :-1], pf[PF_DZ, :-1] = dx, np.diff(self._y), dz
+            pf[PF_OK, :-1], pf[PF_LEN, :-1], pf[PF_YAW, :-1] = ok, np.where(ok, seg, 1.0), yaw
+        pp = np.array([self._off, self._length]).reshape(2, -1)
+        pi = np.array([self._first, np.maximum(self._first, self._last - 1)], dtype=np.int64).reshape(2, -1)
+        self._arrays = (pf, pp, pi)
         self._dirty = False
 
-    def sample(self, pid: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(x, y, z, yaw) at arc length s (clamped to the path) on each path id, vectorised."""
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The sampled paths for the kernels: (per sample: x, y, z, global arc length, the step
+        to the next sample, whether it has length, its length, its heading; per path: offset on
+        the global axis, length; per path: first sample, last piece)."""
         if self._dirty:
             self._build()
-        pid = np.asarray(pid, dtype=np.int64)
-        g = self._off[pid] + np.minimum(np.maximum(s, 0.0), self._length[pid])  # (np.clip is slower)
-        k = np.searchsorted(self._s, g, side="right") - 1
-        k = np.minimum(np.maximum(k, self._first[pid]), self._last_piece[pid])
-        f = np.where(self._seg_ok[k], (g - self._s[k]) / self._seg_len_safe[k], 0.0)
-        x = self._x[k] + f * self._dx[k]
-        y = self._y[k] + f * self._dy[k]
-        z = self._z[k] + f * self._dz[k]
-        return x, y, z, self._seg_yaw[k]
+        return self._arrays
+
+    def sample(self, pid: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(x, y, z, yaw) at arc length s (clamped to the path) on each path id."""
+        pid = np.ascontiguousarray(pid, dtype=np.int64)
+        s = np.ascontiguousarray(np.broadcast_to(s, pid.shape), dtype=np.float64)
+        out = np.empty((4, len(pid)))
+        _sample_many(*self.arrays(), pid, s, out)
+        return out[0], out[1], out[2], out[3]
 
     def point(self, pid: int, s: float) -> tuple[float, float, float, float]:
-        x, y, z, yaw = self.sample(np.array([pid]), np.array([float(s)]))
-        return float(x[0]), float(y[0]), float(z[0]), float(yaw[0])
+        return _point(*self.arrays(), int(pid), float(s))  # type: ignore[no-any-return]
 
     def project(self, pid: int, x: float, z: float) -> tuple[float, float]:
         """(arc length of the closest point, distance to it) of a point on one path."""

@@ -1,9 +1,8 @@
 """Traffic cars of a native batch: N envs x C cars in one flat `MotionState` (row = env * C + car).
 
-Why: `sim.traffic.TrafficManager.step` already does its per-step work as row-wise numpy
-maths (`traffic_motion`), so the same functions run over all envs' cars at once; only the
-obstacle search, which pairs each car with the other objects of *its* world, is written
-here per env (same arithmetic, same "the one listed first goes" rule). Leg ends are rare
+Why: `sim.traffic.TrafficManager.step` runs two compiled kernels (`traffic_motion`) over
+its objects; here the same kernels run over all envs' cars at once, with `group = C` so
+that each car meets only the objects and the ego car of *its* world. Leg ends are rare
 and run the single env's own `LegLogic` on the flat state. What the batched tasks use is
 supported: cars on their own waypoint paths, no traffic lights, road network, pedestrians
 or external control (`FlatTraffic` refuses others).
@@ -18,7 +17,8 @@ from typing import Any
 import numpy as np
 
 from ..sim.traffic_legs import KIND_OWN, LegLogic
-from ..sim.traffic_motion import MotionState, Specs, bend_speed, carrot_angle, carrot_speed, longitudinal, steer_and_move, target_speed
+from ..sim.traffic_motion import ARRIVED, N_WORK, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, advance_carrots, drive, outputs
+from ..sim.traffic_state import MotionState, Specs
 from .triggers import obb_overlap
 
 
@@ -52,8 +52,11 @@ class FlatTraffic:
         self.tm = tm
         self.paths = tm.paths
         self.st0 = tm.st.copy()  # after the template's reset (and the task's own reset of the cars)
-        self.st = MotionState(**{f.name: np.concatenate([getattr(self.st0, f.name)] * n) for f in fields(MotionState) if f.init})
+        self.st = self.st0.tile(n)
         self.sp = Specs(**{f.name: np.tile(getattr(tm.sp, f.name), n) for f in fields(Specs) if f.init})
+        self.work = np.zeros((N_WORK, n * self.c))
+        self.flags = np.zeros(n * self.c, dtype=np.int64)
+        self.no_lights = np.zeros(1, dtype=bool)
         self.legs = _Legs(tm, self.st, n)
         self.half = np.tile(tm.half_extents, (n, 1))
         self.ego_length = ego_length_m
@@ -66,79 +69,37 @@ class FlatTraffic:
 
     def reset_rows(self, idx: np.ndarray, st0: MotionState) -> None:
         rows = self.rows_of(idx)
-        k = np.tile(np.arange(self.c), len(idx))
-        for f in fields(MotionState):
-            if f.init:
-                getattr(self.st, f.name)[rows] = getattr(st0, f.name)[k]
+        self.st.assign_rows(rows, st0, np.tile(np.arange(self.c), len(idx)))
         for r in rows.tolist():
             self.legs.light_queue[r] = []
         self.hitting[rows] = False
 
     # ------------------------------------------------------------------ step
     def step(self, live_env: np.ndarray, dt: float, t_env: np.ndarray, ex: np.ndarray, ez: np.ndarray) -> None:
-        """`TrafficManager.step` for the cars of the envs `live_env` (ego positions ex, ez)."""
-        st, sp = self.st, self.sp
-        env_rows = np.repeat(live_env, self.c)
-        live = env_rows & st.enabled & (st.pid >= 0)
-        if not live.any():
+        """`TrafficManager.step` for the cars of the envs `live_env` (ego positions ex, ez): its
+        kernels, with `group` = the cars of one env."""
+        st, c, work, flags = self.st, self.c, self.work, self.flags
+        active = np.repeat(live_env, c)
+        pf, pp, pi = self.paths.arrays()
+        t = np.ascontiguousarray(t_env, dtype=np.float64)
+        code = advance_carrots(st.f, st.i, st.b, st.pos, self.sp.packed, pf, pp, pi, c, active, t, dt, work, flags)
+        if code == NOTHING_LIVE:
             return
-        moving = live & ~st.halted & np.isnan(st.wait_until) & ~st.ext
-        cx, cy, cz, _ = self.paths.sample(np.maximum(st.pid, 0), st.s)
-        ang, d = carrot_angle(st, cx, cz)
-        cv = carrot_speed(st, sp, d, ang)
-        st.s = np.where(moving, st.s + cv * dt, st.s)
-        arrived = np.flatnonzero(moving & (st.s >= st.leg_end - 1e-9))
-        for i in arrived.tolist():
-            self.legs.t_s = float(t_env[i // self.c])
-            self.legs._arrive(i)
-        if arrived.size:
-            cx, cy, cz, _ = self.paths.sample(np.maximum(st.pid, 0), st.s)
-            ang, d = carrot_angle(st, cx, cz)
-        cars = live
-        vt = np.minimum(target_speed(st, sp, d, 0.0), bend_speed(ang, d))
-        st.blocked = np.where(env_rows, self._obstacles(cars & ~st.ext, ex, ez), st.blocked)
-        vt = np.where(st.blocked, 0.0, vt)
-        v_new, braking = longitudinal(st, sp, vt, dt)
-        st.braking = np.where(cars, braking, st.braking)
-        steer_and_move(st, cars, ang, v_new, dt)
-        st.pos[:, 1] = np.where(cars, cy, st.pos[:, 1])
-
-    def _obstacles(self, rows: np.ndarray, ex: np.ndarray, ez: np.ndarray) -> np.ndarray:
-        """`traffic_motion.obstacles` per env: each car against its world's other cars and ego."""
-        st, c = self.st, self.c
-        fsafe = np.maximum(st.min_fwd, 0.5 * 3.6 * st.speed * st.speed_dep)
-        reach = fsafe + st.lat_safe
-        px, pz = st.pos[:, 0].reshape(-1, c), st.pos[:, 2].reshape(-1, c)
-        ox = np.concatenate([px, ex[:, None]], axis=1)  # (n, c + 1): the cars, then the ego car
-        oz = np.concatenate([pz, ez[:, None]], axis=1)
-        en = np.concatenate([st.enabled.reshape(-1, c), np.ones((self.n, 1), dtype=bool)], axis=1)
-        fx, fz = -np.sin(st.yaw), -np.cos(st.yaw)
-        ux, uz = st.end_xz[:, 0] - st.pos[:, 0], st.end_xz[:, 1] - st.pos[:, 2]
-        un = np.hypot(ux, uz)
-        ok = un > 1e-6
-        inv = np.divide(1.0, un, out=np.zeros_like(un), where=ok)
-        ux, uz = np.where(ok, ux * inv, fx), np.where(ok, uz * inv, fz)
-        hit = np.zeros((self.n * c, c + 1), dtype=bool)
-        for b in range(c + 1):
-            rx = np.repeat(ox[:, b], c) - st.pos[:, 0]
-            rz = np.repeat(oz[:, b], c) - st.pos[:, 2]
-            near = (rx * rx + rz * rz < reach * reach) & np.repeat(en[:, b], c) & rows
-            if b < c:
-                near &= np.tile(np.arange(c), self.n) != b
-            f1, f2 = rx * fx + rz * fz, rx * ux + rz * uz
-            h = (np.abs(rx * fz - rz * fx) < st.lat_safe) & (f1 > 0.0) & (f1 < fsafe)
-            h |= (np.abs(rx * uz - rz * ux) < st.lat_safe) & (f2 > 0.0) & (f2 < fsafe)
-            hit[:, b] = near & h
-        out = np.zeros(self.n * c, dtype=bool)
-        own = np.tile(np.arange(c), self.n)
-        for b in range(c + 1):
-            blocked_by = hit[:, b]
-            if b < c:  # mutual waiting: the car listed first goes
-                other = (np.arange(self.n * c) // c) * c + b
-                mutual = (own < b) & rows[other] & hit[other, own]
-                blocked_by &= ~mutual
-            out |= blocked_by
-        return out & rows
+        if code == WAITS_OVER:
+            for i in np.flatnonzero(flags & WAIT_OVER).tolist():
+                self.legs.t_s = float(t_env[i // c])
+                self.legs._finish_wait(i)
+            pf, pp, pi = self.paths.arrays()
+            code = advance_carrots(st.f, st.i, st.b, st.pos, self.sp.packed, pf, pp, pi, c, active, t, dt, work, flags)
+        if code > 0:
+            for i in np.flatnonzero(flags & ARRIVED).tolist():
+                self.legs.t_s = float(t_env[i // c])
+                self.legs._arrive(i)
+            pf, pp, pi = self.paths.arrays()
+        ego = np.zeros((3, self.n))  # x, z, speed (no car here watches the ego's speed)
+        ego[0], ego[1] = ex, ez
+        drive(st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, self.sp.packed, pf, pp, pi, c, active, ego, dt, work, flags,
+              code > 0, self.no_lights)  # fmt: skip
 
     # ------------------------------------------------------------------ ego relations
     def new_hits(self, live_env: np.ndarray, bx: np.ndarray, bz: np.ndarray, byaw: np.ndarray, half: tuple[float, float]) -> np.ndarray:
@@ -159,9 +120,9 @@ class FlatTraffic:
 
     def outputs(self) -> tuple[np.ndarray, np.ndarray]:
         """(brake_light, turn_signal) per car row (`TrafficControls._refresh_outputs`)."""
-        st = self.st
-        brake = np.where(st.ov_brake >= 0, st.ov_brake == 1, np.where(st.brake_path >= 0, st.brake_path == 1, st.braking))
-        return brake, np.where(st.ov_turn >= 0, st.ov_turn, st.turn_path)
+        brake, turn = np.empty(self.n * self.c, dtype=bool), np.empty(self.n * self.c, dtype=np.int64)
+        outputs(self.st.i, self.st.b, brake, turn)
+        return brake, turn
 
     def lead(self, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """`perception.lead_vehicle` per env: (car index or -1, gap m, speed along m/s, length m)."""
