@@ -131,14 +131,16 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         if self._episode_over:
             raise RuntimeError("step() called after the episode ended; call reset() first")
         controls = self._transform_controls(self.act_type.to_controls(action))
+        applied = controls.clipped()  # what the world gets: clipped once for the action repeat
         world = self.world
         for k in range(self.config.action_repeat):
             self.controls = controls
-            world.step(controls)
+            world.step_clipped(applied)
             self._record_row()
             self._on_physics_step()
             if k == 0:
                 controls = _without_edges(controls)
+                applied = _without_edges(applied)
             if self._stop_early():
                 break
         s = world.ego.state
@@ -188,10 +190,12 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         inp = w.ego.inputs
         tr = self.trace
         prev = tr.last_row()
+        run = self._run
         if prev:
-            ds = math.hypot(x - float(prev[_X]), z - float(prev[_Z]))
-            self._run.add_distance(ds, abs(float(prev[_OFFSET])), abs(offset))
-        self._run.add_offset(offset)
+            ds = math.hypot(x - prev[_X], z - prev[_Z])
+            run.dist += ds
+            run.area += 0.5 * (abs(prev[_OFFSET]) + abs(offset)) * ds  # (RunningLateral.add_distance, inlined)
+        run.add_offset(offset)
         tr.append((w.t_s, x, z, s.yaw, s.u, lateral, offset, float(lane), inp.steering, inp.accelerator, inp.brake, headway, ttc))
 
     def _new_reaction(self) -> tuple[float, float]:

@@ -8,18 +8,18 @@ OpenDS car behaviour every env and the human mode share.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 from ..task.model_task import DrivingTask, Pose
 from .controls import DriverControls
+from .ego_fast import A_MIN_SPEED, car_constants, cruise_params, drive_inputs, ego_step
+from .ego_kernels import CRUISE_GAIN, CRUISE_INTEGRAL_BAND_MPS, CRUISE_INTEGRAL_MAX, CRUISE_KI
 from .physics_fast import FastVehicle
 from .powertrain import Powertrain
 from .vehicle import MAX_WHEEL_ANGLE_RAD, BodyState, VehicleBackend, VehicleSpec
 
-CRUISE_GAIN = 0.5  # throttle (or brake) per m/s of speed error
-CRUISE_KI = 0.3  # throttle per (m/s x s): the integral holds the set speed against drag
-CRUISE_INTEGRAL_BAND_MPS = 2.0  # integrate only this close to the set speed (no wind-up)
-CRUISE_INTEGRAL_MAX = 0.8
+__all__ = ["CRUISE_GAIN", "CRUISE_INTEGRAL_BAND_MPS", "CRUISE_INTEGRAL_MAX", "CRUISE_KI", "CarInputs", "EgoCar", "make_backend"]
+_NO_LEAD = (float("nan"), float("nan"))
 
 
 @dataclass
@@ -44,14 +44,28 @@ class EgoCar:
         self.body = backend
         self.spec: VehicleSpec = backend.spec
         self.powertrain = Powertrain(car, self.spec.mass_kg)
+        cc = car.cruise_control
+        self._aid = cruise_params(car.engine.min_speed_mps, cc.suppress_deactivation_by_brake, cc.acc, cc.emergency_brake_distance_m,
+                                  cc.safety_distance_forward_m)  # fmt: skip
+        self._car = None  # the fast backend's and powertrain's constants for `ego_step`
+        if isinstance(backend, FastVehicle):
+            self._car = car_constants(backend._params, *self.powertrain._kernel_args)
         self._initial_powertrain = _copy_powertrain_state(self.powertrain)
-        self.min_speed_mps = car.engine.min_speed_mps
         self.inputs = CarInputs()
         self.cruise_active = False
         self.cruise_target_mps = 0.0
         self.cruise_integral = 0.0
         self.crosswind = (0.0, 0.0)  # (steering offset, seconds left)
         self.lead: tuple[float, float] | None = None  # (gap m, lead speed m/s) for ACC, set by the world
+
+    @property
+    def min_speed_mps(self) -> float:
+        """The engine block's minSpeed (m/s; 0: none)."""
+        return float(self._aid[A_MIN_SPEED])
+
+    @min_speed_mps.setter
+    def min_speed_mps(self, value: float) -> None:
+        self._aid[A_MIN_SPEED] = value
 
     @property
     def state(self) -> BodyState:
@@ -89,6 +103,45 @@ class EgoCar:
 
     # ------------------------------------------------------------------ step
     def step(self, dt_s: float, c: DriverControls, physics_on: bool = True) -> None:
+        if c.engine_on is not None or c.toggle_automatic or c.gear is not None or c.shift_up or c.shift_down:
+            self._gearbox(c)
+        if c.cruise_control is not None or c.cruise_speed_delta_mps:
+            self._cruise_command(c)
+        body = self.body
+        s = body.state
+        steer = c.steering
+        offset, left = self.crosswind
+        if left > 0.0:
+            steer = max(-1.0, min(1.0, steer + offset))
+            self.crosswind = (offset, left - dt_s)
+        st = self.powertrain.state
+        lead_gap, lead_v = self.lead if self.lead is not None else _NO_LEAD
+        if physics_on and self._car is not None:
+            # the fast backend: driver's aids, powertrain and body in one compiled call
+            steer_rad = steer * MAX_WHEEL_ANGLE_RAD
+            s.steer_rad = steer_rad
+            s.x, s.z, s.yaw, s.u, s.v, s.r, free, gas, brake, self.cruise_active, self.cruise_integral = ego_step(
+                self._car, self._aid, st.values, st.ring, dt_s, steer_rad, c.accelerator, c.brake, c.clutch, c.hand_brake,
+                self.cruise_active, self.cruise_target_mps, self.cruise_integral, lead_gap, lead_v, s.x, s.z, s.yaw, s.u, s.v, s.r,
+            )  # fmt: skip
+            if free < 2:
+                st.ensure_ring_room()
+            ground = cast(FastVehicle, body).ground_height
+            if ground is not None:
+                s.y = ground(s.x, s.z)
+        else:
+            v = s.u
+            gas, brake, self.cruise_active, self.cruise_integral = drive_inputs(
+                self._aid, st.values, v, c.accelerator, c.brake, dt_s, self.cruise_active, self.cruise_target_mps, self.cruise_integral,
+                lead_gap, lead_v,
+            )  # fmt: skip
+            if physics_on:  # a backend of its own (bullet)
+                drive, brake_force = self.powertrain.forces(dt_s, v, gas * (1.0 - c.clutch), brake, 0.0, c.hand_brake)
+                body.step(dt_s, steer * MAX_WHEEL_ANGLE_RAD, drive, brake_force)
+        self.inputs = CarInputs(steer, gas, brake, c.clutch, c.hand_brake, c.turn_signal or self.inputs.turn_signal, c.horn)
+
+    def _gearbox(self, c: DriverControls) -> None:
+        """Engine switch, automatic toggle and gear requests."""
         pt = self.powertrain
         st = pt.state
         if c.engine_on is not None:
@@ -104,53 +157,17 @@ class EgoCar:
                 pt.shift(st.gear - 1)
         elif st.gear <= 0 and c.shift_up:
             pt.shift(1)
-        gas, brake = c.accelerator, c.brake
-        v = self.body.state.u
-        # cruise control and ACC (nothing to do while it is off and not asked for)
-        if self.cruise_active or c.cruise_control is not None or c.cruise_speed_delta_mps:
-            gas, brake = self._cruise(c, v, gas, brake, dt_s)
-        # the engine block's minSpeed: OpenDS keeps the car at least this fast off the brake
-        if self.min_speed_mps > 0.0 and brake == 0.0 and st.gear > 0 and v < self.min_speed_mps:
-            gas = max(gas, min(1.0, CRUISE_GAIN * (self.min_speed_mps - v) + 0.3))
-        steer = c.steering
-        offset, left = self.crosswind
-        if left > 0.0:
-            steer = max(-1.0, min(1.0, steer + offset))
-            self.crosswind = (offset, left - dt_s)
-        self.inputs = CarInputs(steer, gas, brake, c.clutch, c.hand_brake, c.turn_signal or self.inputs.turn_signal, c.horn)
-        if not physics_on:
-            return
-        drive, brake_force = pt.forces(dt_s, v, gas * (1.0 - c.clutch), brake, 0.0, c.hand_brake)
-        self.body.step(dt_s, steer * MAX_WHEEL_ANGLE_RAD, drive, brake_force)
 
-    def _cruise(self, c: DriverControls, v: float, gas: float, brake: float, dt_s: float) -> tuple[float, float]:
-        """Cruise control and ACC: (gas, brake) after a PI speed controller."""
-        cc = self.car.cruise_control
+    def _cruise_command(self, c: DriverControls) -> None:
+        """Cruise control on (at the current speed) or off, and set-speed changes. The
+        controller itself (PI on the speed, ACC) is `ego_kernels.cruise_control`."""
         if c.cruise_control is True:
-            self.cruise_active, self.cruise_target_mps = True, max(v, 0.0)
+            self.cruise_active, self.cruise_target_mps = True, max(self.body.state.u, 0.0)
             self.cruise_integral = 0.0
         elif c.cruise_control is False:
             self.cruise_active = False
         if c.cruise_speed_delta_mps:
             self.cruise_target_mps = max(0.0, self.cruise_target_mps + c.cruise_speed_delta_mps)
-        if self.cruise_active and brake > 0.0 and not cc.suppress_deactivation_by_brake:
-            self.cruise_active = False
-        if self.cruise_active:
-            target = self.cruise_target_mps
-            if cc.acc and self.lead is not None:
-                gap, lead_v = self.lead
-                if cc.emergency_brake_distance_m is not None and gap < cc.emergency_brake_distance_m:
-                    target = 0.0
-                elif gap < (cc.safety_distance_forward_m or 0.5 * v * 3.6):
-                    target = min(target, lead_v)
-            err = target - v
-            if -CRUISE_INTEGRAL_BAND_MPS < err < CRUISE_INTEGRAL_BAND_MPS:
-                self.cruise_integral = min(CRUISE_INTEGRAL_MAX, max(0.0, self.cruise_integral + CRUISE_KI * err * dt_s))
-            throttle = CRUISE_GAIN * err + self.cruise_integral
-            gas = max(gas, min(1.0, throttle)) if throttle > 0 else gas
-            if err < -1.0:
-                brake = max(brake, min(1.0, -CRUISE_GAIN * (err + 1.0) * 0.5))
-        return gas, brake
 
     # ------------------------------------------------------------------ state
     def get_state(self) -> dict[str, Any]:

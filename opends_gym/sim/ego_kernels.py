@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from .jit import kernel
+from .jit import inline, kernel
 
 KINEMATIC_BELOW = 1.0  # m/s: purely kinematic below this forward speed
 DYNAMIC_ABOVE = 3.0  # m/s: purely dynamic above this
@@ -42,6 +42,10 @@ POWER_RPM_MIN, POWER_RPM_MAX = 1500.0, 5100.0
 MIN_DRIVE_SPEED = 2.0  # m/s: below this, drive force is the engine-block acceleration cap
 TABLE_STEP = 0.1  # m/s resolution of the automatic gearbox table
 RPM_TABLE_STEP = 10.0
+CRUISE_GAIN = 0.5  # throttle (or brake) per m/s of speed error
+CRUISE_KI = 0.3  # throttle per (m/s x s): the integral holds the set speed against drag
+CRUISE_INTEGRAL_BAND_MPS = 2.0  # integrate only this close to the set speed (no wind-up)
+CRUISE_INTEGRAL_MAX = 0.8
 
 
 def body_params(
@@ -261,84 +265,47 @@ def powertrain_core(
     return gear, rpm, drive, brake_force, p_engine, p_load, litres, fuel_used, fuel_left
 
 
-# the single env's powertrain state (`sim.powertrain.PowertrainState.values`)
-S_GEAR, S_AUTOMATIC, S_ENGINE_ON, S_RPM, S_PREV_V, S_FUEL_USED, S_FUEL_LEFT, S_P_ENGINE, S_P_LOAD = range(9)
-S_WINDOW_L, S_WINDOW_M, S_SINCE_UPDATE, S_L_PER_100KM, S_L_PER_H, S_T, S_ODOMETER, S_RING_HEAD, S_RING_COUNT = range(9, 18)
-N_STATE = 18
-CONSUMPTION_WINDOW_S = 2.0
-CONSUMPTION_UPDATE_S = 0.5
+@inline
+def cruise_control(on: bool, target: float, integral: float, v: float, gas: float, brake: float, dt: float, suppress_off: bool,
+                   acc: bool, emergency_m: float, safety_m: float, lead_gap: float,
+                   lead_v: float) -> tuple[float, float, bool, float]:  # fmt: skip
+    """Cruise control and ACC, a PI speed controller: (gas, brake, on, integral) after one step.
 
-
-@kernel
-def powertrain_step(
-    p: np.ndarray,
-    ratios: np.ndarray,
-    power_table: np.ndarray,
-    gear_table: np.ndarray,
-    s: np.ndarray,
-    ring: np.ndarray,
-    dt: float,
-    v_mps: float,
-    gas: float,
-    brake: float,
-    slope_rad: float,
-    hand_brake: bool,
-) -> tuple[float, float]:
-    """`powertrain_core` on the state slots `s`, plus the consumption display; (drive N, brake N).
-
-    `ring` (rows t s, litres, metres) holds the display's 2 s window from row `s[S_RING_HEAD]`;
-    the caller keeps a free row in it.
+    The brake pedal switches it off (unless `suppress_off`); with ACC (`acc`) a lead car
+    `lead_gap` m ahead at `lead_v` m/s (NaN: none) lowers the set speed to its speed inside
+    the safety distance (`safety_m`, 0: half the speed in km/h, as metres) and to 0 inside
+    `emergency_m` (NaN: none). Speeds m/s, pedals 0..1.
     """
-    s[S_T] += dt
-    gear, rpm, drive, brake_force, p_engine, p_load, litres, used, left = powertrain_core(
-        p,
-        ratios,
-        power_table,
-        gear_table,
-        int(s[S_GEAR]),
-        s[S_AUTOMATIC] != 0.0,
-        s[S_ENGINE_ON] != 0.0,
-        s[S_RPM],
-        s[S_PREV_V],
-        s[S_FUEL_USED],
-        s[S_FUEL_LEFT],
-        dt,
-        v_mps,
-        gas,
-        brake,
-        slope_rad,
-        hand_brake,
-    )
-    s[S_GEAR], s[S_RPM], s[S_PREV_V], s[S_P_ENGINE], s[S_P_LOAD], s[S_FUEL_USED], s[S_FUEL_LEFT] = (
-        gear,
-        rpm,
-        v_mps,
-        p_engine,
-        p_load,
-        used,
-        left,
-    )
-    # consumption display (OpenDS: 2 s window, refreshed every 500 ms)
-    dist = (-v_mps if v_mps < 0.0 else v_mps) * dt
-    s[S_ODOMETER] += dist
-    cap = ring.shape[0]
-    head, count = int(s[S_RING_HEAD]), int(s[S_RING_COUNT])
-    k = (head + count) % cap
-    ring[k, 0], ring[k, 1], ring[k, 2] = s[S_T], litres, dist
-    count += 1
-    s[S_WINDOW_L] += litres
-    s[S_WINDOW_M] += dist
-    while count > 0 and s[S_T] - ring[head, 0] >= CONSUMPTION_WINDOW_S - 1e-9:
-        s[S_WINDOW_L] -= ring[head, 1]
-        s[S_WINDOW_M] -= ring[head, 2]
-        head = (head + 1) % cap
-        count -= 1
-    s[S_RING_HEAD], s[S_RING_COUNT] = head, count
-    s[S_SINCE_UPDATE] += dt
-    if s[S_SINCE_UPDATE] >= CONSUMPTION_UPDATE_S - 1e-9:
-        s[S_SINCE_UPDATE] = 0.0
-        t = s[S_T]
-        span = t if t < CONSUMPTION_WINDOW_S else CONSUMPTION_WINDOW_S
-        s[S_L_PER_H] = s[S_WINDOW_L] / span * 3600.0 if span > 0 else 0.0
-        s[S_L_PER_100KM] = s[S_WINDOW_L] / s[S_WINDOW_M] * 100_000.0 if s[S_WINDOW_M] > 1e-3 else 0.0
-    return drive, brake_force
+    if on and brake > 0.0 and not suppress_off:
+        on = False
+    if on:
+        goal = target
+        if acc and not math.isnan(lead_gap):
+            if not math.isnan(emergency_m) and lead_gap < emergency_m:
+                goal = 0.0
+            elif lead_gap < (safety_m if safety_m else 0.5 * v * 3.6):
+                goal = lead_v if lead_v < goal else goal
+        err = goal - v
+        if -CRUISE_INTEGRAL_BAND_MPS < err < CRUISE_INTEGRAL_BAND_MPS:
+            i = integral + CRUISE_KI * err * dt
+            i = i if i > 0.0 else 0.0
+            integral = i if i < CRUISE_INTEGRAL_MAX else CRUISE_INTEGRAL_MAX
+        throttle = CRUISE_GAIN * err + integral
+        if throttle > 0:
+            t = throttle if throttle < 1.0 else 1.0
+            gas = t if t > gas else gas
+        if err < -1.0:
+            b = -CRUISE_GAIN * (err + 1.0) * 0.5
+            b = b if b < 1.0 else 1.0
+            brake = b if b > brake else brake
+    return gas, brake, on, integral
+
+
+@inline
+def min_speed_gas(gas: float, brake: float, v: float, gear: int, min_speed: float) -> float:
+    """The engine block's minSpeed: OpenDS keeps the car at least this fast off the brake."""
+    if min_speed > 0.0 and brake == 0.0 and v < min_speed and gear > 0:
+        g = CRUISE_GAIN * (min_speed - v) + 0.3
+        g = g if g < 1.0 else 1.0
+        gas = g if g > gas else gas
+    return gas

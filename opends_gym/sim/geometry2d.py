@@ -9,13 +9,14 @@ size along the box's local X (sideways), `hz` along its local Z (lengthwise).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from .jit import inline, kernel
 
 
-@dataclass(frozen=True)
-class Obb:
+class Obb(NamedTuple):
+    """An oriented box (a named tuple: the ego car's is built every physics step)."""
+
     cx: float
     cz: float
     yaw: float

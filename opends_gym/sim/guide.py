@@ -10,7 +10,7 @@ travel.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from .road import Polyline
 from .world import World
@@ -22,8 +22,9 @@ def wrap_angle(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@dataclass(frozen=True)
-class GuidePoint:
+class GuidePoint(NamedTuple):
+    """Where a point lies along the reference (a named tuple: asked several times a step)."""
+
     s_m: float  # distance along the reference
     lateral_m: float  # position across it, + left
     heading_rad: float  # reference heading (world yaw convention)

@@ -9,7 +9,7 @@ body. The gear "power share" OpenDS read from fitted per-gear polynomials is com
 the same bmep engine curve (the fitted coefficients are not public) and picks the gear.
 Both are documented deviations; fuel follows OpenDS's formula exactly.
 
-The per-step maths is a compiled kernel (`ego_kernels.powertrain_step`), shared with the
+The per-step maths is a compiled kernel (`ego_fast.powertrain_step`), shared with the
 native batch; the Python functions here are the formulas, for tests and tables.
 """
 
@@ -22,6 +22,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..task.model_car import Car
+from . import ego_fast as ef
 from . import ego_kernels as ek
 
 G = 9.81
@@ -119,30 +120,30 @@ def fuel_grams(p_engine_kw: float, dt_s: float, rpm: float) -> float:
 
 
 _STATE_FIELDS = {
-    "gear": (ek.S_GEAR, int),  # -1 reverse, 0 neutral, 1..n forward
-    "automatic": (ek.S_AUTOMATIC, bool),
-    "engine_on": (ek.S_ENGINE_ON, bool),
-    "rpm": (ek.S_RPM, float),
-    "prev_v_mps": (ek.S_PREV_V, float),
-    "fuel_used_l": (ek.S_FUEL_USED, float),
-    "fuel_left_l": (ek.S_FUEL_LEFT, float),
-    "p_engine_kw": (ek.S_P_ENGINE, float),
-    "p_load_kw": (ek.S_P_LOAD, float),
+    "gear": (ef.S_GEAR, int),  # -1 reverse, 0 neutral, 1..n forward
+    "automatic": (ef.S_AUTOMATIC, bool),
+    "engine_on": (ef.S_ENGINE_ON, bool),
+    "rpm": (ef.S_RPM, float),
+    "prev_v_mps": (ef.S_PREV_V, float),
+    "fuel_used_l": (ef.S_FUEL_USED, float),
+    "fuel_left_l": (ef.S_FUEL_LEFT, float),
+    "p_engine_kw": (ef.S_P_ENGINE, float),
+    "p_load_kw": (ef.S_P_LOAD, float),
     # consumption display (OpenDS: 2 s window, refreshed every 500 ms)
-    "window_l": (ek.S_WINDOW_L, float),
-    "window_m": (ek.S_WINDOW_M, float),
-    "since_update_s": (ek.S_SINCE_UPDATE, float),
-    "l_per_100km": (ek.S_L_PER_100KM, float),
-    "l_per_h": (ek.S_L_PER_H, float),
-    "t_s": (ek.S_T, float),
-    "odometer_m": (ek.S_ODOMETER, float),
+    "window_l": (ef.S_WINDOW_L, float),
+    "window_m": (ef.S_WINDOW_M, float),
+    "since_update_s": (ef.S_SINCE_UPDATE, float),
+    "l_per_100km": (ef.S_L_PER_100KM, float),
+    "l_per_h": (ef.S_L_PER_H, float),
+    "t_s": (ef.S_T, float),
+    "odometer_m": (ef.S_ODOMETER, float),
 }
 _RING_ROWS = 256  # the display window's rows (t, litres, metres); grown when a small dt needs more
 
 
 class PowertrainState:
     """The powertrain's changing state. The values live in one float array (`values`, slots
-    `ego_kernels.S_*`) that the compiled step updates in place; the attributes read and write
+    `ego_fast.S_*`) that the compiled step updates in place; the attributes read and write
     it. `ring` holds the consumption display's 2 s window."""
 
     gear: int
@@ -163,7 +164,7 @@ class PowertrainState:
     odometer_m: float
 
     def __init__(self, **values: float) -> None:
-        self.values = np.zeros(ek.N_STATE)
+        self.values = np.zeros(ef.N_STATE)
         self.ring = np.zeros((_RING_ROWS, 3))
         defaults = {"gear": 1, "automatic": True, "engine_on": True, "fuel_left_l": 60.0}
         for name, value in (defaults | values).items():
@@ -173,15 +174,15 @@ class PowertrainState:
 
     def ensure_ring_room(self) -> None:
         """Keep a free row in the display window (the window holds 2 s of steps)."""
-        count = int(self.values[ek.S_RING_COUNT])
+        count = int(self.values[ef.S_RING_COUNT])
         if count + 1 < len(self.ring):
             return
-        head = int(self.values[ek.S_RING_HEAD])
+        head = int(self.values[ef.S_RING_HEAD])
         order = (head + np.arange(count)) % len(self.ring)
         ring = np.zeros((2 * len(self.ring), 3))
         ring[:count] = self.ring[order]
         self.ring = ring
-        self.values[ek.S_RING_HEAD] = 0.0
+        self.values[ef.S_RING_HEAD] = 0.0
 
     def __repr__(self) -> str:
         return "PowertrainState(" + ", ".join(f"{k}={getattr(self, k)!r}" for k in _STATE_FIELDS) + ")"
@@ -294,10 +295,10 @@ class Powertrain:
         """Advance one physics step at forward speed v (negative when rolling backwards);
         (drive force N, brake force N). The maths is `ego_kernels.powertrain_step`."""
         st = self.state
-        if st.values[ek.S_RING_COUNT] + 2.0 > len(st.ring):
+        if st.values[ef.S_RING_COUNT] + 2.0 > len(st.ring):
             st.ensure_ring_room()
         k = self._kernel_args
-        return ek.powertrain_step(k[0], k[1], k[2], k[3], st.values, st.ring, dt_s, v_mps, gas, brake, slope_rad, hand_brake)
+        return ef.powertrain_step(k[0], k[1], k[2], k[3], st.values, st.ring, dt_s, v_mps, gas, brake, slope_rad, hand_brake)
 
     def step(
         self, dt_s: float, v_mps: float, gas: float, brake: float, slope_rad: float = 0.0, hand_brake: bool = False

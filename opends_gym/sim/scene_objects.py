@@ -200,12 +200,17 @@ class SceneObjects:
         triggers: list[SceneObject] = []
         obstacles: list[SceneObject] = []
         objects = self.objects
-        for k in self._near_indices(car.cx, car.cz, math.hypot(car.hx, car.hz)):
+        cx, cz, hx, hz = car.cx, car.cz, car.hx, car.hz
+        ra = hx * hx + hz * hz
+        for k in self._near_indices(cx, cz, math.hypot(hx, hz)):
             o = objects[k]
             lo, hi, box = self._shape(k, o)
             if hi < y_lo or lo > y_hi:
                 continue
-            if not obb_overlap(car, box):
+            # the separating-axis test's own first check (bounding circles), before calling it
+            dx, dz = box.cx - cx, box.cz - cz
+            rb = box.hx * box.hx + box.hz * box.hz
+            if dx * dx + dz * dz > ra + rb + 2.0 * math.sqrt(ra * rb) or not obb_overlap(car, box):
                 continue
             if o.is_trigger:
                 triggers.append(o)

@@ -110,7 +110,11 @@ class World:
 
     def step(self, controls: DriverControls | None = None) -> None:
         """Advance one physics step with the given driver inputs (NaN and ranges sanitised)."""
-        c = (controls or self._idle).clipped()
+        self.step_clipped((controls or self._idle).clipped())
+
+    def step_clipped(self, c: DriverControls) -> None:
+        """`step` with inputs that are `DriverControls.clipped()` already (an env applying one
+        action for several physics steps clips it once)."""
         self.step_count += 1
         self.t_s = self.step_count * self.dt_s
         if c.reset_to is not None:
@@ -150,7 +154,7 @@ class World:
         box = self.ego_obb()
         triggers, obstacles = self.objects.overlapping(box, s.y - 0.5, s.y + self.ego.spec.height_m)
         self.touching = frozenset(o.id for o in triggers) if triggers else _NOTHING
-        hits = {o.id for o in obstacles}
+        hits = {o.id for o in obstacles} if obstacles else set()
         if self.traffic is not None:
             hits.update(self.traffic.colliding_with(box))
         if not hits:  # the usual step: nothing hit, nothing to count

@@ -3,21 +3,20 @@
 Why: this is `sim.ego.EgoCar.step` + `sim.powertrain.Powertrain.step` +
 `sim.physics_fast.FastVehicle.step` for N cars, one numpy array per state variable. A
 compiled loop over the cars calls the single env's own kernels (`sim.ego_kernels`), so the
-results are the same floats by construction; the cruise control keeps `EgoCar`'s
-expressions. Only what the three batched tasks use is modelled: automatic gearbox, cruise control without
+results are the same floats by construction. Only what the three batched tasks use is modelled: automatic gearbox, cruise control without
 ACC, the engine's minSpeed, no crosswind, clutch, hand brake, slope or manual shifting
 (`EgoParams.from_world` refuses a car that needs more).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
 
-from ..sim.ego import CRUISE_GAIN, CRUISE_INTEGRAL_BAND_MPS, CRUISE_INTEGRAL_MAX, CRUISE_KI
-from ..sim.ego_kernels import body_step, powertrain_core
+from ..sim.ego_kernels import body_step, cruise_control, min_speed_gas, powertrain_core
 from ..sim.jit import kernel
 from ..sim.vehicle import MAX_WHEEL_ANGLE_RAD
 
@@ -224,33 +223,17 @@ def _step_rows(
     gas: np.ndarray,
     brake: np.ndarray,
 ) -> None:
-    """`EgoCar.step` per row: cruise control (no ACC) and minSpeed in `EgoCar`'s expressions,
-    then the single env's own powertrain and body kernels."""
+    """`EgoCar.step` per row with the single env's own kernels: cruise control (no ACC),
+    minSpeed, powertrain and body."""
     for e in range(len(u)):
         if not live[e]:
             continue
         v0 = u[e]
-        g, b = gas[e], brake[e]
-        if cruise_on[e] and b > 0.0 and not suppress_cruise_off:
-            cruise_on[e] = False
-        if cruise_on[e]:
-            err = cruise_target[e] - v0
-            if -CRUISE_INTEGRAL_BAND_MPS < err < CRUISE_INTEGRAL_BAND_MPS:
-                acc = cruise_int[e] + CRUISE_KI * err * dt
-                acc = acc if acc > 0.0 else 0.0
-                cruise_int[e] = acc if acc < CRUISE_INTEGRAL_MAX else CRUISE_INTEGRAL_MAX
-            throttle = CRUISE_GAIN * err + cruise_int[e]
-            if throttle > 0:
-                t1 = throttle if throttle < 1.0 else 1.0
-                g = t1 if t1 > g else g
-            if err < -1.0:
-                b1 = -CRUISE_GAIN * (err + 1.0) * 0.5
-                b1 = b1 if b1 < 1.0 else 1.0
-                b = b1 if b1 > b else b
-        if min_speed > 0.0 and b == 0.0 and gear[e] > 0 and v0 < min_speed:
-            g1 = CRUISE_GAIN * (min_speed - v0) + 0.3
-            g1 = g1 if g1 < 1.0 else 1.0
-            g = g1 if g1 > g else g
+        nan = math.nan
+        g, b, cruise_on[e], cruise_int[e] = cruise_control(
+            cruise_on[e], cruise_target[e], cruise_int[e], v0, gas[e], brake[e], dt, suppress_cruise_off, False, nan, 0.0, nan, nan
+        )
+        g = min_speed_gas(g, b, v0, gear[e], min_speed)
         steer_in[e], gas_in[e], brake_in[e] = steer[e], g, b
         gear[e], rpm[e], drive, brake_n, _, _, _, fuel_used[e], fuel_left[e] = powertrain_core(
             pt,

@@ -289,25 +289,29 @@ class TriggerCore:
             fired.extend(self._by_key.get(k, ()))
         for b in c.buttons:
             fired.extend(self._by_button.get(int(b), ()))
-        remotes = list(c.remote_triggers) + self._remote_queue
-        self._remote_queue = []
-        for r in remotes:
-            fired.extend(self._by_remote.get(r, ()))
-        pedals = {"accelerator": c.accelerator, "brake": c.brake, "clutch": c.clutch, "combinedPedals": max(c.accelerator, c.brake)}
-        for ti, cond in self._pedal:
-            if self._prev_pedals[cond.pedal] < cond.threshold <= pedals[cond.pedal]:
-                fired.append(ti)
-        self._prev_pedals = pedals
+        if c.remote_triggers or self._remote_queue:
+            remotes = list(c.remote_triggers) + self._remote_queue
+            self._remote_queue = []
+            for r in remotes:
+                fired.extend(self._by_remote.get(r, ()))
+        if self._pedal:  # (the previous pedals are read only by pedal conditions)
+            pedals = {"accelerator": c.accelerator, "brake": c.brake, "clutch": c.clutch, "combinedPedals": max(c.accelerator, c.brake)}
+            for ti, cond in self._pedal:
+                if self._prev_pedals[cond.pedal] < cond.threshold <= pedals[cond.pedal]:
+                    fired.append(ti)
+            self._prev_pedals = pedals
         if not self.paused:
-            for wp in self.flight.step(w.dt_s):
-                fired.extend(self._by_waypoint.get(wp, ()))
+            if self.flight.state.active:
+                for wp in self.flight.step(w.dt_s):
+                    fired.extend(self._by_waypoint.get(wp, ()))
             for oid in w.touching:
                 fired.extend(self._by_model.get(oid, ()))
             if self._opendrive:
                 fired.extend(self._opendrive_fired())
         if fired:
             self._fire_all(fired, "condition")
-        self._update_measurements(c)
+        if self.measurements:
+            self._update_measurements(c)
         if not self.paused and self.center.timers:  # (the car view is built only for running timers)
             self.center.update(self.car_view(keys))
 
