@@ -83,3 +83,26 @@ def test_every_env_renders_headless_frames_that_are_not_blank(env_id: str) -> No
     assert len(colours) >= 4  # ground, road or markings, the ego car, ...
     assert counts.max() < 0.97 * counts.sum()  # no single colour fills the frame
     env.close()
+
+
+class _EdgeHugger:
+    """Drives the whole LCT along the road's right edge, ignoring the signs."""
+
+    def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
+        self.env = env.unwrapped
+
+    def act(self, obs: Any, info: dict[str, Any]) -> np.ndarray:
+        from opends_gym.drivers.control import stanley_steering
+
+        s = self.env.world.ego.state
+        p = self.env.guide.locate(s.x, s.z)
+        edge = -(self.env.half_road - 0.2)  # + left: the right edge, 0.2 m inside
+        return np.array([stanley_steering(s.yaw, p.heading_rad, p.lateral_m, edge, s.u, s.r), 0.0], dtype=np.float32)
+
+
+def test_lct_signs_and_the_end_trigger_span_the_whole_road() -> None:
+    env = gym.make("OpenDS/LaneChangeTest-v0")
+    m = _episode(env, _EdgeHugger())
+    events = env.unwrapped.world.events
+    assert sum(1 for e in events if e.kind == "trigger" and e.source.endswith("_Trigger") and "Sign" in e.source) == 18
+    assert m["duration_s"] < 200.0  # the end trigger ended it (no 300 s truncation)

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 QUICK = """
 env: OpenDS/LaneChangeTest-v0
-env_kwargs: {signs: 3, lead_in_m: 100, lead_out_m: 100, policy_hz: 5}
+env_kwargs: {signs: 3, lead_in_m: 100, lead_out_m: 100, policy_hz: 5, max_episode_s: 60}
 total_steps: 12000
 n_envs: 4
 hyperparameters: {n_steps: 256, batch_size: 256, n_epochs: 5, learning_rate: 0.001}
@@ -56,7 +56,8 @@ def test_short_ppo_run_improves_its_return(quick_run: Path) -> None:
 
 def test_saved_policy_runs_through_the_cli(quick_run: Path, capsys: pytest.CaptureFixture[str]) -> None:
     args = ["run", "OpenDS/LaneChangeTest-v0", "--agent", f"ppo:{quick_run / 'model.zip'}", "--json", "--episodes", "1"]
-    args += ["--env-arg", "signs=3", "--env-arg", "lead_in_m=100", "--env-arg", "lead_out_m=100", "--env-arg", "policy_hz=5"]
+    for option in ("signs=3", "lead_in_m=100", "lead_out_m=100", "policy_hz=5", "max_episode_s=60"):
+        args += ["--env-arg", option]
     assert cli(args) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["agent"].startswith("ppo:")
@@ -108,3 +109,16 @@ def test_every_env_trains_with_ppo(env_id: str) -> None:
     action, _ = model.predict(env.reset(seed=0)[0], deterministic=True)
     assert env.action_space.contains(action)
     env.close()
+
+
+def test_a_finished_run_can_be_resumed(quick_run: Path, tmp_path: Path) -> None:
+    cfg, base = load_train_config(ROOT / "configs" / "lct_ppo.yaml")
+    cfg, _ = load_train_config(quick_run.parent / "quick.yaml", {"total_steps": 2048, "checkpoint_every_steps": 1024})
+    train(cfg, base, tmp_path / "more", resume=quick_run)
+    rows = list(csv.DictReader((tmp_path / "more" / "curve.csv").open(encoding="utf-8")))
+    assert int(rows[0]["steps"]) > 12000  # the curve continues from the first run's steps
+    from stable_baselines3 import PPO
+
+    assert PPO.load(str(tmp_path / "more" / "model.zip")).num_timesteps >= 12000 + 2048
+    with pytest.raises(ValueError, match="nothing to resume"):
+        train(cfg, base, tmp_path / "bad", resume=tmp_path)

@@ -16,6 +16,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--output", default=None, help="run folder (default: the config's `output`)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a top-level config key (repeatable)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--resume", default=None, metavar="RUN_DIR", help="continue a finished run (its model.zip) for --total-steps more")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -47,6 +48,10 @@ def run(args: argparse.Namespace) -> int:
     else:
         from ..training.sb3 import train
 
-        metrics = train(cfg, base, out)
+        try:
+            metrics = train(cfg, base, out, resume=Path(args.resume).resolve() if args.resume else None)
+        except ValueError as e:
+            print(f"opends-gym train: {e}", file=sys.stderr)
+            return 2
     dump_json({k: v for k, v in metrics.items() if k != "episodes"}, sys.stdout, indent=2)
     return 0

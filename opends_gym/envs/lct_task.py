@@ -171,7 +171,7 @@ def build_lct_task(g: LctGeometry = LctGeometry()) -> DrivingTask:
     scene = Scene(
         sounds=(Sound(id="good", key="Sounds/Effects/Beep.ogg"), Sound(id="fail", key="Sounds/Effects/Beep.ogg")),
         models=tuple(models),
-        geometries=(Box(id="triggerBox", width_m=half_road + 2.0, depth_m=0.5, height_m=2.0),),
+        geometries=(Box(id="triggerBox", width_m=2.0 * half_road + 2.0, depth_m=0.5, height_m=2.0),),  # the road and 1 m beside it
     )
     settings = Settings(reaction_groups=ReactionGroups(red="LaneChangeLeft", green="LaneChangeRight"))
     entry = EntryFile(

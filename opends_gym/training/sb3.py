@@ -51,8 +51,11 @@ def build_vec_env(cfg: TrainConfig, n_envs: int, seed: int, monitor_dir: Path | 
     )
 
 
-def train(cfg: TrainConfig, base_dir: Path, out_dir: Path | None = None) -> dict[str, Any]:
-    """Train per `cfg`; returns the final evaluation metrics (also in `metrics.json`)."""
+def train(cfg: TrainConfig, base_dir: Path, out_dir: Path | None = None, resume: Path | None = None) -> dict[str, Any]:
+    """Train per `cfg`; returns the final evaluation metrics (also in `metrics.json`).
+
+    `resume`: a finished run folder (its `model.zip` and normaliser) to continue training
+    for another `total_steps`; the curve's step counts continue from where it stopped."""
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -64,7 +67,17 @@ def train(cfg: TrainConfig, base_dir: Path, out_dir: Path | None = None) -> dict
         venv = VecNormalize(venv, norm_obs=cfg.normalize_observations, norm_reward=cfg.normalize_rewards)
         eval_env = VecNormalize(eval_env, norm_obs=cfg.normalize_observations, norm_reward=False, training=False)
     algo = _algorithm(cfg.algorithm)
-    model = algo(cfg.policy, venv, seed=cfg.seed, policy_kwargs=dict(cfg.policy_kwargs), device="cpu", verbose=0, **cfg.hyperparameters)
+    if resume is not None:
+        if not (resume / "model.zip").is_file():
+            raise ValueError(f"nothing to resume: no model.zip in {resume}")
+        stats = resume / "model.vecnormalize.pkl"
+        if isinstance(venv, VecNormalize) and stats.is_file():
+            venv = VecNormalize.load(str(stats), venv.venv)
+            eval_env.obs_rms = venv.obs_rms
+        model = algo.load(str(resume / "model.zip"), env=venv, device="cpu")
+    else:
+        model = algo(cfg.policy, venv, seed=cfg.seed, policy_kwargs=dict(cfg.policy_kwargs), device="cpu", verbose=0, **cfg.hyperparameters)
+    start_steps = int(model.num_timesteps)
     per_env = max(1, cfg.n_envs)
     callbacks = CallbackList(
         [
@@ -80,20 +93,21 @@ def train(cfg: TrainConfig, base_dir: Path, out_dir: Path | None = None) -> dict
             ),
         ]
     )
-    model.learn(total_timesteps=cfg.total_steps, callback=callbacks, progress_bar=cfg.progress_bar)
+    model.learn(total_timesteps=cfg.total_steps, callback=callbacks, progress_bar=cfg.progress_bar, reset_num_timesteps=resume is None)
     model.save(str(out / "model.zip"))
     if isinstance(venv, VecNormalize):
         venv.save(str(out / "model.vecnormalize.pkl"))
     venv.close()
     eval_env.close()
-    write_curve(out / "monitor", out / "curve.csv")
+    write_curve(out / "monitor", out / "curve.csv", start_steps=start_steps)
     metrics = evaluate_policy_file(cfg, out / "model.zip", episodes=cfg.eval_episodes)
     (out / "metrics.json").write_text(json.dumps(json_safe(metrics), indent=2), encoding="utf-8")
     return metrics
 
 
-def write_curve(monitor_dir: Path, out_csv: Path, window: int = 10) -> list[tuple[int, float]]:
-    """Training curve from the Monitor files: (env steps so far, mean return of the last `window` episodes)."""
+def write_curve(monitor_dir: Path, out_csv: Path, window: int = 10, start_steps: int = 0) -> list[tuple[int, float]]:
+    """Training curve from the Monitor files: (env steps so far, mean return of the last
+    `window` episodes); `start_steps` offsets a resumed run."""
     rows: list[tuple[float, float, int]] = []  # (wall time, return, length)
     for f in sorted(monitor_dir.glob("*.monitor.csv")):
         with f.open(encoding="utf-8") as fh:
@@ -102,7 +116,7 @@ def write_curve(monitor_dir: Path, out_csv: Path, window: int = 10) -> list[tupl
                 rows.append((float(row["t"]), float(row["r"]), int(row["l"])))
     rows.sort()
     curve: list[tuple[int, float]] = []
-    steps = 0
+    steps = start_steps
     returns: list[float] = []
     for _, r, n in rows:
         steps += n
