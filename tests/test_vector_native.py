@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import opends_gym  # noqa: F401  (registers the ids)
-from opends_gym.vector import NativeVectorEnv, libm
+from opends_gym.sim.jit import kernel, py_hypot
+from opends_gym.vector import NativeVectorEnv
 
 LCT = "OpenDS/LaneChangeTest-v0"
 BRAKE = "OpenDS/BrakeReaction-v0"
@@ -189,10 +190,23 @@ def test_without_metrics_the_same_steps() -> None:
     assert ta.all() and "episode_metrics" in ia and "episode_metrics" not in ib
 
 
-def test_libm_equals_python_math() -> None:
+@kernel
+def _kernel_math(x: np.ndarray, y: np.ndarray, out: np.ndarray) -> None:
+    for i in range(len(x)):
+        a, b = x[i], y[i]
+        out[0, i], out[1, i], out[2, i], out[3, i] = math.tanh(a), math.atan(a), math.tan(a), math.atan2(a, b)
+        out[4, i], out[5, i], out[6, i], out[7, i] = math.sin(a), math.cos(a), a % b, py_hypot(a, b)
+
+
+def test_kernel_math_equals_python_math() -> None:
+    """The single env and the native batch share compiled kernels; those (and the Python code
+    that was there before them) must compute what Python's `math` computes, bit for bit."""
     rng = np.random.default_rng(0)
-    x = np.concatenate([rng.uniform(-1, 1, 20000), rng.uniform(-50, 50, 20000), rng.normal(0, 1e-4, 5000), [0.0, -0.0]])
-    y = np.concatenate([rng.uniform(-1, 1, 20000), rng.uniform(-50, 50, 20000), rng.normal(0, 1e-4, 5000), [0.0, 3.0]])
-    for fn, ref in ((libm.tanh, math.tanh), (libm.arctan, math.atan), (libm.tan, math.tan)):
-        assert np.array_equal(fn(x), np.array([ref(v) for v in x])), fn.__name__
-    assert np.array_equal(libm.py_hypot(x, y), np.array([math.hypot(a, b) for a, b in zip(x, y)]))
+    x = np.concatenate([rng.uniform(-1, 1, 20000), rng.uniform(-50, 50, 20000), rng.normal(0, 1e-4, 5000), [0.0, -0.0, 1e-310]])
+    y = np.concatenate([rng.uniform(-1, 1, 20000), rng.uniform(-50, 50, 20000), rng.normal(0, 1e-4, 5000), [1.0, 3.0, 4e-310]])
+    out = np.empty((8, len(x)))
+    _kernel_math(x, y, out)
+    refs = (math.tanh, math.atan, math.tan, math.atan2, math.sin, math.cos, lambda a, b: a % b, math.hypot)
+    for k, ref in enumerate(refs):
+        expect = [ref(a, b) if k in (3, 6, 7) else ref(a) for a, b in zip(x.tolist(), y.tolist())]
+        assert np.array_equal(out[k], np.array(expect)), k

@@ -12,8 +12,8 @@ from typing import Any, cast
 
 from ..task.model_task import DrivingTask, Pose
 from .controls import DriverControls
-from .ego_fast import A_MIN_SPEED, car_constants, cruise_params, drive_inputs, ego_step
-from .ego_kernels import CRUISE_GAIN, CRUISE_INTEGRAL_BAND_MPS, CRUISE_INTEGRAL_MAX, CRUISE_KI
+from .ego_fast import A_MIN_SPEED, cruise_params, drive_inputs, ego_step
+from .ego_kernels import CRUISE_GAIN, CRUISE_INTEGRAL_BAND_MPS, CRUISE_INTEGRAL_MAX, CRUISE_KI, car_constants
 from .physics_fast import FastVehicle
 from .powertrain import Powertrain
 from .vehicle import MAX_WHEEL_ANGLE_RAD, BodyState, VehicleBackend, VehicleSpec
@@ -49,7 +49,7 @@ class EgoCar:
                                   cc.safety_distance_forward_m)  # fmt: skip
         self._car = None  # the fast backend's and powertrain's constants for `ego_step`
         if isinstance(backend, FastVehicle):
-            self._car = car_constants(backend._params, *self.powertrain._kernel_args)
+            self._car = car_constants(backend._params, *self.powertrain._tables)
         self._initial_powertrain = _copy_powertrain_state(self.powertrain)
         self.inputs = CarInputs()
         self.cruise_active = False

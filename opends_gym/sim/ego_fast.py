@@ -24,8 +24,6 @@ CONSUMPTION_WINDOW_S = 2.0
 CONSUMPTION_UPDATE_S = 0.5
 # the driver's-aid constants (`cruise_params`)
 A_MIN_SPEED, A_SUPPRESS_OFF, A_ACC, A_EMERGENCY_M, A_SAFETY_M = range(5)
-# `car_constants`: the body parameters, the powertrain parameters, then counts and tables
-C_BODY, C_PT, C_N_RATIOS, C_N_POWER, C_N_GEARS, C_TABLES = 0, 10, 18, 19, 20, 21
 
 
 def cruise_params(min_speed_mps: float, suppress_off: bool, acc: bool, emergency_m: float | None, safety_m: float | None) -> np.ndarray:
@@ -33,29 +31,9 @@ def cruise_params(min_speed_mps: float, suppress_off: bool, acc: bool, emergency
     return np.array([min_speed_mps, suppress_off, acc, math.nan if emergency_m is None else emergency_m, safety_m or 0.0], dtype=float)
 
 
-def car_constants(body: np.ndarray, pt: np.ndarray, ratios: np.ndarray, power_table: np.ndarray, gear_table: np.ndarray) -> np.ndarray:
-    """One array of the body's and powertrain's constants (one array is cheaper to pass than five)."""
-    head = np.zeros(C_TABLES)
-    head[C_BODY : C_BODY + 10], head[C_PT : C_PT + 8] = body, pt
-    head[C_N_RATIOS], head[C_N_POWER], head[C_N_GEARS] = len(ratios), len(power_table), len(gear_table)
-    return np.concatenate([head, ratios, power_table, np.asarray(gear_table, dtype=np.float64)])
-
-
 @kernel
-def powertrain_step(
-    p: np.ndarray,
-    ratios: np.ndarray,
-    power_table: np.ndarray,
-    gear_table: np.ndarray,
-    s: np.ndarray,
-    ring: np.ndarray,
-    dt: float,
-    v_mps: float,
-    gas: float,
-    brake: float,
-    slope_rad: float,
-    hand_brake: bool,
-) -> tuple[float, float]:
+def powertrain_step(car: np.ndarray, s: np.ndarray, ring: np.ndarray, dt: float, v_mps: float, gas: float, brake: float, slope_rad: float,
+                    hand_brake: bool) -> tuple[float, float]:  # fmt: skip
     """`powertrain_core` on the state slots `s`, plus the consumption display; (drive N, brake N).
 
     `ring` (rows t s, litres, metres) holds the display's 2 s window from row `s[S_RING_HEAD]`;
@@ -63,10 +41,7 @@ def powertrain_step(
     """
     s[S_T] += dt
     gear, rpm, drive, brake_force, p_engine, p_load, litres, used, left = powertrain_core(
-        p,
-        ratios,
-        power_table,
-        gear_table,
+        car,
         int(s[S_GEAR]),
         s[S_AUTOMATIC] != 0.0,
         s[S_ENGINE_ON] != 0.0,
@@ -139,11 +114,6 @@ def ego_step(car: np.ndarray, aid: np.ndarray, s: np.ndarray, ring: np.ndarray, 
     gas, brake, cruise_on, cruise_integral = drive_inputs(
         aid, s, u, gas, brake, dt, cruise_on, cruise_target, cruise_integral, lead_gap, lead_v
     )
-    a = C_TABLES
-    b = a + int(car[C_N_RATIOS])
-    c = b + int(car[C_N_POWER])
-    d = c + int(car[C_N_GEARS])
-    pt = car[C_PT : C_PT + 8]
-    drive, brake_n = powertrain_step(pt, car[a:b], car[b:c], car[c:d], s, ring, dt, u, gas * (1.0 - clutch), brake, 0.0, hand_brake)
-    x, z, yaw, u, v, r = body_step(car[C_BODY : C_BODY + 10], x, z, yaw, u, v, r, dt, steer_rad, drive, brake_n, 0.0)
+    drive, brake_n = powertrain_step(car, s, ring, dt, u, gas * (1.0 - clutch), brake, 0.0, hand_brake)
+    x, z, yaw, u, v, r = body_step(car, x, z, yaw, u, v, r, dt, steer_rad, drive, brake_n, 0.0)
     return x, z, yaw, u, v, r, ring.shape[0] - int(s[S_RING_COUNT]), gas, brake, cruise_on, cruise_integral

@@ -25,8 +25,10 @@ STOP_SPEED = 0.05  # m/s: at rest below this when no drive force
 # body parameters (`body_params`)
 B_MASS, B_LF, B_LR, B_WHEELBASE, B_YAW_INERTIA, B_MAX_LONG, B_C_FRONT, B_C_REAR, B_MAX_FRONT, B_MAX_REAR = range(10)
 
-# powertrain parameters
+# powertrain parameters (offsets in the powertrain block of `car_constants`)
 P_MASS, P_MAX_RPM, P_MIN_RPM, P_ACCEL, P_DEC_BRAKE, P_DEC_FREE, P_CAP_FROM_KMH, P_REVERSE_RATIO = range(8)
+# `car_constants`: the body parameters, the powertrain parameters, then the tables' lengths and the tables
+C_BODY, C_PT, C_N_RATIOS, C_N_POWER, C_N_GEARS, C_TABLES = 0, 10, 18, 19, 20, 21
 
 G = 9.81
 ROLLING_COEFF = 0.008
@@ -65,7 +67,18 @@ def body_params(
     return p
 
 
-@kernel
+def car_constants(body: np.ndarray, pt: np.ndarray, ratios: np.ndarray, power_table: np.ndarray, gear_table: np.ndarray) -> np.ndarray:
+    """One array of a car's constants for the kernels: the body's `body_params` first (so it
+    serves `body_step` as is), the powertrain's parameters, the gear ratios, the full-gas
+    power table (10-rpm steps from 1500 rpm) and the automatic gearbox's table (0.1 m/s
+    steps). One array, not five: each array a kernel passes on costs a reference count."""
+    head = np.zeros(C_TABLES)
+    head[C_BODY : C_BODY + 10], head[C_PT : C_PT + 8] = body, pt
+    head[C_N_RATIOS], head[C_N_POWER], head[C_N_GEARS] = len(ratios), len(power_table), len(gear_table)
+    return np.concatenate([head, ratios, power_table, np.asarray(gear_table, dtype=np.float64)])
+
+
+@inline
 def body_step(
     p: np.ndarray,
     x: float,
@@ -148,56 +161,44 @@ def body_step(
     return x, z, yaw, u_new, v_new, r_new
 
 
-@kernel
-def full_power_kw(power_table: np.ndarray, rpm: float) -> float:
+@inline
+def full_power_kw(car: np.ndarray, rpm: float) -> float:
     """Engine power at full gas (kW), interpolated in the 10-rpm table from 1500 rpm."""
     x = (POWER_RPM_MIN if rpm < POWER_RPM_MIN else POWER_RPM_MAX if rpm > POWER_RPM_MAX else rpm) - POWER_RPM_MIN
     i = int(x / RPM_TABLE_STEP)
-    last = len(power_table) - 1
+    a = C_TABLES + int(car[C_N_RATIOS])
+    last = int(car[C_N_POWER]) - 1
     if i >= last:
-        return float(power_table[last])
+        return float(car[a + last])
     f = x / RPM_TABLE_STEP - i
-    return float(power_table[i] + (power_table[i + 1] - power_table[i]) * f)
+    return float(car[a + i] + (car[a + i + 1] - car[a + i]) * f)
 
 
-@kernel
-def powertrain_core(
-    p: np.ndarray,
-    ratios: np.ndarray,
-    power_table: np.ndarray,
-    gear_table: np.ndarray,
-    gear: int,
-    automatic: bool,
-    engine_on: bool,
-    rpm: float,
-    prev_v: float,
-    fuel_used: float,
-    fuel_left: float,
-    dt: float,
-    v_mps: float,
-    gas: float,
-    brake: float,
-    slope_rad: float,
-    hand_brake: bool,
-) -> tuple[int, float, float, float, float, float, float, float, float]:
-    """One powertrain step at forward speed v (m/s, negative rolling backwards).
+@inline
+def powertrain_core(car: np.ndarray, gear: int, automatic: bool, engine_on: bool, rpm: float, prev_v: float, fuel_used: float,
+                    fuel_left: float, dt: float, v_mps: float, gas: float, brake: float, slope_rad: float,
+                    hand_brake: bool) -> tuple[int, float, float, float, float, float, float, float, float]:  # fmt: skip
+    """One powertrain step at forward speed v (m/s, negative rolling backwards); `car` is
+    `car_constants`.
 
     Returns (gear, rpm, drive N, brake N, P_engine kW, P_load kW, fuel litres this step,
     fuel used L, fuel left L); see `sim.powertrain` for the formulas.
     """
+    n_ratios, n_gears = int(car[C_N_RATIOS]), int(car[C_N_GEARS])
+    gears = C_TABLES + n_ratios + int(car[C_N_POWER])
     speed = -v_mps if v_mps < 0.0 else v_mps
     if automatic and gear > 0:
         i = int(speed / TABLE_STEP + 0.5)
-        gear = int(gear_table[i]) if i < len(gear_table) else int(gear_table[len(gear_table) - 1])
-    max_rpm, min_rpm = p[P_MAX_RPM], p[P_MIN_RPM]
+        gear = int(car[gears + i]) if i < n_gears else int(car[gears + n_gears - 1])
+    max_rpm, min_rpm = car[C_PT + P_MAX_RPM], car[C_PT + P_MIN_RPM]
     if not engine_on or fuel_left <= 0.0:
         gas = 0.0
     elif gear > 0:
         # OpenDS's speed cap: power scaled by (maxSpeed - v) in the last km/h, 0 above
-        over = speed * 3.6 - p[P_CAP_FROM_KMH]
+        over = speed * 3.6 - car[C_PT + P_CAP_FROM_KMH]
         if over > 0.0:
             gas *= 0.0 if over >= 1.0 else 1.0 - over
-    ratio = p[P_REVERSE_RATIO] if gear < 0 else ratios[gear - 1] if gear > 0 else 0.0
+    ratio = car[C_PT + P_REVERSE_RATIO] if gear < 0 else car[C_TABLES + gear - 1] if gear > 0 else 0.0
     gear_rpm_now = speed * 3.6 * ratio / WHEEL_CONSTANT
     if not engine_on:
         target_rpm = 0.0
@@ -211,8 +212,8 @@ def powertrain_core(
     # power balance (kW), OpenDS's terms
     prev = -prev_v if prev_v < 0.0 else prev_v
     dv = speed - prev
-    p_engine = full_power_kw(power_table, rpm) * gas if engine_on and gear != 0 else 0.0
-    m = p[P_MASS]
+    p_engine = full_power_kw(car, rpm) * gas if engine_on and gear != 0 else 0.0
+    m = car[C_PT + P_MASS]
     sin_slope = (math.sin(-slope_rad if gear < 0 else slope_rad)) if slope_rad != 0.0 else 0.0
     inner_kw = 7e-7 * rpm * rpm - 5e-4 * rpm + 10.9
     p_load = (
@@ -233,16 +234,16 @@ def powertrain_core(
         p_wheel_kw = p_engine - ACCESSORIES_KW - inner_kw
         if p_wheel_kw > 0.0:
             v = speed if speed > MIN_DRIVE_SPEED else MIN_DRIVE_SPEED
-            cap = m * p[P_ACCEL] * gas
+            cap = m * car[C_PT + P_ACCEL] * gas
             drive = 1000.0 * p_wheel_kw / v
             if drive > cap:
                 drive = cap
             if gear < 0:
                 drive = -drive
     # brakes: pedal, hand brake, and the engine/free-wheel drag when off the gas
-    brake_force = brake * m * p[P_DEC_BRAKE]
+    brake_force = brake * m * car[C_PT + P_DEC_BRAKE]
     if hand_brake:
-        held = m * p[P_DEC_BRAKE] * 0.6
+        held = m * car[C_PT + P_DEC_BRAKE] * 0.6
         brake_force = held if held > brake_force else brake_force
     if gas > 0.0:
         # rolling and air resistance; off the gas OpenDS's free-wheel drag stands for them
@@ -251,7 +252,7 @@ def powertrain_core(
         surplus_kw = p_load - p_engine
         coeff = (surplus_kw - 10.0) / 50.0
         coeff = 0.2 if coeff < 0.2 else 1.0 if coeff > 1.0 else coeff
-        brake_force += m * p[P_DEC_FREE] * coeff
+        brake_force += m * car[C_PT + P_DEC_FREE] * coeff
     # fuel: grams = P_engine dt / 43.7 kJ/g, times 1..1.5 above 3600 rpm; idle 0.0003 L/s
     litres = 0.0
     if p_engine > 0.0:
@@ -309,3 +310,10 @@ def min_speed_gas(gas: float, brake: float, v: float, gear: int, min_speed: floa
         g = g if g < 1.0 else 1.0
         gas = g if g > gas else gas
     return gas
+
+
+@kernel
+def body_step_kernel(p: np.ndarray, x: float, z: float, yaw: float, u: float, v: float, r: float, dt: float, steer_rad: float,
+                     drive_n: float, brake_n: float, side_n: float) -> tuple[float, float, float, float, float, float]:  # fmt: skip
+    """`body_step` for callers in Python (inlined functions are compiled for kernels only)."""
+    return body_step(p, x, z, yaw, u, v, r, dt, steer_rad, drive_n, brake_n, side_n)

@@ -8,7 +8,8 @@ kernels (issue 9). The settings matter for results, so they live here, once:
   kernel computes exactly what the same Python expression computes;
 * `cache=True`: compiled machine code is kept next to the module (or in numba's user cache
   when that folder is read-only), so only the first process on a machine compiles; later
-  processes (SubprocVecEnv workers included) load it in milliseconds;
+  processes (SubprocVecEnv workers included) load it. The cache key includes a hash of all
+  kernel modules (`_kernel_sources_stamp`), since a kernel inlines kernels of other files;
 * `nogil=True`: the native batch steps shards in threads.
 
 numba's `math.sin/cos/tan/atan/atan2/tanh/sqrt` call the same C library functions as
@@ -21,8 +22,11 @@ results: kernels use only what Python and numba agree on.
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import math
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar, cast
 
 from numba import njit
@@ -31,6 +35,57 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 _SPLIT = 134217729.0  # 2**27 + 1: Veltkamp's split of a double into two 26-bit halves
 _DBL_MIN = 2.2250738585072014e-308
+
+
+_PACKAGE = Path(__file__).resolve().parent.parent
+_KERNEL_SOURCES = ("sim", "vector", "metrics")  # the folders whose modules define kernels
+
+
+@functools.cache
+def _kernel_sources_stamp() -> str:
+    """A hash of every module that defines kernels. numba checks only the file of a cached
+    function, not those of the kernels it calls (and inlines); with this stamp in every cache
+    key, an edit to any kernel module recompiles them all instead of running stale code."""
+    digest = hashlib.sha256()
+    for folder in _KERNEL_SOURCES:
+        for path in sorted((_PACKAGE / folder).glob("*.py")):
+            digest.update(path.name.encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def _register_cache_stamp() -> None:
+    """Put `_kernel_sources_stamp` into the cache keys of this package's kernels (through
+    numba's cache locators; left to numba's own stamps if its internals differ)."""
+    try:
+        from numba.core import caching
+
+        bases = (caching.UserProvidedCacheLocator, caching.InTreeCacheLocator, caching.UserWideCacheLocator)
+        classes = caching.CacheImpl._locator_classes
+    except AttributeError:  # pragma: no cover - another numba
+        return
+    if any(getattr(c, "_opends_gym", False) for c in classes):
+        return
+
+    def stamped(base: Any) -> Any:
+        class Locator(base):  # type: ignore[misc, valid-type]
+            _opends_gym = True
+
+            @classmethod
+            def from_function(cls, py_func: Any, py_file: str) -> Any:
+                if not Path(py_file).resolve().is_relative_to(_PACKAGE):
+                    return None
+                return super().from_function(py_func, py_file)
+
+            def get_source_stamp(self) -> Any:
+                return (super().get_source_stamp(), _kernel_sources_stamp())
+
+        return Locator
+
+    classes[:0] = [stamped(b) for b in bases]
+
+
+_register_cache_stamp()
 
 
 def kernel(fn: F) -> F:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .ego_kernels import DYNAMIC_ABOVE, KINEMATIC_BELOW, STOP_SPEED, body_params, body_step
+from .ego_kernels import DYNAMIC_ABOVE, KINEMATIC_BELOW, STOP_SPEED, body_params, body_step_kernel
 from .vehicle import BodyState, VehicleSpec
 
 __all__ = ["DYNAMIC_ABOVE", "KINEMATIC_BELOW", "STOP_SPEED", "FastVehicle"]
@@ -47,7 +47,7 @@ class FastVehicle:
     def step(self, dt_s: float, steer_rad: float, drive_force_n: float, brake_force_n: float, side_force_n: float = 0.0) -> None:
         s = self.state
         s.steer_rad = steer_rad
-        s.x, s.z, s.yaw, s.u, s.v, s.r = body_step(
+        s.x, s.z, s.yaw, s.u, s.v, s.r = body_step_kernel(
             self._params, s.x, s.z, s.yaw, s.u, s.v, s.r, dt_s, steer_rad, drive_force_n, brake_force_n, side_force_n
         )
         if self.ground_height is not None:

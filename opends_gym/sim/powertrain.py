@@ -240,12 +240,13 @@ class Powertrain:
         )
         params[ek.P_DEC_BRAKE], params[ek.P_DEC_FREE] = self._dec_brake, self._dec_free
         params[ek.P_CAP_FROM_KMH], params[ek.P_REVERSE_RATIO] = self._cap_from_kmh, self.reverse_ratio
-        self._kernel_args = (
+        self._tables = (
             params,
-            np.asarray(self.ratios, dtype=np.float64),
-            np.asarray(self._power_table, dtype=np.float64),
-            np.asarray(self._best_gear_table, dtype=np.int64),
+            np.asarray(self.ratios, float),
+            np.asarray(self._power_table, float),
+            np.asarray(self._best_gear_table, float),
         )
+        self._car = ek.car_constants(np.zeros(10), *self._tables)  # (no body: the backend has its own)
 
     # ------------------------------------------------------------------ gears
     def power_share(self, gear: int, v_mps: float) -> float:
@@ -297,8 +298,7 @@ class Powertrain:
         st = self.state
         if st.values[ef.S_RING_COUNT] + 2.0 > len(st.ring):
             st.ensure_ring_room()
-        k = self._kernel_args
-        return ef.powertrain_step(k[0], k[1], k[2], k[3], st.values, st.ring, dt_s, v_mps, gas, brake, slope_rad, hand_brake)
+        return ef.powertrain_step(self._car, st.values, st.ring, dt_s, v_mps, gas, brake, slope_rad, hand_brake)  # type: ignore[no-any-return]
 
     def step(
         self, dt_s: float, v_mps: float, gas: float, brake: float, slope_rad: float = 0.0, hand_brake: bool = False

@@ -20,10 +20,11 @@ from gymnasium.utils import seeding
 
 from ..envs.base import LANE_KEEPING_OFFSET_M, OpenDSEnv
 from ..sim.triggers.core import CompiledAction
-from . import ego, libm
+from . import ego
 from .actions import BatchActions, BatchControls
+from .kernels import record_lanes
 from .timers import KINDS, TimerBatch
-from .trace import TraceRing, lane_columns
+from .trace import TraceRing
 from .triggers import TriggerBatch
 
 
@@ -33,6 +34,7 @@ class BatchCore:
     handled_actions: frozenset[str] = frozenset({"setupLaneChangeReactionTimer", "setupBrakeReactionTimer", "manipulateObject"})
     trace_columns: tuple[str, ...] = ("x_m", "z_m", "speed_mps", "steering")
     needs_distance = False  # the base running mean deviation (the LCT replaces it)
+    has_traffic = False  # `_traffic_step` and `_traffic_hits` do something
 
     def __init__(self, template: OpenDSEnv, n: int, record_metrics: bool = True) -> None:
         self.template: Any = template
@@ -72,6 +74,7 @@ class BatchCore:
         self.reaction_cursor = np.zeros(n, dtype=np.int64)
         self.lat = np.zeros(n)
         self.lane = np.zeros(n, dtype=np.int64)
+        self.centres = np.asarray(self.guide.lane_laterals_m, dtype=np.float64)
         self.offset = np.zeros(n)
         self.headway = np.full(n, np.inf)
         self.ttc = np.full(n, np.inf)
@@ -189,55 +192,39 @@ class BatchCore:
         ego.step(self.p, self.s, self.dt, c.steer, c.gas, c.brake, live)
         self._traffic_step(live)
         s = self.s
-        cx = s.x - self.car_shift * np.sin(s.yaw)
-        cz = s.z - self.car_shift * np.cos(s.yaw)
-        self.collisions += self._traffic_hits((cx, cz, s.yaw), live)
-        env, vol = self.trig.touching(cx, cz, s.yaw, live & ~self.trig.paused)
+        if self.has_traffic:  # the car's box is centred half a wheelbase ahead of its reference point
+            cx = s.x - self.car_shift * np.sin(s.yaw)
+            cz = s.z - self.car_shift * np.cos(s.yaw)
+            self.collisions += self._traffic_hits((cx, cz, s.yaw), live)
+        env, vol = self.trig.touching(s.x, s.z, s.yaw, self.car_shift, live & ~self.trig.paused, self.t)
         if env.size:
-            ok = self.trig.unlocked(self.t, env, vol)
-            if ok.any():
-                self.trig.fire(self.t, env[ok], vol[ok], self._run_action)
+            self.trig.fire(self.t, env, vol, self._run_action)
         polled = live & ~self.trig.paused
         self.timers.update(polled, self.t, s.x, s.z, s.u, s.steer_in, s.brake_in, self.trig.started_at)
 
-    def _run_action(self, e: int, act: CompiledAction, trigger: int) -> None:
+    def _run_action(self, es: np.ndarray, act: CompiledAction, trigger: int) -> None:
+        """A trigger's action for the envs `es` (those whose trigger fired)."""
         if act.name in KINDS:
-            if self.trig.started[e]:
+            es = es[self.trig.started[es]]
+            if es.size:
                 s = self.s
-                self.timers.setup(
-                    e, act.counter, float(self.t[e]), float(s.x[e]), float(s.z[e]), float(s.u[e]), float(self.trig.started_at[e])
-                )
+                self.timers.setup(es, act.counter, self.t[es], s.x[es], s.z[es], s.u[es], self.trig.started_at[es])
             return
-        self._on_action(e, act, trigger)
+        self._on_action_rows(es, act, trigger)
+
+    def _on_action_rows(self, es: np.ndarray, act: CompiledAction, trigger: int) -> None:
+        """A task action for the envs `es`; by default `_on_action` for each of them."""
+        for e in es.tolist():
+            self._on_action(e, act, trigger)
 
     def _record_row(self, rows: np.ndarray, first: bool) -> None:
         """`OpenDSEnv._record_row` for the envs `rows` (trace row, running lateral measures)."""
         s = self.s
-        lat, lane, offset = lane_columns(self.guide, s.x, s.z)
         self._lead_measures()
-        rl = self.rl
-        if self.needs_distance and not first:
-            ds = libm.py_hypot(s.x - self.prev_x, s.z - self.prev_z)
-            rl["dist"] = np.where(rows, rl["dist"] + ds, rl["dist"])
-            rl["area"] = np.where(rows, rl["area"] + 0.5 * (np.abs(self.offset) + np.abs(offset)) * ds, rl["area"])
-        every = bool(rows.all())
-        add = np.abs(offset) < LANE_KEEPING_OFFSET_M
-        if not every:
-            add &= rows
-        n = rl["n"] + add
-        d = offset - rl["mean"]
-        mean = np.where(add, rl["mean"] + d / np.where(add, n, 1.0), rl["mean"])
-        rl["m2"] = np.where(add, rl["m2"] + d * (offset - mean), rl["m2"])
-        rl["n"], rl["mean"] = n, mean
-        if every:
-            self.lat, self.lane, self.offset = lat, lane, offset
-        else:
-            self.lat = np.where(rows, lat, self.lat)
-            self.lane = np.where(rows, lane, self.lane)
-            self.offset = np.where(rows, offset, self.offset)
-        if self.needs_distance:
-            self.prev_x = np.where(rows, s.x, self.prev_x)
-            self.prev_z = np.where(rows, s.z, self.prev_z)
+        rl, g = self.rl, self.guide
+        record_lanes(s.x, s.z, rows, first, g.sign, self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane,
+                     self.offset, rl["n"], rl["mean"], rl["m2"], self.needs_distance, self.prev_x, self.prev_z, rl["dist"],
+                     rl["area"])  # fmt: skip
         if self.ring is not None:
             values = self._trace_values()
             if first:

@@ -25,8 +25,7 @@ from ..sim.vehicle import MAX_WHEEL_ANGLE_RAD
 class EgoParams:
     """Constants of the car, read from a single env's World so they are the same floats."""
 
-    body: np.ndarray  # the single env's `FastVehicle` and `Powertrain` kernel parameters
-    pt: np.ndarray
+    car: np.ndarray  # the single env's car constants (`ego_kernels.car_constants`)
     mass: float
     lf: float
     lr: float
@@ -71,8 +70,7 @@ class EgoParams:
         spec = body.spec
         pose = world.start_pose
         return EgoParams(
-            body=body._params,
-            pt=pt._kernel_args[0],
+            car=ego._car,
             mass=spec.mass_kg,
             lf=spec.cog_to_front_m,
             lr=spec.wheelbase_m - spec.cog_to_front_m,
@@ -92,10 +90,10 @@ class EgoParams:
             decel_free=pt.brake.deceleration_free_wheel_mps2,
             engine_on=bool(ego._initial_powertrain.engine_on),
             suppress_cruise_off=bool(car.cruise_control.suppress_deactivation_by_brake),
-            ratios=pt._kernel_args[1],
+            ratios=np.asarray(pt.ratios, dtype=np.float64),
             reverse_ratio=float(pt.reverse_ratio),
-            power_table=pt._kernel_args[2],
-            gear_table=pt._kernel_args[3],
+            power_table=np.asarray(pt._power_table, dtype=np.float64),
+            gear_table=np.asarray(pt._best_gear_table, dtype=np.int64),
             reset_pose=(float(pose.position_m[0]), float(pose.position_m[1]), float(pose.position_m[2]), float(pose.yaw_rad)),
             initial_speed=float(car.cruise_control.initial_speed_mps),
             initial_gear=int(ego._initial_powertrain.gear),
@@ -157,11 +155,7 @@ def reset_rows(p: EgoParams, s: EgoArrays, idx: np.ndarray) -> None:
 def step(p: EgoParams, s: EgoArrays, dt: float, steer: np.ndarray, gas: np.ndarray, brake: np.ndarray, live: np.ndarray) -> None:
     """One physics step of the rows `live` of `s`, in place."""
     _step_rows(
-        p.body,
-        p.pt,
-        p.ratios,
-        p.power_table,
-        p.gear_table,
+        p.car,
         p.engine_on,
         p.suppress_cruise_off,
         p.min_speed,
@@ -192,11 +186,7 @@ def step(p: EgoParams, s: EgoArrays, dt: float, steer: np.ndarray, gas: np.ndarr
 
 @kernel
 def _step_rows(
-    body: np.ndarray,
-    pt: np.ndarray,
-    ratios: np.ndarray,
-    power_table: np.ndarray,
-    gear_table: np.ndarray,
+    car: np.ndarray,
     engine_on: bool,
     suppress_cruise_off: bool,
     min_speed: float,
@@ -236,10 +226,7 @@ def _step_rows(
         g = min_speed_gas(g, b, v0, gear[e], min_speed)
         steer_in[e], gas_in[e], brake_in[e] = steer[e], g, b
         gear[e], rpm[e], drive, brake_n, _, _, _, fuel_used[e], fuel_left[e] = powertrain_core(
-            pt,
-            ratios,
-            power_table,
-            gear_table,
+            car,
             gear[e],
             True,
             engine_on,
@@ -256,7 +243,7 @@ def _step_rows(
         )
         prev_v[e] = v0
         x[e], z[e], yaw[e], u[e], v[e], r[e] = body_step(
-            body, x[e], z[e], yaw[e], u[e], v[e], r[e], dt, steer[e] * MAX_WHEEL_ANGLE_RAD, drive, brake_n, 0.0
+            car, x[e], z[e], yaw[e], u[e], v[e], r[e], dt, steer[e] * MAX_WHEEL_ANGLE_RAD, drive, brake_n, 0.0
         )
 
 

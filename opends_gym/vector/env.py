@@ -8,8 +8,8 @@ vectorization_mode="vector_entry_point", **kwargs)` returns it.
 Same results as the single env: for seeds s_i and the same actions, env i's observations,
 rewards, terminated/truncated flags, info numbers and `episode_metrics` equal those of
 `gymnasium.make(id, **kwargs)` reset with seed s_i and stepped with those actions, bit for
-bit (tested). Python's `math` functions that numpy computes differently are taken from the
-C library or re-implemented (`libm`).
+bit (tested): the per-step maths are compiled loops over the envs that call the single env's
+own kernels (`sim.ego_kernels`, `sim.traffic_motion`) or repeat its arithmetic (`kernels`).
 
 Vector API: autoreset mode NEXT_STEP (Gymnasium's default; the step after an episode ends
 resets that env, with reward 0 and both flags False), seeding as `SyncVectorEnv`
@@ -21,7 +21,7 @@ per-step event log) is not produced, nor rendering.
 Options: `record_metrics=False` skips the per-step traces (and `episode_metrics`); they
 take ~0.5 MB per env for the LCT's 300 s limit, and a batch whose traces would not fit in
 memory is refused. `threads` splits the envs into shards stepped in parallel threads
-(numpy releases the GIL in its loops); by default one per CPU (at most 4) from 2048 envs.
+(the compiled kernels release the GIL); by default one per CPU (at most 4) from 2048 envs.
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
+from ..sim.jit import kernel
 from .core import BatchCore
 from .trace import _physical_memory
 
@@ -199,19 +200,31 @@ def _renumber(message: str, offset: int) -> str:
 def _observe(c: BatchCore, k: int, size: int) -> np.ndarray:
     """The kinematics observation of every env of a shard (float32, as the single env's)."""
     s = c.s
-    out = np.zeros((c.n, size))
-    out[:, 0] = s.u
-    out[:, 1] = (s.yaw - c.guide.road_heading + np.pi) % (2.0 * np.pi) - np.pi
-    out[:, 2] = c.offset
-    out[:, 3] = c.lat
-    out[:, 4] = c.lane
-    out[:, 5] = s.steer_in
-    out[:, 6] = s.r
+    out = np.empty((c.n, size), dtype=np.float32)
+    ego_features(out, s.u, s.yaw, c.guide.road_heading, c.offset, c.lat, c.lane, s.steer_in, s.r)
     base = len(EGO_NAMES)
     vehicles = c.vehicle_slots(k) if k else None
     if vehicles is not None:
         out[:, base : base + vehicles.shape[1]] = vehicles
+    elif k:
+        out[:, base : base + k * len(VEHICLE_NAMES)] = 0.0
     stim = c._stimulus()
     if stim.shape[1]:
         out[:, base + k * len(VEHICLE_NAMES) :] = stim
-    return out.astype(np.float32)
+    return out
+
+
+@kernel
+def ego_features(out: np.ndarray, u: np.ndarray, yaw: np.ndarray, heading: float, offset: np.ndarray, lat: np.ndarray, lane: np.ndarray,
+                 steer: np.ndarray, r: np.ndarray) -> None:  # fmt: skip
+    """`ObservationType.ego_features` of every env into the first columns of `out` (float32):
+    speed, heading error (wrapped to [-pi, pi)), lane offset, lateral position, lane, steering,
+    yaw rate."""
+    for e in range(len(u)):
+        out[e, 0] = u[e]
+        out[e, 1] = (yaw[e] - heading + math.pi) % (2.0 * math.pi) - math.pi
+        out[e, 2] = offset[e]
+        out[e, 3] = lat[e]
+        out[e, 4] = lane[e]
+        out[e, 5] = steer[e]
+        out[e, 6] = r[e]

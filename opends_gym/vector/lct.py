@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..envs.lct import LaneChangeTestEnv
+from ..sim.jit import kernel
 from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
@@ -50,35 +51,17 @@ class LctBatch(BatchCore):
         self.step_reward[idx] = 0.0
         self.has_prev[idx] = False
 
-    def _on_action(self, e: int, act: CompiledAction, trigger: int) -> None:
+    def _on_action_rows(self, es: np.ndarray, act: CompiledAction, trigger: int) -> None:
         if act.name == "manipulateObject":
             k = self.sign_of_model.get(str(act.args["object_id"]))
             if k is not None and act.args.get("visible"):
-                self.revealed[e] = max(int(self.revealed[e]), k)
+                self.revealed[es] = np.maximum(self.revealed[es], k)
             return
-        super()._on_action(e, act, trigger)
-
-    def _norm_at(self, d: np.ndarray) -> np.ndarray:
-        i = ((d - self.norm_d0) / self.norm_step).astype(np.int64)  # int(): towards zero
-        last = len(self.norm) - 1
-        return np.where(i < 0, self.norm[0], np.where(i >= last + 1, self.norm[-1], self.norm[np.clip(i, 0, last)]))
+        super()._on_action_rows(es, act, trigger)
 
     def _on_physics_step(self, rows: np.ndarray, k: int, c: BatchControls) -> None:
-        d = self.start_z - self.s.z
-        dev = np.abs(self.lat - self._norm_at(d))
-        mid = 0.5 * (dev + self.prev_dev)
-        dd = d - self.prev_d
-        area = self.area + mid * dd
-        reward = self.step_reward + np.maximum(0.0, 1.0 - mid / self.scale) * dd
-        if rows.all() and self.has_prev.all():  # the common case: no masks needed
-            self.area, self.step_reward, self.prev_d, self.prev_dev = area, reward, d, dev
-            return
-        prev = rows & self.has_prev
-        self.area = np.where(prev, area, self.area)
-        self.step_reward = np.where(prev, reward, self.step_reward)
-        self.prev_d = np.where(rows, d, self.prev_d)
-        self.prev_dev = np.where(rows, dev, self.prev_dev)
-        self.has_prev |= rows
+        lct_measures(self.s.z, self.lat, rows, self.start_z, self.norm, self.norm_d0, self.norm_step, self.scale, self.has_prev,
+                     self.prev_d, self.prev_dev, self.area, self.step_reward)  # fmt: skip
 
     def _stimulus(self) -> np.ndarray:
         z = self.s.z
@@ -94,10 +77,33 @@ class LctBatch(BatchCore):
 
     def _reward(self, info: dict[str, np.ndarray], terminated_task: np.ndarray) -> np.ndarray:
         r = self.reward_scale * self.step_reward
-        self.step_reward = np.zeros(self.n)
+        self.step_reward[:] = 0.0
         r = np.where(terminated_task, r - self.off_road_penalty, r)
         return r - 10.0 * info["new_collisions"].astype(np.float64)
 
     def _task_info(self, info: dict[str, np.ndarray]) -> None:
         dist = np.where(self.has_prev, self.prev_d, 0.0)
         info["mean_deviation_m"] = np.where(dist > 0, self.area / np.where(dist > 0, dist, 1.0), 0.0)
+
+
+@kernel
+def lct_measures(z: np.ndarray, lat: np.ndarray, rows: np.ndarray, start_z: float, norm: np.ndarray, d0: float, step: float,
+                 scale: float, has_prev: np.ndarray, prev_d: np.ndarray, prev_dev: np.ndarray, area: np.ndarray,
+                 reward: np.ndarray) -> None:  # fmt: skip
+    """`LaneChangeTestEnv._on_physics_step` per env of `rows`: the deviation from the normative
+    path (sampled every `step` metres from `d0`) at the distance driven, the area between the
+    two paths (trapezoids) and the reward's share of the step (m)."""
+    for e in range(len(z)):
+        if not rows[e]:
+            continue
+        d = start_z - z[e]
+        i = int((d - d0) / step)  # int(): towards zero
+        ideal = norm[0] if i < 0 else norm[len(norm) - 1] if i >= len(norm) else norm[i]
+        dev = abs(lat[e] - ideal)
+        if has_prev[e]:
+            mid = 0.5 * (dev + prev_dev[e])
+            dd = d - prev_d[e]
+            area[e] = area[e] + mid * dd
+            share = 1.0 - mid / scale
+            reward[e] = reward[e] + (share if share > 0.0 else 0.0) * dd
+        prev_d[e], prev_dev[e], has_prev[e] = d, dev, True

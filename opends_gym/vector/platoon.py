@@ -39,6 +39,7 @@ class PlatoonBatch(BatchCore):
     handled_actions = frozenset({"setTVPTStimulus"})
     trace_columns: tuple[str, ...] = ("x_m", "z_m", "speed_mps", "steering", "headway_s", "ttc_s", "lon_dev")
     needs_distance = True
+    has_traffic = True
 
     def __init__(self, template: ThreeVehiclePlatoonEnv, n: int, record_metrics: bool = True) -> None:
         template.reset(seed=0)  # the cars as the task's reset leaves them (the same for every seed)
@@ -219,7 +220,7 @@ class PlatoonBatch(BatchCore):
         dev = np.minimum(self.lon_dev + lat, self.dev_cap)
         self.reward_acc = np.where(rows, self.reward_acc - self.dev_per_m * dev / self.repeat, self.reward_acc)
         if self.ring is not None:  # the lon_dev row of this step (written with the trace row just before)
-            self.ring.ring["lon_dev"][(self.ring.g - 1) % self.ring.size] = self.lon_dev
+            self.ring.set_last("lon_dev", self.lon_dev)
 
     def _stimuli_step(self, rows: np.ndarray, c: BatchControls, first: bool) -> None:
         act = self.on & rows[:, None]

@@ -11,15 +11,16 @@ that lies within a few ulps of the limit, CPython's, so the verdict is the singl
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..sim.road import LANE_MARGIN_M
-from ..sim.triggers.reactions import CORRECT, EPS, FAILURE, MISSED, MISSED_RT_S, ReactionResult
+from ..sim.triggers.reactions import CORRECT, FAILURE, MISSED, MISSED_RT_S, ReactionResult
+from .kernels import FAIL as FAIL_
+from .kernels import MISS as MISS_
+from .kernels import N_TABLE, update_timers
 
 LANE, BRAKE = 0, 1
 KINDS = {"setupLaneChangeReactionTimer": LANE, "setupBrakeReactionTimer": BRAKE}
@@ -100,7 +101,9 @@ class TimerBatch:
         self.start_lane = np.full(n, -1, dtype=np.int64)
         self.results: list[list[ReactionResult]] = [[] for _ in range(n)]
         self.n_results = np.zeros(n, dtype=np.int64)
-        self._tables: dict[str, np.ndarray] = {}
+        self.table = np.zeros((0, N_TABLE))  # one row per spec (columns `kernels.T_*`)
+        self._bands = np.array(bands, dtype=np.float64).reshape(-1, 2)
+        self._done = np.zeros(n, dtype=np.int64)
 
     def add_spec(self, key: int, name: str, args: dict[str, Any], lane_ids: tuple[str, ...]) -> None:
         spec = TimerSpec.from_args(name, args, lane_ids)
@@ -109,12 +112,9 @@ class TimerBatch:
             raise ValueError(f"the native batch supports one reaction timer id per task, not {sorted(self.timer_ids)}")
         self._spec_index[key] = len(self.specs)
         self.specs.append(spec)
-        self._tables = {
-            f: np.array([getattr(s, f) for s in self.specs])
-            for f in ("kind", "time_limit_s", "distance_limit_m", "target_lane", "min_steering_deg", "allow_brake", "hold_s")
-            + ("target_speed_mps", "must_press_brake", "allow_lane_change")
-        }
-        self._constant = {k: bool(np.all(v == v[0])) for k, v in self._tables.items()}  # a scalar is cheaper than a gather
+        fields: tuple[str, ...] = ("kind", "time_limit_s", "distance_limit_m", "target_lane", "min_steering_deg", "allow_brake")
+        fields += ("hold_s", "target_speed_mps", "must_press_brake", "allow_lane_change")  # (in the order of `kernels.T_*`)
+        self.table = np.array([[float(getattr(s, f)) for f in fields] for s in self.specs]).reshape(-1, N_TABLE)
 
     def reset_rows(self, idx: np.ndarray) -> None:
         self.active[idx] = False
@@ -124,24 +124,26 @@ class TimerBatch:
         self.n_results[idx] = 0
 
     # ------------------------------------------------------------------ arming (rare)
-    def setup(self, e: int, key: int, t: float, x: float, z: float, u: float, started_at: float) -> None:
-        """`ReactionCenter.setup` for env e (the caller checked that measurement started)."""
+    def setup(self, es: np.ndarray, key: int, t: np.ndarray, x: np.ndarray, z: np.ndarray, u: np.ndarray, started_at: np.ndarray) -> None:
+        """`ReactionCenter.setup` for the envs `es` (the caller checked that measurement
+        started); t, x, z, u and started_at are theirs."""
         k = self._spec_index[key]
         spec = self.specs[k]
-        if self.active[e] and self.armed[e]:
-            self._score(e, MISSED, MISSED_RT_S, t, started_at)
-        lane = int(lane_index_at(np.array([x]), self.bands)[0])
-        self.active[e] = True
-        self.spec[e] = k
-        self.start_t[e], self.start_x[e], self.start_z[e] = t, x, z
-        self.peak[e] = 0.0
-        self.hold_since[e] = np.nan
-        self.braked[e] = False
-        self.start_lane[e] = lane
+        rerun = self.active[es] & self.armed[es]
+        for i in np.flatnonzero(rerun).tolist():  # re-arming a running timer logs a miss first
+            self._score(int(es[i]), MISSED, MISSED_RT_S, float(t[i]), float(started_at[i]))
+        lane = lane_index_at(x, self.bands)
+        self.active[es] = True
+        self.spec[es] = k
+        self.start_t[es], self.start_x[es], self.start_z[es] = t, x, z
+        self.peak[es] = 0.0
+        self.hold_since[es] = np.nan
+        self.braked[es] = False
+        self.start_lane[es] = lane
         if spec.kind == LANE:
-            self.armed[e] = lane == spec.start_lane
+            self.armed[es] = lane == spec.start_lane
         else:
-            self.armed[e] = u >= spec.start_speed_mps - 1e-9
+            self.armed[es] = u >= spec.start_speed_mps - 1e-9
 
     def _score(self, e: int, result: int, rt_s: float, t: float, started_at: float) -> None:
         spec = self.specs[int(self.spec[e])]
@@ -163,59 +165,23 @@ class TimerBatch:
     # ------------------------------------------------------------------ polling
     def update(self, rows: np.ndarray, t: np.ndarray, x: np.ndarray, z: np.ndarray, u: np.ndarray, steer: np.ndarray, brake: np.ndarray,
                started_at: np.ndarray) -> None:  # fmt: skip
-        """`ReactionCenter.update` for the envs `rows` (not paused)."""
-        a = np.flatnonzero(self.active & rows)
-        if a.size == 0:
+        """`ReactionCenter.update` for the envs `rows` (not paused): a compiled loop; the timers
+        that end are scored here."""
+        if not self.specs:
             return
-        spec = self.spec[a]
-        tab = {k: (v[0] if self._constant[k] else v[spec]) for k, v in self._tables.items()}
-        ta, xa = t[a], x[a]
-        lim = self._limit_exceeded(a, ta, xa, z[a], tab)
-        armed = self.armed[a]
-        self.active[a[~armed & lim]] = False  # an unarmed timer only expires
-        lane_kind = tab["kind"] == LANE
-        self.peak[a] = np.where(lane_kind, np.maximum(self.peak[a], np.abs(steer[a]) * STEERING_WHEEL_MAX_DEG), self.peak[a])
-        ba = brake[a]
-        self.braked[a] |= ~lane_kind & (ba > 0.0)
-        lane_now = lane_index_at(xa, self.bands)
-        fail = np.where(
-            lane_kind, ~tab["allow_brake"] & (ba > 0.0), ~tab["allow_lane_change"] & (lane_now >= 0) & (self.start_lane[a] >= 0)
-        )
-        fail &= lane_kind | (lane_now != self.start_lane[a])
-        fail &= armed
-        miss = armed & ~fail & lim
-        rest = armed & ~fail & ~miss
-        ok = np.where(
-            lane_kind,
-            (lane_now == tab["target_lane"]) & (self.peak[a] >= tab["min_steering_deg"] - EPS),
-            (u[a] <= tab["target_speed_mps"] + EPS) & (self.braked[a] | ~tab["must_press_brake"]),
-        )
-        hold = self.hold_since[a]
-        hold = np.where(rest & ok & np.isnan(hold), ta, hold)
-        hold = np.where(rest & ~ok, np.nan, hold)
-        self.hold_since[a] = hold
-        success = rest & ok & (ta - hold >= tab["hold_s"] - EPS)
-        done = fail | miss | success
-        if not done.any():
+        ended = update_timers(self.active, self.armed, self.spec, self.start_t, self.start_x, self.start_z, self.peak, self.hold_since,
+                              self.braked, self.start_lane, self.table, self._bands, rows, t, x, z, u, steer, brake,
+                              self._done)  # fmt: skip
+        if not ended:
             return
-        for i in np.flatnonzero(done).tolist():
-            e = int(a[i])
-            now = float(ta[i])
-            if fail[i]:
+        for e in np.flatnonzero(self._done).tolist():
+            how = int(self._done[e])
+            now = float(t[e])
+            if how == FAIL_:
                 result, rt = FAILURE, now - float(self.start_t[e])
-            elif miss[i]:
+            elif how == MISS_:
                 result, rt = MISSED, MISSED_RT_S
             else:
-                result, rt = CORRECT, now - float(self.start_t[e]) - float(np.broadcast_to(tab["hold_s"], a.shape)[i])
+                result, rt = CORRECT, now - float(self.start_t[e]) - self.specs[int(self.spec[e])].hold_s
             self.active[e] = False
             self._score(e, result, rt, now, float(started_at[e]))
-
-    def _limit_exceeded(self, a: np.ndarray, t: np.ndarray, x: np.ndarray, z: np.ndarray, tab: dict[str, np.ndarray]) -> np.ndarray:
-        tl, dl = tab["time_limit_s"], tab["distance_limit_m"]
-        by_time = (tl > 0.0) & (t - self.start_t[a] > tl + EPS)
-        dx, dz = x - self.start_x[a], z - self.start_z[a]
-        h = np.hypot(dx, dz)
-        close = np.flatnonzero((dl > 0.0) & (np.abs(h - dl) <= 8.0 * np.spacing(np.maximum(dl, 1.0))))
-        for i in close.tolist():  # near the limit: CPython's hypot decides, as in the single env
-            h[i] = math.hypot(float(dx[i]), float(dz[i]))
-        return by_time | ((dl > 0.0) & (h > dl))

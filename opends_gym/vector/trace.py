@@ -22,20 +22,30 @@ from ..sim.guide import RoadGuide
 
 class TraceRing:
     """`columns` recorded per physics step for `n` envs; episodes up to `max_steps` long.
-    Columns that are not `Trace` columns (task measures) are read with `column`."""
+    Columns that are not `Trace` columns (task measures) are read with `column`.
+
+    Rows live in blocks of BLOCK rows (one array per column and block). A block is
+    allocated when first written and recycled once no running episode reaches back into it,
+    so memory grows with the longest running episode (not with `max_steps` up front), short
+    episodes stay in cache, and nothing is ever copied to make room.
+    """
+
+    BLOCK = 256
 
     def __init__(self, n: int, columns: tuple[str, ...], max_steps: int) -> None:
         self.columns = columns
-        self.size = int(max_steps) + 2
+        self.n = n
+        self.size = int(max_steps) + 2  # the most rows an episode can have
         need = self.size * n * len(columns) * 8
         if need > 0.6 * _physical_memory():
             raise MemoryError(
                 f"the episode traces of {n} envs need {need / 2**30:.1f} GiB (for episode_metrics); "
                 "use fewer envs, a shorter max_episode_s, or record_metrics=False"
             )
-        self.ring = {c: np.zeros((self.size, n)) for c in columns}
+        self.blocks: dict[int, dict[str, np.ndarray]] = {}  # block number (g // BLOCK) -> column -> (BLOCK, n)
+        self._spare: list[dict[str, np.ndarray]] = []
         self.first = {c: np.zeros(n) for c in columns}  # the reset row of each env's episode
-        self.g = 0  # rows written so far (the next row goes to g % size)
+        self.g = 0  # rows written so far
         self.start = np.zeros(n, dtype=np.int64)  # g of each env's first step row
         self.steps = np.zeros(n, dtype=np.int64)  # step rows of each env's episode so far
 
@@ -48,22 +58,43 @@ class TraceRing:
 
     def write(self, values: dict[str, np.ndarray], live: np.ndarray | None) -> None:
         """One physics step: a row for every env (rows of envs not `live` are never read)."""
-        row = self.g % self.size
+        b, row = divmod(self.g, self.BLOCK)
+        block = self.blocks.get(b)
+        if block is None:
+            block = self._new_block(b)
         for c in self.columns:
-            self.ring[c][row] = values[c]
+            block[c][row] = values[c]
         self.g += 1
         if live is None:
             self.steps += 1
         else:
             self.steps[live] += 1
 
+    def set_last(self, c: str, values: np.ndarray) -> None:
+        """Overwrite column c of the row written last (a measure known only after the row)."""
+        b, row = divmod(self.g - 1, self.BLOCK)
+        self.blocks[b][c][row] = values
+
+    def _new_block(self, b: int) -> dict[str, np.ndarray]:
+        oldest = int(self.start.min()) // self.BLOCK  # blocks before it hold no running episode's rows
+        for old in [k for k in self.blocks if k < oldest]:
+            self._spare.append(self.blocks.pop(old))
+        # np.empty, not zeros: numpy asks for huge pages then (fresh zeroed pages are slow to fault in)
+        block = self._spare.pop() if self._spare else {c: np.empty((self.BLOCK, self.n)) for c in self.columns}
+        self.blocks[b] = block
+        return block
+
     def column(self, e: int, c: str) -> np.ndarray:
         """Env e's episode so far for one column (reset row first)."""
         k = int(self.steps[e])
-        rows = (int(self.start[e]) + np.arange(k)) % self.size
         out = np.empty(k + 1)
         out[0] = self.first[c][e]
-        out[1:] = self.ring[c][rows, e]
+        g, end, i = int(self.start[e]), int(self.start[e]) + k, 1
+        while g < end:
+            b, row = divmod(g, self.BLOCK)
+            take = min(self.BLOCK - row, end - g)
+            out[i : i + take] = self.blocks[b][c][row : row + take, e]
+            g, i = g + take, i + take
         return out
 
     def to_trace(self, e: int, guide: RoadGuide, dt_s: float, constant: dict[str, float]) -> Trace:

@@ -5,8 +5,8 @@ box over a trigger box?) runs as array maths every physics step: each env has at
 trigger volume within reach at a time (checked when the table is built), found by a
 sorted search along the road, and only envs near one get the exact separating-axis test of
 `sim.geometry2d.obb_overlap`, with the same arithmetic. Firing is rare: the few (env,
-trigger) pairs that fire and are not locked run their actions in Python, through the
-handler the task batch gives (`on_action(env, action, trigger)`).
+trigger) pairs that fire and are not locked run their actions for all such envs at once,
+through the handler the task batch gives (`run(envs, action, trigger)`).
 
 Supported, because the three batched tasks use nothing else: `collideWith` conditions,
 actions without delay, `pauseSimulation` until resumed (it ends the episode) and the
@@ -25,7 +25,9 @@ from typing import Any
 import numpy as np
 
 from ..sim.triggers.core import LOCK_S, CompiledAction, TriggerCore
+from .kernels import touch_triggers
 
+_NONE = np.zeros(0, dtype=np.int64)
 NO_EFFECT_ACTIONS = frozenset({"startRecording", "stopRecording"})  # logged by OpenDS, no effect on the drive
 
 
@@ -74,6 +76,12 @@ class TriggerBatch:
         self.car_half = car_half
         self._table = np.array([(v.cx, v.cz, v.yaw, v.hx, v.hz) for v in vols]).reshape(-1, 5)
         self.pause_s = np.array([t.pause_s for t in self.triggers])
+        width = max([len(v.triggers) for v in vols], default=0)
+        padded = [list(v.triggers) + [-1] * (width - len(v.triggers)) for v in vols]
+        self._vol_triggers = np.array(padded, dtype=np.int64).reshape(-1, width)  # each volume's triggers, -1 padded
+        self._contact = np.full(n, -1, dtype=np.int64)
+        # each volume's triggers in firing order (priority, then position)
+        self._order = [sorted(v.triggers, key=lambda i: (-self.triggers[i].priority, i)) for v in vols]
         self.n_counters = core._n_counters
         self.locks = np.full((n, len(self.triggers)), -np.inf)
         self.counts = np.zeros((n, max(1, self.n_counters)), dtype=np.int64)
@@ -105,71 +113,58 @@ class TriggerBatch:
         self.started_at[idx] = 0.0
 
     # ------------------------------------------------------------------ contacts
-    def touching(self, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, rows: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """(env rows, volume index) of every car box (centre x, z, heading yaw) over a trigger box."""
-        if not self.volumes:
-            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-        k = np.searchsorted(self._cz, z)
-        lo = np.maximum(k - 1, 0)
-        hi = np.minimum(k, len(self.volumes) - 1)
-        pick = np.where(np.abs(self._cz[lo] - z) <= np.abs(self._cz[hi] - z), lo, hi)
-        near = (np.abs(self._cz[pick] - z) < self._reach[pick]) & (np.abs(self._cx[pick] - x) < self._reach[pick] + 50.0)
-        if rows is not None:
-            near &= rows
-        e = np.flatnonzero(near)
-        if e.size == 0:
-            return e, e
-        j = pick[e]
-        hit = obb_overlap_rows(x[e], z[e], yaw[e], self.car_half, j, self._table)
-        return e[hit], j[hit]
+    def touching(self, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, shift: float, rows: np.ndarray,
+                 t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """(env rows, volume index) of every car box (reference point x, z, heading yaw, the box
+        centred `shift` ahead) of the envs `rows` over a trigger box with a trigger not locked
+        at time t."""
+        n = touch_triggers(x, z, yaw, shift, rows, self.car_half[0], self.car_half[1], self._cz, self._cx, self._reach, self._table,
+                           self._vol_triggers, t, self.locks, self._contact)  # fmt: skip
+        if n == 0:
+            return _NONE, _NONE
+        env = np.flatnonzero(self._contact >= 0)
+        return env, self._contact[env]
 
-    def fire(self, t: np.ndarray, env: np.ndarray, vol: np.ndarray, run: Callable[[int, CompiledAction, int], None]) -> None:
-        """Fire the triggers of the touched volumes: skip locked ones, lock, run their actions."""
-        for e, j in zip(env.tolist(), vol.tolist()):
-            order = sorted(self.volumes[j].triggers, key=lambda i: (-self.triggers[i].priority, i))
-            for i in order:
-                now = float(t[e])
-                if now < self.locks[e, i] - 1e-9:
+    def fire(self, t: np.ndarray, env: np.ndarray, vol: np.ndarray, run: Callable[[np.ndarray, CompiledAction, int], None]) -> None:
+        """Fire the triggers of the touched volumes: skip locked ones, lock, run their actions.
+
+        Envs are independent, so each trigger's actions run for all envs touching its volume
+        at once (`run(envs, action, trigger)` for the task's actions); per env, the order of
+        triggers (by priority) and of actions is the single env's.
+        """
+        for j in np.unique(vol).tolist():
+            es = env[vol == j]
+            for i in self._order[j]:
+                now = t[es]
+                ok = now >= self.locks[es, i] - 1e-9
+                fire, now = es[ok], now[ok]
+                if fire.size == 0:
                     continue
-                self.locks[e, i] = now + LOCK_S + self.triggers[i].pause_s
+                self.locks[fire, i] = now + LOCK_S + self.triggers[i].pause_s
                 for act in self.triggers[i].actions:
                     if not act.known:
                         continue
-                    if act.repeat > 0 and self.counts[e, act.counter] >= act.repeat:
+                    rows = fire
+                    if act.repeat > 0:
+                        rows = fire[self.counts[fire, act.counter] < act.repeat]
+                    if rows.size == 0:
                         continue
-                    self.counts[e, act.counter] += 1
-                    if not self._builtin(e, act, now):
-                        run(e, act, i)
+                    self.counts[rows, act.counter] += 1
+                    if not self._builtin(rows, act, t):
+                        run(rows, act, i)
 
-    def unlocked(self, t: np.ndarray, env: np.ndarray, vol: np.ndarray) -> np.ndarray:
-        """Which (env, volume) contacts could fire (some trigger of the volume not locked)."""
-        ok = np.zeros(env.size, dtype=bool)
-        for j in np.unique(vol):
-            sel = vol == j
-            for i in self.volumes[int(j)].triggers:
-                ok[sel] |= t[env[sel]] >= self.locks[env[sel], i] - 1e-9
-        return ok
-
-    def _builtin(self, e: int, act: CompiledAction, now: float) -> bool:
+    def _builtin(self, rows: np.ndarray, act: CompiledAction, t: np.ndarray) -> bool:
         if act.name in NO_EFFECT_ACTIONS:
             return True
         if act.name == "pauseSimulation":
-            self.paused[e] = True  # until resumed: the episode is over
+            self.paused[rows] = True  # until resumed: the episode is over
             return True
         if act.name == "startReactionMeasurement":
-            if not self.started[e]:
-                self.started[e] = True
-                self.started_at[e] = now
+            new = rows[~self.started[rows]]
+            self.started[new] = True
+            self.started_at[new] = t[new]
             return True
         return False
-
-
-def obb_overlap_rows(
-    x: np.ndarray, z: np.ndarray, yaw: np.ndarray, half: tuple[float, float], vol: np.ndarray, table: np.ndarray
-) -> np.ndarray:
-    """The car boxes against the volumes `vol` (rows of `table`: cx, cz, yaw, hx, hz)."""
-    b = table[vol]
-    return obb_overlap(x, z, yaw, half[0], half[1], b[:, 0], b[:, 1], b[:, 2], b[:, 3], b[:, 4])
 
 
 def obb_overlap(
