@@ -13,6 +13,7 @@ The filter is designed here (bilinear transform) and run by a small compiled loo
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -22,6 +23,13 @@ from ..sim.jit import kernel
 
 def butter2_lowpass(cutoff_hz: float, fs_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """Coefficients (b, a) of a 2nd-order Butterworth low-pass (bilinear, pre-warped)."""
+    b, a = _butter2(float(cutoff_hz), float(fs_hz))
+    return b.copy(), a.copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _butter2(cutoff_hz: float, fs_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """(every episode end asks for the same few filters)"""
     if not 0 < cutoff_hz < fs_hz / 2:
         raise ValueError("cutoff must be between 0 and the Nyquist frequency")
     k = math.tan(math.pi * cutoff_hz / fs_hz)
@@ -50,9 +58,16 @@ def _lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, zi: np.ndarray) -> np.
 
 def _steady_state(b: np.ndarray, a: np.ndarray) -> np.ndarray:
     """Initial filter state for a unit step (as scipy's lfilter_zi)."""
+    return _steady_state_of(tuple(b.tolist()), tuple(a.tolist()))
+
+
+@functools.lru_cache(maxsize=64)
+def _steady_state_of(b: tuple[float, ...], a: tuple[float, ...]) -> np.ndarray:
     m = np.array([[1.0 + a[1], -1.0], [a[2], 1.0]])
     rhs = np.array([b[1] - a[1] * b[0], b[2] - a[2] * b[0]])
-    return np.linalg.solve(m, rhs)
+    out = np.linalg.solve(m, rhs)
+    out.flags.writeable = False  # (shared by every call with these coefficients)
+    return out
 
 
 def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -70,24 +85,37 @@ def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 def reversal_count(angle_deg: np.ndarray, gap_deg: float) -> int:
     """Reversals of at least `gap_deg` between the stationary points of a (filtered) signal."""
-    x = np.asarray(angle_deg, dtype=float)
+    x = np.ascontiguousarray(angle_deg, dtype=float)
     if len(x) < 3:
         return 0
-    dx = np.diff(x)
+    return int(_reversal_count(x, float(gap_deg)))
+
+
+@kernel
+def _reversal_count(x: np.ndarray, gap_deg: float) -> int:
     # stationary points: sign changes of the derivative (plateaus take their first sample)
-    signs = np.sign(dx)
-    nz = np.flatnonzero(signs)
-    if len(nz) == 0:
+    values = np.empty(len(x))
+    values[0] = x[0]
+    m, prev, seen = 1, 0.0, False
+    for i in range(len(x) - 1):
+        d = x[i + 1] - x[i]
+        if d == 0.0:
+            continue
+        sign = 1.0 if d > 0.0 else -1.0 if d < 0.0 else math.nan
+        if seen and sign != prev:
+            values[m] = x[i]
+            m += 1
+        prev, seen = sign, True
+    if not seen:
         return 0
-    s = signs[nz]
-    turns = nz[1:][s[1:] != s[:-1]]
-    extrema = np.concatenate([[0], turns, [len(x) - 1]])
-    values = x[extrema]
+    values[m] = x[len(x) - 1]
+    m += 1
     count = 0
     # count upward and downward reversals separately, as the reference implementation
     for direction in (1.0, -1.0):
         anchor = values[0]
-        for v in values[1:]:
+        for k in range(1, m):
+            v = values[k]
             if direction * (v - anchor) >= gap_deg:
                 count += 1
                 anchor = v

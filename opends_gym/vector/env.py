@@ -168,10 +168,24 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             info[k] = v
             info[f"_{k}"] = full
         if ended.any() and self.record_metrics:
+            metrics: dict[str, Any] = {}
             for e in np.flatnonzero(ended).tolist():
                 j = next(i for i, sl in enumerate(self._slices) if sl.start <= e < sl.stop)
-                info = self._add_info(info, {"episode_metrics": self.cores[j].episode_metrics(e - self._slices[j].start)}, e)
+                _add_numbers(metrics, self.cores[j].episode_metrics(e - self._slices[j].start), e, self.num_envs)
+            info["episode_metrics"], info["_episode_metrics"] = metrics, ended.copy()
         return info
+
+
+def _add_numbers(out: dict[str, Any], values: dict[str, float], e: int, n: int) -> None:
+    """Gymnasium's `VectorEnv._add_info` for a flat dict of numbers (each key an array typed
+    by its first value, with a `_key` mask), without its per-call overhead."""
+    for key, value in values.items():
+        array = out.get(key)
+        if array is None:
+            array = out[key] = np.zeros(n, dtype=type(value))
+            out[f"_{key}"] = np.zeros(n, dtype=np.bool_)
+        array[e] = value
+        out[f"_{key}"][e] = True
 
 
 def _shard_count(num_envs: int, threads: int | None) -> int:

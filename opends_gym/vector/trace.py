@@ -12,12 +12,14 @@ computes them with the guide's formulas.
 
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
 
 from ..envs.trace import COL, Trace
 from ..sim.guide import RoadGuide
+from ..sim.jit import kernel
 
 
 class TraceRing:
@@ -131,14 +133,22 @@ def lane_columns(guide: RoadGuide, x: np.ndarray, z: np.ndarray) -> tuple[np.nda
     `OpenDSEnv._record_row` compute them, for X-band lane roads."""
     if guide.kind != "lanes":
         raise ValueError("the native batch needs a task with lane bands")
-    lat = -guide.sign * x
-    centres = np.asarray(guide.lane_laterals_m)
-    half = guide.lane_width_m / 2.0
-    lane = np.full(lat.shape, -1, dtype=np.int64)
-    for i, c in enumerate(guide.lane_laterals_m):
-        lane = np.where((lane < 0) & (np.abs(lat - c) <= half), i, lane)
-    ref = lane.copy()
-    off = np.flatnonzero(lane < 0)
-    if off.size:  # off the lanes: the nearest lane's centre (the first of equals, as `RoadGuide.nearest_lane`)
-        ref[off] = np.argmin(np.abs(centres[:, None] - lat[None, off]), axis=0)
-    return lat, lane, lat - centres[ref]
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    lat, lane, offset = np.empty(len(x)), np.empty(len(x), dtype=np.int64), np.empty(len(x))
+    _lane_columns(x, guide.sign, np.asarray(guide.lane_laterals_m, dtype=np.float64), guide.lane_width_m / 2.0, lat, lane, offset)
+    return lat, lane, offset
+
+
+@kernel
+def _lane_columns(x: np.ndarray, sign: float, centres: np.ndarray, half: float, lat: np.ndarray, lane: np.ndarray,
+                  offset: np.ndarray) -> None:  # fmt: skip
+    for e in range(len(x)):
+        la = -sign * x[e]
+        ln, ref, best = -1, 0, math.inf
+        for i in range(len(centres)):
+            gap = abs(la - centres[i])
+            if ln < 0 and gap <= half:
+                ln = i
+            if gap < best:  # off the lanes: the nearest lane's centre (the first of equals)
+                ref, best = i, gap
+        lat[e], lane[e], offset[e] = la, ln, la - centres[ln if ln >= 0 else ref]
