@@ -11,8 +11,11 @@ shared after fork fairly). Then the goals of issue 9 as ratios from this run, PA
 each, and a scaling table for 1, 2, 4, ..., 256 Lane Change Test envs.
 
 Actions are random (`action_space.sample()`, drawn before timing) and episodes that end are
-reset inside the timed loop, so resets count. Rates are wall-clock; `cpu %` is this
-process's CPU time over wall time (below ~90 % another program shared the cores).
+reset inside the timed loop, so resets count; one more native row drives the LCT with a
+lane follower (random steering leaves the road within ~5 s, so that row shows the batch
+when episodes last, as a trained policy's do). Rates are wall-clock; `cpu %` is this
+process's CPU time over wall time (below ~90 % another program shared the cores; above 100 %
+the native batch ran its shards on two cores), and `steps / CPU s` the rate per CPU second.
 
     python benchmarks/throughput.py [--quick] [--seconds S] [--out benchmarks/results/throughput.md]
 """
@@ -84,6 +87,11 @@ class Row:
     @property
     def rtf_per_env(self) -> float:
         return self.sim_s_per_s / self.envs
+
+    @property
+    def steps_per_cpu_s(self) -> float:
+        """Policy steps per CPU second of this process (NaN for AsyncVectorEnv's workers)."""
+        return self.steps_per_s / self.cpu_share if self.cpu_share == self.cpu_share and self.cpu_share > 0 else float("nan")
 
 
 # ---------------------------------------------------------------------- memory
@@ -207,8 +215,17 @@ def native_batch_available(env_id: str = "OpenDS/LaneChangeTest-v0") -> bool:
     return spec is not None and getattr(spec, "vector_entry_point", None) is not None
 
 
-def measure_native(case: Case, backend: str, n: int, seconds: float) -> Row | None:
-    """The natively batched env of `opends_gym.vector`, where one exists for this id and backend."""
+def lane_keeping(obs: np.ndarray) -> np.ndarray:
+    """The LCT's instructed-lane follower of `benchmarks/native_batch.py` (episodes run to the
+    end of the track, as a trained policy's do; random actions leave the road in ~5 s)."""
+    a = np.zeros((len(obs), 2), dtype=np.float32)
+    a[:, 0] = np.clip(0.04 * obs[:, -2] - 0.8 * obs[:, 1] - 0.1 * obs[:, 6], -1, 1)
+    return a
+
+
+def measure_native(case: Case, backend: str, n: int, seconds: float, keep_lane: bool = False) -> Row | None:
+    """The natively batched env of `opends_gym.vector`, where one exists for this id and backend
+    (random actions, or with `keep_lane` the LCT lane follower)."""
     if case.kwargs or not native_batch_available(case.env_id):
         return None
 
@@ -223,12 +240,21 @@ def measure_native(case: Case, backend: str, n: int, seconds: float) -> Row | No
         return Row(case.label, backend, "native", n, 0, 0, 0, 0, note=f"n/a ({type(e).__name__}: {str(e)[:60]})")
     try:
         mb = grown / n
-        vec.action_space.seed(0)
-        actions = [vec.action_space.sample() for _ in range(16)]
-        rate, cpu = timed_steps(lambda i: vec.step(actions[i % 16]), seconds, batch=4)
+        if keep_lane:
+            last = [vec.reset(seed=0)[0]]
+
+            def step(i: int) -> None:
+                last[0] = vec.step(lane_keeping(last[0]))[0]
+
+            rate, cpu = timed_steps(step, seconds, batch=4)
+        else:
+            vec.action_space.seed(0)
+            actions = [vec.action_space.sample() for _ in range(16)]
+            rate, cpu = timed_steps(lambda i: vec.step(actions[i % 16]), seconds, batch=4)
     finally:
         vec.close()
-    return Row(case.label, backend, "native", n, rate * n, rate * n / case.policy_hz, mb, cpu)
+    label = f"{case.label} (lane keeping)" if keep_lane else case.label
+    return Row(label, backend, "native", n, rate * n, rate * n / case.policy_hz, mb, cpu)
 
 
 # ---------------------------------------------------------------------- report
@@ -240,17 +266,18 @@ def fmt(x: float, digits: int = 0) -> str:
 
 def table(rows: list[Row]) -> list[str]:
     out = [
-        "| env | backend | mode | envs | policy steps/s | sim s / wall s | real-time factor per env | MB RSS / env | cpu % |",
-        "|---|---|---|---:|---:|---:|---:|---:|---:|",
+        "| env | backend | mode | envs | policy steps/s | sim s / wall s | real-time factor per env | MB RSS / env | cpu % "
+        "| steps / CPU s |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         if r.note:
-            out.append(f"| {r.label} | {r.backend} | {r.mode} | {r.envs} | {r.note} | | | | |")
+            out.append(f"| {r.label} | {r.backend} | {r.mode} | {r.envs} | {r.note} | | | | | |")
             continue
         rtf = fmt(r.rtf_per_env, 1)
         out.append(
             f"| {r.label} | {r.backend} | {r.mode} | {r.envs} | {fmt(r.steps_per_s)} | {fmt(r.sim_s_per_s, 1)} | {rtf} "
-            f"| {fmt(r.mb_per_env, 1)} | {fmt(100 * r.cpu_share)} |"
+            f"| {fmt(r.mb_per_env, 1)} | {fmt(100 * r.cpu_share)} | {fmt(r.steps_per_cpu_s)} |"
         )
     return out
 
@@ -263,7 +290,8 @@ def goals(rows: list[Row]) -> list[str]:
     hw = find(rows, "highway-fast-v0", "-", "single")
     lct = find(rows, "LaneChangeTest", "fast", "single")
     mw = find(rows, "MotorwayTask", "fast", "single")
-    native = [r for r in rows if r.mode == "native" and r.label.startswith("LaneChangeTest") and not r.note]
+    native = [r for r in rows if r.mode == "native" and r.label == "LaneChangeTest" and not r.note]
+    native_keep = [r for r in rows if r.mode == "native" and r.label == "LaneChangeTest (lane keeping)" and not r.note]
     out = ["| goal | measured | peer (highway-fast-v0) | ratio | target | result |", "|---|---:|---:|---:|---:|---|"]
 
     def line(goal: str, value: float | None, peer: float | None, target: float, unit: str) -> None:
@@ -279,7 +307,9 @@ def goals(rows: list[Row]) -> list[str]:
     line("single LCT (fast) policy steps/s vs highway-fast-v0", lct.steps_per_s if lct else None, hw_steps, 250, "x")
     line("MotorwayTask (fast) simulated s per wall s vs highway-fast-v0", mw.sim_s_per_s if mw else None, hw_sim, 10, "x")
     best_native = max((r.steps_per_s for r in native), default=None)
-    line("native batch LCT env-steps/s on this machine's cores", best_native, None, 1_000_000, "")
+    line("native batch LCT env-steps/s on this machine's cores (random actions)", best_native, None, 1_000_000, "")
+    best_keep = max((r.steps_per_s for r in native_keep), default=None)
+    line("native batch LCT env-steps/s on this machine's cores (lane keeping)", best_keep, None, 1_000_000, "")
     for label in ("LaneChangeTest", "MotorwayTask"):
         b = find(rows, label, "bullet", "single")
         line(f"bullet backend real-time factor ({label})", b.rtf_per_env if b else None, None, 50, "x")
@@ -360,8 +390,13 @@ def main() -> None:
             nat = measure_native(case, backend, native_envs, seconds)
             rows.append(nat or Row(case.label, backend, "native", native_envs, 0, 0, 0, 0, note=missing))
             print(table(rows[-1:])[-1], flush=True)
+    lct = next(c for c in opends_cases() if c.label == "LaneChangeTest")
+    keep = measure_native(lct, "fast", native_envs, seconds, keep_lane=True)
+    if keep is not None:
+        rows.append(keep)
+        print(table(rows[-1:])[-1], flush=True)
     order = [c.label for c in (*HIGHWAY, *opends_cases())]
-    rows.sort(key=lambda r: order.index(r.label))  # (a stable sort: the modes keep their order)
+    rows.sort(key=lambda r: order.index(r.label.removesuffix(" (lane keeping)")))  # (a stable sort: the modes keep their order)
     main_table = table(rows)
     goal_table = goals(rows)
     print("\n".join(["", *goal_table, ""]), flush=True)

@@ -57,7 +57,10 @@ class ContinuousAction(ActionType):
         return gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
 
     def to_controls(self, action: Any) -> DriverControls:
-        values = np.asarray(action, dtype=np.float64).reshape(-1).tolist()  # plain floats: cheaper than array maths here
+        if type(action) is np.ndarray and action.shape == (2,) and action.dtype.kind == "f":
+            values = action.tolist()  # plain floats: cheaper than array maths here
+        else:
+            values = np.asarray(action, dtype=np.float64).reshape(-1).tolist()
         if not all(map(math.isfinite, values)):
             raise ValueError(f"action contains NaN or infinity: {values}")
         steering, pedal = (-1.0 if v < -1.0 else 1.0 if v > 1.0 else v for v in values[:2])

@@ -61,6 +61,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         self.task: DrivingTask = self._make_task()
         self.world = World(self.task, WorldConfig(physics=self.config.physics, dt_s=1.0 / self.config.physics_hz))
         self.guide = RoadGuide(self.world)
+        self._lane_position = self.guide.lane_position
         self._setup()
         self.obs_type = make_observation_type(
             self.config.observation, self.world, self.guide, self.config, self._stimulus, self.stimulus_names
@@ -180,7 +181,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         w = self.world
         s = w.ego.state
         x, z = s.x, s.z
-        _, lateral, lane, offset = self.guide.lane_position(x, z)
+        _, lateral, lane, offset = self._lane_position(x, z)
         lead = lead_vehicle(w) if w.traffic is not None else None
         if lead is not None:
             headway = time_headway(lead.gap_m, lead.length_m, s.u)

@@ -16,6 +16,7 @@ import gymnasium as gym
 import numpy as np
 
 from ..sim.guide import RoadGuide, wrap_angle
+from ..sim.traffic_queries import nearest_slots
 from ..sim.world import World
 
 StimulusFn = Callable[[], Sequence[float]]
@@ -64,9 +65,10 @@ class ObservationType:
 class KinematicsObservation(ObservationType):
     """Ego state, the K nearest traffic objects (ego frame) and the task's stimuli.
 
-    Layout: EGO_NAMES, then K x VEHICLE_NAMES (nearest first; `ahead_m`/`left_m` in the
-    ego frame, `rel_speed_mps` along the ego's heading; turn_signal 0 off, 1 left,
-    2 right, 3 both; empty slots are zeros), then the env's stimulus features.
+    Layout: EGO_NAMES, then K x VEHICLE_NAMES (nearest first, ties to the object listed
+    first; `ahead_m`/`left_m` in the ego frame, `rel_speed_mps` along the ego's heading;
+    turn_signal 0 off, 1 left, 2 right, 3 both; empty slots are zeros), then the env's
+    stimulus features.
     """
 
     name = "kinematics"
@@ -76,42 +78,25 @@ class KinematicsObservation(ObservationType):
         self.k = int(self.config.nearby_vehicles)
         self.size = len(EGO_NAMES) + self.k * len(VEHICLE_NAMES) + len(self.stimulus_names)
         self.names = EGO_NAMES + tuple(f"vehicle{i}_{n}" for i in range(self.k) for n in VEHICLE_NAMES) + self.stimulus_names
+        self._ego = np.zeros((4, 1))  # (x, z, yaw, speed) for `nearest_slots`
 
     def space(self) -> gym.spaces.Box:
         return gym.spaces.Box(-np.inf, np.inf, shape=(self.size,), dtype=np.float32)
 
     def observe(self) -> np.ndarray:
-        values = self.ego_features()
+        out = np.zeros((1, self.size), dtype=np.float32)
+        out[0, : len(EGO_NAMES)] = self.ego_features()
         traffic = self.world.traffic
-        slots = [0.0] * (self.k * len(VEHICLE_NAMES))
         if self.k and traffic is not None and len(traffic.ids):
             s = self.world.ego.state
-            fx, fz = -math.sin(s.yaw), -math.cos(s.yaw)
-            lx, lz = -math.cos(s.yaw), math.sin(s.yaw)
-            pos = traffic.positions
-            dx = pos[:, 0] - s.x
-            dz = pos[:, 2] - s.z
-            dist = np.hypot(dx, dz)
-            dist = np.where(traffic.enabled, dist, np.inf)
-            order = np.argsort(dist)[: self.k]
-            for slot, j in enumerate(order):
-                if not np.isfinite(dist[j]):
-                    break
-                vyaw = traffic.yaw[j]
-                v_along = traffic.speed[j] * (-math.sin(vyaw) * fx - math.cos(vyaw) * fz)
-                base = slot * len(VEHICLE_NAMES)
-                slots[base : base + 6] = (
-                    1.0,
-                    dx[j] * fx + dz[j] * fz,
-                    dx[j] * lx + dz[j] * lz,
-                    v_along - s.u,
-                    float(traffic.brake_light[j]),
-                    float(traffic.turn_signal[j]),
-                )
-        values += slots
+            ego = self._ego
+            ego[0, 0], ego[1, 0], ego[2, 0], ego[3, 0] = s.x, s.z, s.yaw, s.u
+            n = len(traffic.ids)
+            nearest_slots(traffic.positions, traffic.yaw, traffic.speed, traffic.enabled, traffic.brake_light, traffic.turn_signal, n, ego,
+                          self.k, out, len(EGO_NAMES))  # fmt: skip
         if self.stimulus_names:
-            values += self.stimulus()
-        return np.array(values, dtype=np.float32)
+            out[0, len(EGO_NAMES) + self.k * len(VEHICLE_NAMES) :] = self.stimulus()
+        return out[0]
 
 
 class RaysObservation(ObservationType):

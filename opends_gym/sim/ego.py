@@ -8,7 +8,7 @@ OpenDS car behaviour every env and the human mode share.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import Any
 
 from ..task.model_task import DrivingTask, Pose
 from .controls import DriverControls
@@ -126,7 +126,7 @@ class EgoCar:
             )  # fmt: skip
             if free < 2:
                 st.ensure_ring_room()
-            ground = cast(FastVehicle, body).ground_height
+            ground = body.ground_height  # type: ignore[attr-defined]
             if ground is not None:
                 s.y = ground(s.x, s.z)
         else:

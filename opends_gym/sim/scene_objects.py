@@ -158,12 +158,12 @@ class SceneObjects:
     def _near_indices(self, x: float, z: float, radius: float) -> list[int]:
         """Indices of the grid objects near (x, z); cached per cell window until the grid changes
         (a car crosses a 50 m cell every couple of seconds, so most steps are one dict lookup)."""
-        x0, x1 = int(math.floor((x - radius) / CELL_M)), int(math.floor((x + radius) / CELL_M))
-        z0, z1 = int(math.floor((z - radius) / CELL_M)), int(math.floor((z + radius) / CELL_M))
-        key = (x0, x1, z0, z1)
+        key = (math.floor((x - radius) / CELL_M), math.floor((x + radius) / CELL_M), math.floor((z - radius) / CELL_M),
+               math.floor((z + radius) / CELL_M))  # fmt: skip
         found = self._near_cache.get(key)
         if found is not None:
             return found
+        x0, x1, z0, z1 = key
         seen: set[int] = set()
         found = []
         grid = self._grid
@@ -201,8 +201,11 @@ class SceneObjects:
         obstacles: list[SceneObject] = []
         objects = self.objects
         cx, cz, hx, hz = car.cx, car.cz, car.hx, car.hz
+        near = self._near_indices(cx, cz, math.hypot(hx, hz))
+        if not near:  # the usual step: nothing in the car's cells
+            return triggers, obstacles
         ra = hx * hx + hz * hz
-        for k in self._near_indices(cx, cz, math.hypot(hx, hz)):
+        for k in near:
             o = objects[k]
             lo, hi, box = self._shape(k, o)
             if hi < y_lo or lo > y_hi:

@@ -37,7 +37,7 @@ from ..task.model_traffic import ODVehicle, Pedestrian, TrafficVehicle
 from .geometry2d import Obb
 from .traffic_controls import TrafficControls
 from .traffic_legs import KIND_NET, KIND_NONE, KIND_OD, KIND_OWN
-from .traffic_motion import ARRIVED, BLOCK, N_WORK, NOTHING_LIVE, PASSED_LIGHT, WAIT_OVER, WAITS_OVER, advance_carrots, drive
+from .traffic_motion import ARRIVED, BLOCK, N_WORK, NOTHING_LIVE, PASSED_LIGHT, WAIT_OVER, WAITS_OVER, advance_carrots, drive, step_objects
 from .traffic_paths import PathBank
 from .traffic_queries import nearest_ahead, touching
 from .traffic_routes import OwnPath, PositionResolver, RoadNetwork, build_own_path
@@ -120,6 +120,7 @@ class TrafficManager(TrafficControls):
         self._ego = np.zeros((3, 1))
         self._no_lights = np.zeros(1, dtype=bool)
         self._hits = np.zeros(n, dtype=np.int64)
+        self._reach: tuple[tuple[float, float], np.ndarray] = ((math.nan, math.nan), np.zeros(n))
         self.brake_light = np.zeros(n, dtype=bool)
         self.turn_signal = np.zeros(n, dtype=np.int64)
         self.t_s = 0.0
@@ -217,38 +218,56 @@ class TrafficManager(TrafficControls):
         self.t_s += dt_s
         st, work, flags = self.st, self._work, self._flags
         pf, pp, pi = self.paths.arrays()
-        n = max(1, len(self.ids))
         self._t_now[0] = self.t_s
-        args = (st.f, st.i, st.b, st.pos, self.sp.packed, pf, pp, pi, n, self._all_rows, self._t_now, dt_s, work, flags)
-        code = advance_carrots(*args)
-        if code == NOTHING_LIVE:
-            return
-        if code == WAITS_OVER:
-            for i in np.flatnonzero(flags & WAIT_OVER):
-                self._finish_wait(int(i))
-            pf, pp, pi = self.paths.arrays()
-            code = advance_carrots(st.f, st.i, st.b, st.pos, self.sp.packed, pf, pp, pi, *args[8:])
-        if code > 0:
-            for i in np.flatnonzero(flags & ARRIVED):
-                self._arrive(int(i))
-            pf, pp, pi = self.paths.arrays()
-        if self._any_seg_prio:
-            self._hold_for_priority(flags)
         ego = self.world.ego.state
         self._ego[0, 0], self._ego[1, 0], self._ego[2, 0] = ego.x, ego.z, ego.u
         stop = self.lights.stop_mask if self.lights is not None and len(self.lights.stop_mask) else self._no_lights
-        passed = drive(st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, self.sp.packed, pf, pp, pi, n, self._all_rows,
-                       self._ego, dt_s, work, flags, code > 0, stop)  # fmt: skip
+        if not self._any_seg_prio:  # the usual step: one call, unless an object needs Python
+            code, passed = step_objects(st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, self.sp.packed, pf, pp, pi,
+                                        self._t_now, self._ego, dt_s, work, flags, stop, self.brake_light, self.turn_signal)  # fmt: skip
+            if code == NOTHING_LIVE:
+                return
+            python_events = passed < 0
+        else:
+            code, python_events = advance_carrots(st.f, st.i, st.b, st.pos, self.sp.packed, pf, pp, pi, max(1, len(self.ids)),
+                                                  self._all_rows, self._t_now, dt_s, work, flags), True  # fmt: skip
+            if code == NOTHING_LIVE:
+                return
+        if python_events:
+            passed = self._step_with_events(code, dt_s, stop)
         if passed:
             for i in np.flatnonzero(flags & PASSED_LIGHT):
                 self._pop_light(int(i))
         if self._any_seg_nb:
             on_net = st.enabled & (st.pid >= 0) & self.is_car & (self.kind == KIND_NET) & ~st.ext
             self._passing_lanes(on_net & self._seg_nb[np.where(on_net, st.leg, 0)])
+            python_events = True
         if self.t_s >= self._next_stuck_s - 1e-9:
             self._next_stuck_s += 1.0
             self._check_stuck(st.enabled & (st.pid >= 0) & self._stuck_reset)
-        self._refresh_outputs()
+            python_events = True
+        if python_events:
+            self._refresh_outputs()
+
+    def _step_with_events(self, code: int, dt_s: float, stop: np.ndarray) -> int:
+        """The rest of a step whose first kernel stopped for Python: waits that are over, legs
+        that ended, give-way holds; then the second kernel. Returns the lights passed."""
+        st, work, flags = self.st, self._work, self._flags
+        pf, pp, pi = self.paths.arrays()
+        n = max(1, len(self.ids))
+        if code == WAITS_OVER:
+            for i in np.flatnonzero(flags & WAIT_OVER):
+                self._finish_wait(int(i))
+            pf, pp, pi = self.paths.arrays()
+            code = advance_carrots(st.f, st.i, st.b, st.pos, self.sp.packed, pf, pp, pi, n, self._all_rows, self._t_now, dt_s, work, flags)
+        if code > 0:
+            for i in np.flatnonzero(flags & ARRIVED):
+                self._arrive(int(i))
+            pf, pp, pi = self.paths.arrays()
+        if self._any_seg_prio:
+            self._hold_for_priority(flags)
+        return int(drive(st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, self.sp.packed, pf, pp, pi, n, self._all_rows,
+                         self._ego, dt_s, work, flags, code > 0, stop))  # fmt: skip
 
     def _hold_for_priority(self, flags: np.ndarray) -> None:
         """Cars on a `giveWayTo` segment near its end hold while prioritised traffic arrives too."""
@@ -297,8 +316,10 @@ class TrafficManager(TrafficControls):
         if not self.ids:
             return set()
         st = self.st
-        reach = self._half_diag + math.hypot(box.hx, box.hz)
-        n = touching(st.pos, st.yaw, self.half_extents, st.enabled, reach, box.cx, box.cz, box.yaw, box.hx, box.hz, self._hits)
+        size = (box.hx, box.hz)
+        if self._reach[0] != size:  # (the ego's box is the same every step)
+            self._reach = (size, self._half_diag + math.hypot(box.hx, box.hz))
+        n = touching(st.pos, st.yaw, self.half_extents, st.enabled, self._reach[1], box.cx, box.cz, box.yaw, box.hx, box.hz, self._hits)
         return {self.ids[j] for j in self._hits[:n]} if n else set()
 
     def road_position_of(self, obj_id: str) -> tuple[str, int, float] | None:

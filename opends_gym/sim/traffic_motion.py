@@ -388,3 +388,22 @@ def outputs(i: np.ndarray, b: np.ndarray, brake_light: np.ndarray, turn_signal: 
         brake_light[k] = ob == 1 if ob >= 0 else bp == 1 if bp >= 0 else b[ts.B_BRAKING, k]
         ot = i[ts.I_OV_TURN, k]
         turn_signal[k] = ot if ot >= 0 else i[ts.I_TURN_PATH, k]
+
+
+@kernel
+def step_objects(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray,
+                 ext_cmd: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, t_now: np.ndarray, ego: np.ndarray,
+                 dt: float, work: np.ndarray, flags: np.ndarray, stop_mask: np.ndarray, brake_light: np.ndarray,
+                 turn_signal: np.ndarray) -> tuple[int, int]:  # fmt: skip
+    """A whole traffic step of one world in one call when no object needs Python: `advance_carrots`,
+    `drive`, `outputs`. Returns (advance_carrots' code, lights passed); the second is -1 when
+    the step stopped after `advance_carrots` (waits over or legs ended: Python goes on)."""
+    n = f.shape[1]
+    active = np.ones(n, dtype=np.bool_)
+    group = n if n > 0 else 1
+    code = advance_carrots(f, i, b, pos, sp, pf, pp, pi, group, active, t_now, dt, work, flags)
+    if code != 0:
+        return code, -1
+    passed = drive(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, group, active, ego, dt, work, flags, False, stop_mask)
+    outputs(i, b, brake_light, turn_signal)
+    return 0, passed

@@ -49,3 +49,38 @@ def touching(pos: np.ndarray, yaw: np.ndarray, half: np.ndarray, enabled: np.nda
             out[n] = k
             n += 1
     return n
+
+
+@kernel
+def nearest_slots(pos: np.ndarray, yaw: np.ndarray, speed: np.ndarray, enabled: np.ndarray, brake_light: np.ndarray,
+                  turn_signal: np.ndarray, group: int, ego: np.ndarray, k: int, out: np.ndarray, col: int) -> None:  # fmt: skip
+    """The kinematics observation's K nearest-vehicle slots of each world (`group` objects
+    each; `ego` rows x, z, yaw, speed per world) into out[world, col:col + 6K]: present,
+    ahead m, left m (ego frame), speed along the ego's heading relative to it m/s, brake
+    light, turn signal. Nearest first (ties: the lower index); empty slots are zeros."""
+    for g in range(ego.shape[1]):
+        x, z, eyaw, u = ego[0, g], ego[1, g], ego[2, g], ego[3, g]
+        fx, fz = -math.sin(eyaw), -math.cos(eyaw)
+        lx, lz = -math.cos(eyaw), math.sin(eyaw)
+        lo = g * group
+        taken = np.zeros(group, dtype=np.bool_)
+        for slot in range(k):
+            best, best_d = -1, math.inf
+            for j in range(group):
+                if taken[j] or not enabled[lo + j]:
+                    continue
+                d = math.hypot(pos[lo + j, 0] - x, pos[lo + j, 2] - z)
+                if d < best_d:
+                    best, best_d = j, d
+            base = col + 6 * slot
+            if best < 0:  # (a disabled car ends the list)
+                for c in range(base, col + 6 * k):
+                    out[g, c] = 0.0
+                break
+            taken[best] = True
+            j = lo + best
+            dx, dz = pos[j, 0] - x, pos[j, 2] - z
+            vyaw = yaw[j]
+            v_along = speed[j] * (-math.sin(vyaw) * fx - math.cos(vyaw) * fz)
+            out[g, base], out[g, base + 1], out[g, base + 2] = 1.0, dx * fx + dz * fz, dx * lx + dz * lz
+            out[g, base + 3], out[g, base + 4], out[g, base + 5] = v_along - u, 1.0 if brake_light[j] else 0.0, float(turn_signal[j])

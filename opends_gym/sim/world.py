@@ -65,6 +65,9 @@ class World:
         self.objects = SceneObjects(self.task, extra_trigger_ids=_light_trigger_ids(self.task), opendrive=self.road.opendrive)
         backend = make_backend(self.config.physics, self.task, objects=self.objects)
         self.ego = EgoCar(self.task, backend)
+        spec = self.ego.spec
+        # the ego box: the body's reference point is its centre of gravity, the box is centred on the car
+        self._box = (0.5 * spec.wheelbase_m - spec.cog_to_front_m, 0.5 * spec.width_m, 0.5 * spec.length_m)
         self.start_pose: Pose = self.road.driver_start_pose() or self.task.start_pose
         self.reset_poses = self.task.reset_poses()
         self.step_count = 0
@@ -144,10 +147,8 @@ class World:
     # ------------------------------------------------------------------ contacts
     def ego_obb(self) -> Obb:
         s = self.ego.state
-        spec = self.ego.spec
-        # the body's reference point is its centre of gravity; the box is centred on the car
-        shift = 0.5 * spec.wheelbase_m - spec.cog_to_front_m
-        return Obb(s.x - shift * math.sin(s.yaw), s.z - shift * math.cos(s.yaw), s.yaw, 0.5 * spec.width_m, 0.5 * spec.length_m)
+        shift, hx, hz = self._box
+        return Obb(s.x - shift * math.sin(s.yaw), s.z - shift * math.cos(s.yaw), s.yaw, hx, hz)
 
     def _contacts(self, prev_x: float, prev_z: float) -> None:
         s = self.ego.state

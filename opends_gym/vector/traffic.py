@@ -18,6 +18,7 @@ import numpy as np
 
 from ..sim.traffic_legs import KIND_OWN, LegLogic
 from ..sim.traffic_motion import ARRIVED, N_WORK, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, advance_carrots, drive, outputs
+from ..sim.traffic_queries import nearest_slots
 from ..sim.traffic_state import MotionState, Specs
 from .triggers import obb_overlap
 
@@ -144,32 +145,10 @@ class FlatTraffic:
         return np.where(found, j, -1), gap, v_along, 2.0 * half_len
 
     def slots(self, k: int, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """The kinematics observation's nearest-vehicle slots (K x 6 per env)."""
-        st, c = self.st, self.c
-        fx, fz = -np.sin(yaw)[:, None], -np.cos(yaw)[:, None]
-        lx, lz = -np.cos(yaw)[:, None], np.sin(yaw)[:, None]
-        dx = st.pos[:, 0].reshape(-1, c) - x[:, None]
-        dz = st.pos[:, 2].reshape(-1, c) - z[:, None]
-        dist = np.where(st.enabled.reshape(-1, c), np.hypot(dx, dz), np.inf)
-        order = np.argsort(dist, axis=1, kind="stable")[:, :k]
+        """The kinematics observation's nearest-vehicle slots (K x 6 per env): the single env's
+        kernel, one world per env."""
+        st = self.st
         brake, turn = self.outputs()
-        vyaw = st.yaw.reshape(-1, c)
-        v_along = st.speed.reshape(-1, c) * (-np.sin(vyaw) * fx - np.cos(vyaw) * fz)
-        out = np.zeros((self.n, k * 6))
-        ar = np.arange(self.n)
-        for slot in range(min(k, c)):
-            j = order[:, slot]
-            on = np.isfinite(dist[ar, j])
-            cols = np.stack(
-                [
-                    np.ones(self.n),
-                    dx[ar, j] * fx[:, 0] + dz[ar, j] * fz[:, 0],
-                    dx[ar, j] * lx[:, 0] + dz[ar, j] * lz[:, 0],
-                    v_along[ar, j] - u,
-                    brake.reshape(-1, c)[ar, j].astype(float),
-                    turn.reshape(-1, c)[ar, j].astype(float),
-                ],
-                axis=1,
-            )
-            out[:, slot * 6 : slot * 6 + 6] = np.where(on[:, None], cols, 0.0)  # sorted: a disabled car ends the list
+        out = np.empty((self.n, k * 6))
+        nearest_slots(st.pos, st.yaw, st.speed, st.enabled, brake, turn, self.c, np.stack([x, z, yaw, u]), k, out, 0)
         return out
