@@ -106,3 +106,30 @@ def test_lct_signs_and_the_end_trigger_span_the_whole_road() -> None:
     events = env.unwrapped.world.events
     assert sum(1 for e in events if e.kind == "trigger" and e.source.endswith("_Trigger") and "Sign" in e.source) == 18
     assert m["duration_s"] < 200.0  # the end trigger ended it (no 300 s truncation)
+
+
+def test_brake_test_ttc_shaping_penalises_closing_in_on_the_lead() -> None:
+    """Full throttle into the lead car: the shaped reward is lower exactly while the TTC is short."""
+    shaped = gym.make("OpenDS/BrakeReaction-v0", policy_hz=10)
+    plain = gym.make("OpenDS/BrakeReaction-v0", policy_hz=10, reward_ttc_weight=0.0)
+    shaped.reset(seed=3)
+    plain.reset(seed=3)
+    gas = np.array([0.0, 1.0], dtype=np.float32)
+    penalties: list[tuple[float, float]] = []
+    for _ in range(300):
+        _, r_shaped, term, trunc, info = shaped.step(gas)
+        _, r_plain, term_p, _, info_p = plain.step(gas)
+        assert term_p == term
+        assert info["ttc_s"] == info_p["ttc_s"]  # the shaping changes the reward only
+        penalties.append((r_plain - r_shaped, info["ttc_s"]))
+        if term or trunc:
+            break
+    assert info["collisions"] >= 1  # it did run into the lead
+    assert all(p >= 0.0 for p, _ in penalties)
+    close = [p for p, ttc in penalties if ttc < 2.0]
+    assert close and all(p > 0.0 for p in close)
+    assert max(close) <= 1.0 + 1e-9  # at most the weight per policy step
+    far = [p for p, ttc in penalties if ttc >= 3.0]  # closing in monotonically: the whole step was at >= 3 s
+    assert far and all(p == 0.0 for p in far)
+    shaped.close()
+    plain.close()

@@ -79,7 +79,7 @@ def run_identity(env_id: str, policy: Policy, n: int, steps: int, seed: int = 7,
     obs_s, info_s = sync.reset(seed=seed)
     _same("reset obs", obs, obs_s)
     _compare_infos(-1, info, info_s, n)
-    seen = {"episodes": 0, "reactions": 0, "correct": 0}
+    seen = {"episodes": 0, "reactions": 0, "correct": 0, "ttc_under_3s": 0}
     for t in range(steps):
         a = policy(obs, rng, n)
         obs, r, term, trunc, info = native.step(a)
@@ -92,6 +92,7 @@ def run_identity(env_id: str, policy: Policy, n: int, steps: int, seed: int = 7,
         seen["episodes"] += int(np.sum(term | trunc))
         seen["reactions"] += int(np.count_nonzero(info["reaction_result"]))
         seen["correct"] += int(np.count_nonzero(info["reaction_result"] == 1))
+        seen["ttc_under_3s"] += int(np.count_nonzero(info["ttc_s"] < 3.0))
     native.close()
     sync.close()
     return seen
@@ -102,9 +103,17 @@ def test_lane_change_test_identical_to_single_env() -> None:
     assert seen["episodes"] >= 3 and seen["correct"] >= 3  # ends (off road, end of track), autoresets, lane changes
 
 
+def tailgating(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
+    """`follow_driver`, except that the last env keeps full throttle (short TTCs, a collision)."""
+    a = follow_driver(obs, rng, n)
+    a[-1, 1] = 1.0
+    return a
+
+
 def test_brake_reaction_identical_to_single_env() -> None:
-    seen = run_identity(BRAKE, follow_driver, n=2, steps=230, policy_hz=5)
+    seen = run_identity(BRAKE, tailgating, n=3, steps=230, policy_hz=5)
     assert seen["episodes"] >= 2 and seen["reactions"] >= 1  # the brake sign's timer
+    assert seen["ttc_under_3s"] >= 3  # the TTC reward shaping was exercised
 
 
 def test_platoon_identical_to_single_env() -> None:

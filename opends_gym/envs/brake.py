@@ -19,6 +19,7 @@ class BrakeReactionConfig(PlatoonConfig):
     speed_kmh: float = 70.0
     stimuli: int = 9
     action: str = "continuous"
+    reward_ttc_weight: float = 1.0
 
 
 class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
@@ -38,7 +39,10 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
     ## Reward
     The platoon test's (progress, band deviation, lead-car stimulus reactions, collisions,
     leaving the road; see `ThreeVehiclePlatoonEnv`) plus +1 per correct and -1 per failed
-    or missed brake-sign reaction.
+    or missed brake-sign reaction, and time-to-collision shaping (`reward_ttc_weight` = 1:
+    -(1 - TTC / 3 s) per step while the TTC to the lead car is under
+    `reward_ttc_threshold_s` = 3 s), which teaches a policy to open the gap before the
+    lead's emergency brake rather than learn the collision penalty only after crashing.
 
     ## Episode end
     Terminated at the end of the track, on a collision or off the road; truncated after

@@ -38,6 +38,8 @@ class PlatoonConfig(EnvConfig):
     off_road_margin_m: float = 1.5
     off_road_penalty: float = 50.0
     collision_penalty: float = 50.0
+    reward_ttc_weight: float = 0.0
+    reward_ttc_threshold_s: float = 3.0
 
 
 class ThreeVehiclePlatoonEnv(OpenDSEnv):
@@ -64,7 +66,9 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
     x the longitudinal + lateral deviation outside the bands (m, capped at
     `reward_deviation_cap_m` = 10 m) per step; +1 per correct reaction, -1 per miss,
     -`collision_penalty` (50) per collision, -`off_road_penalty` (50) for leaving the
-    road. At the platoon's speed the progress term (+0.22 per step) outweighs the largest
+    road. Optional time-to-collision shaping: -`reward_ttc_weight` x (1 - TTC /
+    `reward_ttc_threshold_s`) per step while the TTC to the lead is below the threshold
+    (weight 0 here, so off; the brake test turns it on). At the platoon's speed the progress term (+0.22 per step) outweighs the largest
     deviation penalty (-0.1 per step), so driving on always pays more than crashing or
     stopping.
 
@@ -122,6 +126,13 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
             cfg = self.config
             dev = min(st.lon_dev[-1] + (st.lat_dev[-1] if st.lat_dev else 0.0), cfg.reward_deviation_cap_m)  # type: ignore[attr-defined]
             self._reward_acc -= cfg.reward_deviation_per_m * dev / cfg.action_repeat  # type: ignore[attr-defined]
+        if self.config.reward_ttc_weight > 0.0:  # type: ignore[attr-defined]
+            self._reward_acc -= self._ttc_penalty(self.trace.last("ttc_s"))
+
+    def _ttc_penalty(self, ttc_s: float) -> float:
+        """Per physics step: grows linearly from 0 at the threshold to the weight at TTC 0."""
+        cfg: Any = self.config
+        return cfg.reward_ttc_weight * max(0.0, 1.0 - ttc_s / cfg.reward_ttc_threshold_s) / cfg.action_repeat
 
     def _stimulus(self) -> list[float]:
         traffic = self.world.traffic

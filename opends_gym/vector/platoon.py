@@ -78,6 +78,7 @@ class PlatoonBatch(BatchCore):
         self.dev_cap, self.dev_per_m = cfg.reward_deviation_cap_m, cfg.reward_deviation_per_m
         self.progress_per_m, self.off_road_penalty = cfg.reward_progress_per_m, cfg.off_road_penalty
         self.collision_penalty = cfg.collision_penalty
+        self.ttc_weight, self.ttc_threshold = cfg.reward_ttc_weight, cfg.reward_ttc_threshold_s
         self.off_road_limit = len(self.world.road.lanes) * cfg.lane_width_m / 2 + cfg.off_road_margin_m
         self.reward_acc = np.zeros(n)
         self.seen = np.zeros(n, dtype=np.int64)
@@ -219,6 +220,9 @@ class PlatoonBatch(BatchCore):
         lat = np.maximum(np.maximum(0.0, lat_band.lower_bound_m - self.offset), self.offset - lat_band.upper_bound_m)
         dev = np.minimum(self.lon_dev + lat, self.dev_cap)
         self.reward_acc = np.where(rows, self.reward_acc - self.dev_per_m * dev / self.repeat, self.reward_acc)
+        if self.ttc_weight > 0.0:  # the single env's `_ttc_penalty`, same arithmetic
+            ttc_pen = self.ttc_weight * np.maximum(0.0, 1.0 - self.ttc / self.ttc_threshold) / self.repeat
+            self.reward_acc = np.where(rows, self.reward_acc - ttc_pen, self.reward_acc)
         if self.ring is not None:  # the lon_dev row of this step (written with the trace row just before)
             self.ring.set_last("lon_dev", self.lon_dev)
 
