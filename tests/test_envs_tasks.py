@@ -133,3 +133,28 @@ def test_brake_test_ttc_shaping_penalises_closing_in_on_the_lead() -> None:
     assert far and all(p == 0.0 for p in far)
     shaped.close()
     plain.close()
+
+
+@pytest.mark.parametrize("end_when_past_lead", [True, False])
+def test_overtaking_the_lead_car_ends_the_brake_test(end_when_past_lead: bool) -> None:
+    """Passing the car whose brake lights are the stimuli voids the test: the episode ends
+    with the task penalty as soon as the ego draws level (unless switched off)."""
+    env = gym.make("OpenDS/BrakeReaction-v0", end_when_past_lead=end_when_past_lead)
+    obs, _ = env.reset(seed=3)
+    core: Any = env.unwrapped
+    lead_gaps, rewards, ended = [], [], False
+    for _ in range(600):  # into the left lane at full throttle
+        steer = float(np.clip(-0.05 * (obs[3] - 1.875) - 0.8 * obs[1], -1, 1))
+        obs, r, terminated, truncated, info = env.step(np.array([steer, 1.0], dtype=np.float32))
+        lead_gaps.append(core.platoon._distance_to(core.platoon.lead))
+        rewards.append(r)
+        if terminated or truncated:
+            ended = True
+            break
+    assert info["collisions"] == 0 and abs(obs[3] - 1.875) < 0.5  # overtook cleanly in the other lane
+    if end_when_past_lead:
+        assert ended and terminated and lead_gaps[-1] < 0.0 < lead_gaps[-2]
+        assert rewards[-1] < -40.0  # the task penalty (50) on the last step
+    else:
+        assert not ended and lead_gaps[-1] < -20.0
+    env.close()

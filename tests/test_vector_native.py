@@ -104,9 +104,11 @@ def test_lane_change_test_identical_to_single_env() -> None:
 
 
 def tailgating(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
-    """`follow_driver`, except that the last env keeps full throttle (short TTCs, a collision)."""
+    """`follow_driver`, except that env 1 overtakes the lead in the left lane (which ends the
+    episode) and the last env keeps full throttle behind it (short TTCs, a collision)."""
     a = follow_driver(obs, rng, n)
-    a[-1, 1] = 1.0
+    a[1, 0] = np.clip(-0.05 * (obs[1, 3] - 1.875) - 0.8 * obs[1, 1], -1, 1)
+    a[1:, 1] = 1.0
     return a
 
 

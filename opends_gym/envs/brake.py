@@ -20,6 +20,7 @@ class BrakeReactionConfig(PlatoonConfig):
     stimuli: int = 9
     action: str = "continuous"
     reward_ttc_weight: float = 1.0
+    reward_sign_reaction: float = 10.0
 
 
 class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
@@ -38,15 +39,16 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
 
     ## Reward
     The platoon test's (progress, band deviation, lead-car stimulus reactions, collisions,
-    leaving the road; see `ThreeVehiclePlatoonEnv`) plus +1 per correct and -1 per failed
-    or missed brake-sign reaction, and time-to-collision shaping (`reward_ttc_weight` = 1:
+    leaving the road; see `ThreeVehiclePlatoonEnv`) plus `reward_sign_reaction` (10) per
+    correct and minus it per failed or missed brake-sign reaction (slowing to 40 km/h costs
+    more progress than a reward of 1 would repay), and time-to-collision shaping (`reward_ttc_weight` = 1:
     -(1 - TTC / 3 s) per step while the TTC to the lead car is under
     `reward_ttc_threshold_s` = 3 s), which teaches a policy to open the gap before the
     lead's emergency brake rather than learn the collision penalty only after crashing.
 
     ## Episode end
-    Terminated at the end of the track, on a collision or off the road; truncated after
-    `max_episode_s`.
+    Terminated at the end of the track, on a collision, off the road or when drawing level
+    with the lead car (`end_when_past_lead`); truncated after `max_episode_s`.
 
     ## Info
     `OpenDSEnv`'s keys; `episode_metrics` adds the platoon stimulus measures for the
@@ -78,10 +80,11 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
 
     def _reward(self, info: dict[str, Any]) -> float:
         r = super()._reward(info)
+        bonus = self.config.reward_sign_reaction  # type: ignore[attr-defined]
         if info["reaction_result"] == 1:
-            r += 1.0
+            r += bonus
         elif info["reaction_result"] < 0:
-            r -= 1.0
+            r -= bonus
         return r
 
     def _episode_metrics(self) -> dict[str, float]:

@@ -38,6 +38,7 @@ class PlatoonConfig(EnvConfig):
     off_road_margin_m: float = 1.5
     off_road_penalty: float = 50.0
     collision_penalty: float = 50.0
+    end_when_past_lead: bool = True
     reward_ttc_weight: float = 0.0
     reward_ttc_threshold_s: float = 3.0
 
@@ -66,7 +67,7 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
     x the longitudinal + lateral deviation outside the bands (m, capped at
     `reward_deviation_cap_m` = 10 m) per step; +1 per correct reaction, -1 per miss,
     -`collision_penalty` (50) per collision, -`off_road_penalty` (50) for leaving the
-    road. Optional time-to-collision shaping: -`reward_ttc_weight` x (1 - TTC /
+    road or passing the lead car. Optional time-to-collision shaping: -`reward_ttc_weight` x (1 - TTC /
     `reward_ttc_threshold_s`) per step while the TTC to the lead is below the threshold
     (weight 0 here, so off; the brake test turns it on). At the platoon's speed the progress term (+0.22 per step) outweighs the largest
     deviation penalty (-0.1 per step), so driving on always pays more than crashing or
@@ -74,8 +75,10 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
 
     ## Episode end
     Terminated at the end of the track (the task pauses the simulation), on a collision,
-    or when the car leaves the road by more than `off_road_margin_m` (1.5 m); truncated
-    after `max_episode_s` (300 s).
+    when the car leaves the road by more than `off_road_margin_m` (1.5 m), or, with
+    `end_when_past_lead` (default), when it draws level with the lead car (overtaking
+    voids the test; both count as leaving the task and cost `off_road_penalty`);
+    truncated after `max_episode_s` (300 s).
 
     ## Info
     `OpenDSEnv`'s keys; `episode_metrics` adds longitudinal/lateral deviation (mean m,
@@ -151,8 +154,16 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
         ]
 
     def _task_terminated(self) -> bool:
-        half_road = len(self.world.road.lanes) * self.config.lane_width_m / 2  # type: ignore[attr-defined]
-        return abs(self.trace.last("lateral_m")) > half_road + self.config.off_road_margin_m  # type: ignore[attr-defined]
+        cfg: Any = self.config
+        half_road = len(self.world.road.lanes) * cfg.lane_width_m / 2
+        if abs(self.trace.last("lateral_m")) > half_road + cfg.off_road_margin_m:
+            return True
+        return bool(cfg.end_when_past_lead) and self._past_lead()
+
+    def _past_lead(self) -> bool:
+        """The ego's centre is level with or ahead of the lead car's: overtaking it voids the test."""
+        d = self.platoon._distance_to(self.platoon.lead)
+        return d is not None and d < 0.0
 
     def _reward(self, info: dict[str, Any]) -> float:
         cfg = self.config

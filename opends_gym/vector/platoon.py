@@ -79,6 +79,7 @@ class PlatoonBatch(BatchCore):
         self.progress_per_m, self.off_road_penalty = cfg.reward_progress_per_m, cfg.off_road_penalty
         self.collision_penalty = cfg.collision_penalty
         self.ttc_weight, self.ttc_threshold = cfg.reward_ttc_weight, cfg.reward_ttc_threshold_s
+        self.end_past_lead = bool(cfg.end_when_past_lead)
         self.off_road_limit = len(self.world.road.lanes) * cfg.lane_width_m / 2 + cfg.off_road_margin_m
         self.reward_acc = np.zeros(n)
         self.seen = np.zeros(n, dtype=np.int64)
@@ -286,7 +287,8 @@ class PlatoonBatch(BatchCore):
         return np.stack(cols, axis=1)
 
     def _task_terminated(self) -> np.ndarray:
-        return np.abs(self.lat) > self.off_road_limit
+        off = np.abs(self.lat) > self.off_road_limit
+        return off | (self._distance_to(self.lead_i) < 0.0) if self.end_past_lead else off
 
     def _reward(self, info: dict[str, np.ndarray], terminated_task: np.ndarray) -> np.ndarray:
         r = self.reward_acc + self.progress_per_m * np.maximum(0.0, info["progress_m"])
@@ -340,4 +342,5 @@ class BrakeBatch(PlatoonBatch):
     def _reward(self, info: dict[str, np.ndarray], terminated_task: np.ndarray) -> np.ndarray:
         r = super()._reward(info, terminated_task)
         res = info["reaction_result"]
-        return np.where(res == 1, r + 1.0, np.where(res < 0, r - 1.0, r))
+        bonus = self.template.config.reward_sign_reaction
+        return np.where(res == 1, r + bonus, np.where(res < 0, r - bonus, r))
