@@ -122,3 +122,27 @@ def test_a_finished_run_can_be_resumed(quick_run: Path, tmp_path: Path) -> None:
     assert PPO.load(str(tmp_path / "more" / "model.zip")).num_timesteps >= 12000 + 2048
     with pytest.raises(ValueError, match="nothing to resume"):
         train(cfg, base, tmp_path / "bad", resume=tmp_path)
+
+
+def test_plot_curves_draws_every_shipped_policy(tmp_path: Path) -> None:
+    """agents/plot_curves.py turns the run folders' curve.csv and evaluations into one PNG panel each."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "curves.png"
+    script = str(ROOT / "agents" / "plot_curves.py")
+    done = subprocess.run([sys.executable, script, "--out", str(out)], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    shipped = [d for d in (ROOT / "agents" / "policies").iterdir() if (d / "curve.csv").is_file()]
+    assert len(shipped) >= 2
+    from PIL import Image
+
+    with Image.open(out) as img:
+        width, height = img.size
+        assert width >= 400 * len(shipped) and height >= 300  # one panel per policy
+    broken = tmp_path / "runs" / "empty_run"
+    broken.mkdir(parents=True)
+    (broken / "curve.csv").write_text("steps,mean_return_last_10\n")
+    args = [sys.executable, script, "--policies", str(broken.parent), "--out", str(tmp_path / "x.png")]
+    done = subprocess.run(args, capture_output=True, text=True, timeout=120)
+    assert done.returncode != 0 and "empty_run/curve.csv: no rows" in done.stderr
