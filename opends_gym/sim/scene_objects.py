@@ -106,6 +106,7 @@ class SceneObjects:
         self.by_id: dict[str, list[SceneObject]] = {}
         self._grid: dict[tuple[int, int], list[int]] = {}
         self.generation = 0  # counts resets, so physics backends can tell a World reset from a teleport
+        self.version = 0  # counts grid rebuilds: a room measured by `overlapping_with_room` holds until it changes
         self.reset()
 
     # ------------------------------------------------------------------ lifecycle
@@ -142,6 +143,7 @@ class SceneObjects:
         return [(ix, iz) for ix in range(x0, x1 + 1) for iz in range(z0, z1 + 1)]
 
     def _rebuild_grid(self) -> None:
+        self.version += 1
         self._grid = {}
         self._near_cache: dict[tuple[int, int, int, int], list[int]] = {}
         self._shapes: list[tuple[Any, ...] | None] = [None] * len(self.objects)
@@ -151,7 +153,8 @@ class SceneObjects:
                     self._grid.setdefault(c, []).append(k)
 
     def update(self, obj: SceneObject) -> None:
-        """Call after changing an object's pose, scale or flags (actions do)."""
+        """Call after changing a trigger volume's or obstacle's pose, scale or flags (actions
+        and the bullet backend do): the grid and the room the car was last given depend on it."""
         self._rebuild_grid()
 
     # ------------------------------------------------------------------ queries
@@ -220,3 +223,36 @@ class SceneObjects:
             elif o.collidable:
                 obstacles.append(o)
         return triggers, obstacles
+
+    def overlapping_with_room(self, car: Obb, y_lo: float, y_hi: float) -> tuple[list[SceneObject], list[SceneObject], float]:
+        """`overlapping`, plus the room (m) the car's centre may move, turning as it likes,
+        before any trigger volume or obstacle could touch it: the distance from the car's
+        bounding circle to the nearest object's (at any height) and to the edge of the grid
+        cells searched (objects outside them cannot reach the circle). 0 while it touches or
+        nearly touches one. Valid until `version` changes."""
+        triggers: list[SceneObject] = []
+        obstacles: list[SceneObject] = []
+        objects = self.objects
+        cx, cz, hx, hz = car.cx, car.cz, car.hx, car.hz
+        radius = math.hypot(hx, hz)
+        near = self._near_indices(cx, cz, radius)
+        x0, x1 = math.floor((cx - radius) / CELL_M), math.floor((cx + radius) / CELL_M)
+        z0, z1 = math.floor((cz - radius) / CELL_M), math.floor((cz + radius) / CELL_M)
+        room = min(cx - radius - x0 * CELL_M, (x1 + 1) * CELL_M - cx - radius, cz - radius - z0 * CELL_M, (z1 + 1) * CELL_M - cz - radius)
+        ra = hx * hx + hz * hz
+        for k in near:
+            o = objects[k]
+            lo, hi, box = self._shape(k, o)
+            dx, dz = box.cx - cx, box.cz - cz
+            rb = box.hx * box.hx + box.hz * box.hz
+            d2 = dx * dx + dz * dz
+            room = min(room, math.sqrt(d2) - radius - math.sqrt(rb))
+            if hi < y_lo or lo > y_hi:
+                continue
+            if d2 > ra + rb + 2.0 * math.sqrt(ra * rb) or not obb_overlap(car, box):
+                continue
+            if o.is_trigger:
+                triggers.append(o)
+            elif o.collidable:
+                obstacles.append(o)
+        return triggers, obstacles, max(0.0, room)

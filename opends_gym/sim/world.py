@@ -33,7 +33,7 @@ from .ego import EgoCar, make_backend
 from .events import EventLog
 from .geometry2d import Obb, obb_overlap
 from .road import RoadModel
-from .scene_objects import SceneObjects
+from .scene_objects import SceneObject, SceneObjects
 
 _NOTHING: frozenset[str] = frozenset()
 
@@ -74,6 +74,7 @@ class World:
         self.t_s = 0.0
         self.touching: frozenset[str] = frozenset()
         self._hitting: frozenset[str] = frozenset()
+        self._free: tuple[float, float, float, int] = (0.0, 0.0, 0.0, -1)  # (x, z, room squared, objects.version)
         self.collisions = 0
         self.lights = _make_lights(self)
         self.traffic = _make_traffic(self)
@@ -153,7 +154,14 @@ class World:
     def _contacts(self, prev_x: float, prev_z: float) -> None:
         s = self.ego.state
         box = self.ego_obb()
-        triggers, obstacles = self.objects.overlapping(box, s.y - 0.5, s.y + self.ego.spec.height_m)
+        objects = self.objects
+        free = self._free
+        if free[3] == objects.version and (box.cx - free[0]) ** 2 + (box.cz - free[1]) ** 2 < free[2]:
+            triggers: list[SceneObject] = []  # still inside the room measured last time: nothing can touch
+            obstacles: list[SceneObject] = []
+        else:
+            triggers, obstacles, room = objects.overlapping_with_room(box, s.y - 0.5, s.y + self.ego.spec.height_m)
+            self._free = (box.cx, box.cz, room * room, objects.version)
         self.touching = frozenset(o.id for o in triggers) if triggers else _NOTHING
         hits = {o.id for o in obstacles} if obstacles else set()
         if self.traffic is not None:
