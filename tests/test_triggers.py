@@ -295,3 +295,35 @@ def test_reaction_test_scripted_drive_is_deterministic() -> None:
         _drive_reaction_test(w, ["react"] * 3, 3)
         runs.append([(r.result, r.reaction_time_s, r.t_s) for r in w.triggers.reactions])
     assert runs[0] == runs[1]
+
+
+def test_contact_room_never_lets_the_car_skip_a_trigger_volume() -> None:
+    """The room the contact test grants (how far the car may move, turning freely, before a
+    trigger volume could touch it) is never too much: every pose within it touches nothing."""
+    import math
+
+    import numpy as np
+
+    from opends_gym.sim.geometry2d import Obb
+
+    w = _world(CORPUS / "opends-cts" / "ReactionTest")
+    objects = w.objects
+    volumes = [o for o in objects.objects if o.is_trigger]
+    assert len(volumes) >= 20
+    rng = np.random.default_rng(0)
+    _, hx, hz = w._box
+    roomy = 0
+    for _ in range(400):
+        anchor = volumes[int(rng.integers(len(volumes)))].position
+        x, z = anchor[0] + rng.uniform(-40, 40), anchor[2] + rng.uniform(-40, 40)
+        car = Obb(x, z, rng.uniform(-math.pi, math.pi), hx, hz)
+        triggers, obstacles, room = objects.overlapping_with_room(car, -10.0, 10.0)
+        if triggers or obstacles:
+            assert room == 0.0
+            continue
+        roomy += room > 1.0
+        for _ in range(20 if room > 0.0 else 0):  # anywhere inside the room, any heading: still nothing
+            r, a = room * math.sqrt(rng.uniform()), rng.uniform(0, 2 * math.pi)
+            moved = Obb(x + r * math.cos(a), z + r * math.sin(a), rng.uniform(-math.pi, math.pi), hx, hz)
+            assert objects.overlapping(moved, -10.0, 10.0) == ([], []), (x, z, room, r)
+    assert roomy > 100  # the room is not trivially zero: away from the volumes it is metres

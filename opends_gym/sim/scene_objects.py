@@ -200,28 +200,7 @@ class SceneObjects:
 
     def overlapping(self, car: Obb, y_lo: float, y_hi: float) -> tuple[list[SceneObject], list[SceneObject]]:
         """(trigger volumes, obstacles) the car box overlaps now."""
-        triggers: list[SceneObject] = []
-        obstacles: list[SceneObject] = []
-        objects = self.objects
-        cx, cz, hx, hz = car.cx, car.cz, car.hx, car.hz
-        near = self._near_indices(cx, cz, math.hypot(hx, hz))
-        if not near:  # the usual step: nothing in the car's cells
-            return triggers, obstacles
-        ra = hx * hx + hz * hz
-        for k in near:
-            o = objects[k]
-            lo, hi, box = self._shape(k, o)
-            if hi < y_lo or lo > y_hi:
-                continue
-            # the separating-axis test's own first check (bounding circles), before calling it
-            dx, dz = box.cx - cx, box.cz - cz
-            rb = box.hx * box.hx + box.hz * box.hz
-            if dx * dx + dz * dz > ra + rb + 2.0 * math.sqrt(ra * rb) or not obb_overlap(car, box):
-                continue
-            if o.is_trigger:
-                triggers.append(o)
-            elif o.collidable:
-                obstacles.append(o)
+        triggers, obstacles, _ = self.overlapping_with_room(car, y_lo, y_hi)
         return triggers, obstacles
 
     def overlapping_with_room(self, car: Obb, y_lo: float, y_hi: float) -> tuple[list[SceneObject], list[SceneObject], float]:
@@ -255,4 +234,4 @@ class SceneObjects:
                 triggers.append(o)
             elif o.collidable:
                 obstacles.append(o)
-        return triggers, obstacles, max(0.0, room)
+        return triggers, obstacles, max(0.0, room - 1e-6)  # (a hair less: rounding never grants too much)
