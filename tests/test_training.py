@@ -146,3 +146,66 @@ def test_plot_curves_draws_every_shipped_policy(tmp_path: Path) -> None:
     args = [sys.executable, script, "--policies", str(broken.parent), "--out", str(tmp_path / "x.png")]
     done = subprocess.run(args, capture_output=True, text=True, timeout=120)
     assert done.returncode != 0 and "empty_run/curve.csv: no rows" in done.stderr
+
+
+SHIPPED = {  # policy folder: (env id, what its test requires of one episode)
+    "lct_ppo": ("OpenDS/LaneChangeTest-v0", {"lane_changes_correct": (18, 18), "mdev_basic_m": (0.0, 0.5), "collisions": (0, 0)}),
+    "platoon_ppo": ("OpenDS/ThreeVehiclePlatoon-v0", {"stimuli": (10, 10), "stimulus_misses": (0, 0), "collisions": (0, 0)}),
+    "brake_ppo": (
+        "OpenDS/BrakeReaction-v0",
+        {"stimuli": (6, 6), "stimulus_misses": (0, 0), "BrakeSign_correct": (3, 3), "collisions": (0, 0)},
+    ),
+}
+
+
+@pytest.mark.parametrize("name", sorted(SHIPPED))
+def test_shipped_policy_passes_its_test(name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """The PPO baselines in agents/policies drive their test through `--agent ppo:PATH`; a
+    sampling policy (brake_ppo's model.policy.json) repeats exactly for the same seed."""
+    env_id, required = SHIPPED[name]
+    model = ROOT / "agents" / "policies" / name / "model.zip"
+    runs = []
+    for _ in range(2 if name == "brake_ppo" else 1):
+        assert cli(["run", env_id, "--agent", f"ppo:{model}", "--json", "--episodes", "1", "--seed", "7"]) == 0
+        runs.append(json.loads(capsys.readouterr().out)["episodes"][0])
+    episode = runs[0]
+    for key, (low, high) in required.items():
+        assert low <= episode[key] <= high, (key, episode[key])
+    assert all({k: v for k, v in r.items() if k != "wall_s"} == {k: v for k, v in runs[0].items() if k != "wall_s"} for r in runs)
+
+
+def test_policy_settings_file_chooses_sampled_actions_and_is_checked(quick_run: Path, tmp_path: Path) -> None:
+    """`<model>.policy.json` switches a driver to seeded sampled actions; a broken file is
+    an error naming it; sampling leaves the global torch RNG alone."""
+    import shutil
+
+    import torch
+
+    from opends_gym.drivers.policy import PolicyDriver
+
+    for name in ("model.zip", "model.vecnormalize.pkl"):
+        shutil.copy(quick_run / name, tmp_path / name)
+    env = gym.make("OpenDS/LaneChangeTest-v0", signs=3, lead_in_m=100, lead_out_m=100, policy_hz=5, max_episode_s=60)
+    obs, info = env.reset(seed=0)
+    assert PolicyDriver("ppo", tmp_path / "model.zip").deterministic
+    (tmp_path / "model.policy.json").write_text('{"deterministic": false}', encoding="utf-8")
+    sampling = PolicyDriver("ppo", tmp_path / "model.zip")
+    assert not sampling.deterministic
+
+    def actions(seed: int) -> np.ndarray:
+        sampling.reset(env, seed)
+        return np.array([sampling.act(obs, info) for _ in range(5)])
+
+    torch.manual_seed(123)
+    before = torch.rand(1)
+    torch.manual_seed(123)
+    first = actions(1)
+    assert torch.equal(torch.rand(1), before)  # the global stream did not move
+    assert np.array_equal(first, actions(1)) and not np.array_equal(first, actions(2))
+    assert len({tuple(a) for a in first}) > 1  # samples, not the mean
+    (tmp_path / "model.policy.json").write_text('{"deterministic": "no"}', encoding="utf-8")
+    with pytest.raises(ValueError, match=r"model\.policy\.json: 'deterministic' must be true or false"):
+        PolicyDriver("ppo", tmp_path / "model.zip")
+    (tmp_path / "model.policy.json").write_text("{deterministic: false", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"model\.policy\.json: line 1: not JSON"):
+        PolicyDriver("ppo", tmp_path / "model.zip")

@@ -4,10 +4,18 @@ Why: trained baselines are compared with the rule and distracted drivers under t
 metrics, through the same `--agent` interface (`ppo:PATH`, `sac:PATH`). Observation
 normalisation statistics saved beside the model (`<model>.vecnormalize.pkl`, written by
 `opends-gym train`) are applied the same way as during training.
+
+Actions are the policy's mean (`deterministic=True`) unless a `<model>.policy.json` beside
+the model says `{"deterministic": false}`: some PPO policies only work with the sampled
+actions they were trained with (the shipped brake policy's mean action does not wait behind
+a lead car standing after an emergency brake; its samples do). Sampled actions come from
+the driver's own torch generator state, seeded in `reset(env, seed)`, so the same seed gives
+the same drive and the global torch RNG is left alone.
 """
 
 from __future__ import annotations
 
+import json
 import pickle
 from pathlib import Path
 from typing import Any
@@ -23,10 +31,30 @@ def normalizer_path(model_path: Path) -> Path:
     return model_path.with_name(model_path.name.removesuffix(".zip") + ".vecnormalize.pkl")
 
 
-class PolicyDriver:
-    """Acts with `model.predict(obs, deterministic=True)` of a saved SB3 model."""
+def settings_path(model_path: Path) -> Path:
+    """The optional `<model>.policy.json` with how to act (`deterministic`)."""
+    return model_path.with_name(model_path.name.removesuffix(".zip") + ".policy.json")
 
-    def __init__(self, algorithm: str, path: str | Path) -> None:
+
+def _read_deterministic(model_path: Path) -> bool:
+    path = settings_path(model_path)
+    if not path.exists():
+        return True
+    try:
+        settings = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{path}: line {e.lineno}: not JSON ({e.msg})") from e
+    value = settings.get("deterministic", True) if isinstance(settings, dict) else None
+    if not isinstance(value, bool):
+        raise ValueError(f"{path}: 'deterministic' must be true or false, not {value!r}")
+    return value
+
+
+class PolicyDriver:
+    """Acts with `model.predict(obs, deterministic=...)` of a saved SB3 model (the mean
+    action unless the model's `.policy.json` or `deterministic=False` asks for samples)."""
+
+    def __init__(self, algorithm: str, path: str | Path, deterministic: bool | None = None) -> None:
         algorithm = algorithm.lower()
         if algorithm not in ALGORITHMS:
             raise ValueError(f"unknown algorithm {algorithm!r}; choose from {', '.join(ALGORITHMS)}")
@@ -48,6 +76,8 @@ class PolicyDriver:
             self.obs_rms = vec_normalize.obs_rms
             self.clip_obs = float(vec_normalize.clip_obs)
             self.epsilon = float(vec_normalize.epsilon)
+        self.deterministic = _read_deterministic(self.path) if deterministic is None else deterministic
+        self._rng_state: Any = None
 
     def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
         if env.observation_space.shape != self.model.observation_space.shape:
@@ -55,11 +85,25 @@ class PolicyDriver:
                 f"policy {self.path} expects observations of shape {self.model.observation_space.shape}, "
                 f"the env gives {env.observation_space.shape}"
             )
+        if not self.deterministic:
+            import torch
+
+            self._rng_state = torch.Generator().manual_seed(int(seed)).get_state()
 
     def act(self, obs: Any, info: dict[str, Any]) -> Any:
         x = np.asarray(obs, dtype=np.float32)
         if self.obs_rms is not None:
             x = (x - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon)
             x = np.clip(x, -self.clip_obs, self.clip_obs).astype(np.float32)
-        action, _ = self.model.predict(x, deterministic=True)
+        if self.deterministic:
+            action, _ = self.model.predict(x, deterministic=True)
+            return action
+        import torch
+
+        if self._rng_state is None:
+            raise RuntimeError("a sampling policy driver needs reset(env, seed) before act()")
+        with torch.random.fork_rng(devices=[]):  # sample from this driver's stream only
+            torch.set_rng_state(self._rng_state)
+            action, _ = self.model.predict(x, deterministic=False)
+            self._rng_state = torch.get_rng_state()
         return action
