@@ -206,8 +206,8 @@ class SceneObjects:
     def overlapping_with_room(self, car: Obb, y_lo: float, y_hi: float) -> tuple[list[SceneObject], list[SceneObject], float]:
         """`overlapping`, plus the room (m) the car's centre may move, turning as it likes,
         before any trigger volume or obstacle could touch it: the distance from the car's
-        bounding circle to the nearest object's (at any height) and to the edge of the grid
-        cells searched (objects outside them cannot reach the circle). 0 while it touches or
+        bounding circle to the nearest object's box (at any height) and to the edge of the
+        grid cells searched (objects outside them cannot reach the circle). 0 while it touches or
         nearly touches one. Valid until `version` changes."""
         triggers: list[SceneObject] = []
         obstacles: list[SceneObject] = []
@@ -225,7 +225,9 @@ class SceneObjects:
             dx, dz = box.cx - cx, box.cz - cz
             rb = box.hx * box.hx + box.hz * box.hz
             d2 = dx * dx + dz * dz
-            room = min(room, math.sqrt(d2) - radius - math.sqrt(rb))
+            c, sn = math.cos(box.yaw), math.sin(box.yaw)  # the car's centre in the box's frame (geometry2d's axes)
+            u, v = abs(dx * c - dz * sn) - box.hx, abs(dx * sn + dz * c) - box.hz
+            room = min(room, math.hypot(max(u, 0.0), max(v, 0.0)) - radius)  # centre-to-box distance, less the car's reach
             if hi < y_lo or lo > y_hi:
                 continue
             if d2 > ra + rb + 2.0 * math.sqrt(ra * rb) or not obb_overlap(car, box):
