@@ -153,19 +153,29 @@ class World:
 
     def _contacts(self, prev_x: float, prev_z: float) -> None:
         s = self.ego.state
-        box = self.ego_obb()
+        shift, hx, hz = self._box
+        yaw = s.yaw
+        cx, cz = s.x - shift * math.sin(yaw), s.z - shift * math.cos(yaw)  # (ego_obb's centre)
         objects = self.objects
         free = self._free
-        if free[3] == objects.version and (box.cx - free[0]) ** 2 + (box.cz - free[1]) ** 2 < free[2]:
-            triggers: list[SceneObject] = []  # still inside the room measured last time: nothing can touch
+        traffic = self.traffic
+        if free[3] == objects.version and (cx - free[0]) ** 2 + (cz - free[1]) ** 2 < free[2]:
+            # still inside the room measured last time: no trigger volume or obstacle can touch
+            self.touching = _NOTHING
+            if traffic is None:
+                self._hitting = _NOTHING
+                return
+            triggers: list[SceneObject] = []
             obstacles: list[SceneObject] = []
+            box = Obb(cx, cz, yaw, hx, hz)
         else:
+            box = Obb(cx, cz, yaw, hx, hz)
             triggers, obstacles, room = objects.overlapping_with_room(box, s.y - 0.5, s.y + self.ego.spec.height_m)
-            self._free = (box.cx, box.cz, room * room, objects.version)
-        self.touching = frozenset(o.id for o in triggers) if triggers else _NOTHING
+            self._free = (cx, cz, room * room, objects.version)
+            self.touching = frozenset(o.id for o in triggers) if triggers else _NOTHING
         hits = {o.id for o in obstacles} if obstacles else set()
-        if self.traffic is not None:
-            hits.update(self.traffic.colliding_with(box))
+        if traffic is not None:
+            hits.update(traffic.colliding_with(box))
         if not hits:  # the usual step: nothing hit, nothing to count
             self._hitting = _NOTHING
             return
