@@ -41,10 +41,10 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
     The platoon test's (progress, band deviation, lead-car stimulus reactions, collisions,
     leaving the road; see `ThreeVehiclePlatoonEnv`) plus `reward_sign_reaction` (10) per
     correct and minus it per failed or missed brake-sign reaction (slowing to 40 km/h costs
-    more progress than a reward of 1 would repay), and time-to-collision shaping (`reward_ttc_weight` = 1:
-    -(1 - TTC / 3 s) per step while the TTC to the lead car is under
-    `reward_ttc_threshold_s` = 3 s), which teaches a policy to open the gap before the
-    lead's emergency brake rather than learn the collision penalty only after crashing.
+    more progress than a reward of 1 would repay), and time-to-collision shaping
+    (`reward_ttc_weight` = 1: -(1 - TTC / 3 s) per step while the TTC to the lead car is
+    under `reward_ttc_threshold_s` = 3 s), which teaches a policy to open the gap before
+    the lead's emergency brake rather than learn the collision penalty only after crashing.
 
     ## Episode end
     Terminated at the end of the track, on a collision, off the road or when drawing level

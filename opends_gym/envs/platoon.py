@@ -67,9 +67,10 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
     x the longitudinal + lateral deviation outside the bands (m, capped at
     `reward_deviation_cap_m` = 10 m) per step; +1 per correct reaction, -1 per miss,
     -`collision_penalty` (50) per collision, -`off_road_penalty` (50) for leaving the
-    road or passing the lead car. Optional time-to-collision shaping: -`reward_ttc_weight` x (1 - TTC /
-    `reward_ttc_threshold_s`) per step while the TTC to the lead is below the threshold
-    (weight 0 here, so off; the brake test turns it on). At the platoon's speed the progress term (+0.22 per step) outweighs the largest
+    road or passing the lead car. Optional time-to-collision shaping:
+    -`reward_ttc_weight` x (1 - TTC / `reward_ttc_threshold_s`) per step while the TTC to
+    the lead is below the threshold (weight 0 here, so off; the brake test turns it on).
+    At the platoon's speed the progress term (+0.22 per step) outweighs the largest
     deviation penalty (-0.1 per step), so driving on always pays more than crashing or
     stopping.
 

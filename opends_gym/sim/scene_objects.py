@@ -207,8 +207,8 @@ class SceneObjects:
         """`overlapping`, plus the room (m) the car's centre may move, turning as it likes,
         before any trigger volume or obstacle could touch it: the distance from the car's
         bounding circle to the nearest object's box (at any height) and to the edge of the
-        grid cells searched (objects outside them cannot reach the circle). 0 while it touches or
-        nearly touches one. Valid until `version` changes."""
+        grid cells searched (objects outside them cannot reach the circle). 0 while it
+        touches or nearly touches one. Valid until `version` changes."""
         triggers: list[SceneObject] = []
         obstacles: list[SceneObject] = []
         objects = self.objects
