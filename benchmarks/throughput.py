@@ -15,7 +15,9 @@ reset inside the timed loop, so resets count; one more native row drives the LCT
 lane follower (random steering leaves the road within ~5 s, so that row shows the batch
 when episodes last, as a trained policy's do). Rates are wall-clock; `cpu %` is this
 process's CPU time over wall time (below ~90 % another program shared the cores; above 100 %
-the native batch ran its shards on two cores), and `steps / CPU s` the rate per CPU second.
+the native batch ran its shards on two cores; not shown for worker processes), and `steps /
+CPU s` the rate per CPU second. The native LCT is measured with its shards in threads (the
+default) and in worker processes (`processes=`), with random actions and with the lane keeper.
 
     python benchmarks/throughput.py [--quick] [--seconds S] [--out benchmarks/results/throughput.md]
 """
@@ -223,14 +225,16 @@ def lane_keeping(obs: np.ndarray) -> np.ndarray:
     return a
 
 
-def measure_native(case: Case, backend: str, n: int, seconds: float, keep_lane: bool = False) -> Row | None:
+def measure_native(case: Case, backend: str, n: int, seconds: float, keep_lane: bool = False, processes: int | None = None) -> Row | None:
     """The natively batched env of `opends_gym.vector`, where one exists for this id and backend
-    (random actions, or with `keep_lane` the LCT lane follower)."""
+    (random actions, or with `keep_lane` the LCT lane follower; shards in threads, or with
+    `processes` in that many worker processes)."""
     if case.kwargs or not native_batch_available(case.env_id):
         return None
+    shards = {"processes": processes} if processes else {}
 
     def build() -> list[Any]:
-        v = gym.make_vec(case.env_id, num_envs=n, vectorization_mode="vector_entry_point", physics=backend)
+        v = gym.make_vec(case.env_id, num_envs=n, vectorization_mode="vector_entry_point", physics=backend, **shards)
         v.reset(seed=0)
         return [v]
 
@@ -254,7 +258,10 @@ def measure_native(case: Case, backend: str, n: int, seconds: float, keep_lane: 
     finally:
         vec.close()
     label = f"{case.label} (lane keeping)" if keep_lane else case.label
-    return Row(label, backend, "native", n, rate * n, rate * n / case.policy_hz, mb, cpu)
+    mode = f"native, {processes} processes" if processes else "native"
+    if processes:
+        cpu = float("nan")  # the workers' CPU time is not this process's
+    return Row(label, backend, mode, n, rate * n, rate * n / case.policy_hz, mb, cpu)
 
 
 # ---------------------------------------------------------------------- report
@@ -290,8 +297,8 @@ def goals(rows: list[Row]) -> list[str]:
     hw = find(rows, "highway-fast-v0", "-", "single")
     lct = find(rows, "LaneChangeTest", "fast", "single")
     mw = find(rows, "MotorwayTask", "fast", "single")
-    native = [r for r in rows if r.mode == "native" and r.label == "LaneChangeTest" and not r.note]
-    native_keep = [r for r in rows if r.mode == "native" and r.label == "LaneChangeTest (lane keeping)" and not r.note]
+    native = [r for r in rows if r.mode.startswith("native") and r.label == "LaneChangeTest" and not r.note]
+    native_keep = [r for r in rows if r.mode.startswith("native") and r.label == "LaneChangeTest (lane keeping)" and not r.note]
     out = ["| goal | measured | peer (highway-fast-v0) | ratio | target | result |", "|---|---:|---:|---:|---:|---|"]
 
     def line(goal: str, value: float | None, peer: float | None, target: float, unit: str) -> None:
@@ -391,10 +398,14 @@ def main() -> None:
             rows.append(nat or Row(case.label, backend, "native", native_envs, 0, 0, 0, 0, note=missing))
             print(table(rows[-1:])[-1], flush=True)
     lct = next(c for c in opends_cases() if c.label == "LaneChangeTest")
-    keep = measure_native(lct, "fast", native_envs, seconds, keep_lane=True)
-    if keep is not None:
-        rows.append(keep)
-        print(table(rows[-1:])[-1], flush=True)
+    workers = min(4, os.cpu_count() or 1)
+    for keep_lane, processes in ((False, workers), (True, None), (True, workers)):
+        if processes is not None and processes < 2:
+            continue
+        extra = measure_native(lct, "fast", native_envs, seconds, keep_lane=keep_lane, processes=processes)
+        if extra is not None:
+            rows.append(extra)
+            print(table(rows[-1:])[-1], flush=True)
     order = [c.label for c in (*HIGHWAY, *opends_cases())]
     rows.sort(key=lambda r: order.index(r.label.removesuffix(" (lane keeping)")))  # (a stable sort: the modes keep their order)
     main_table = table(rows)

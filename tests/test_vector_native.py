@@ -221,3 +221,50 @@ def test_kernel_math_equals_python_math() -> None:
     for k, ref in enumerate(refs):
         expect = [ref(a, b) if k in (3, 6, 7) else ref(a) for a, b in zip(x.tolist(), y.tolist())]
         assert np.array_equal(out[k], np.array(expect)), k
+
+
+def _rollout(env: Any, steps: int, seed: int) -> list[tuple[Any, ...]]:
+    rng = np.random.default_rng(seed)
+    obs, info = env.reset(seed=seed)
+    out: list[tuple[Any, ...]] = [(obs, info)]
+    for _ in range(steps):
+        out.append(env.step(lct_driver(obs, rng, env.num_envs)))
+        obs = out[-1][0]
+    return out
+
+
+@pytest.mark.parametrize("shards", [{"threads": 2}, {"processes": 2}])
+def test_sharded_batches_step_exactly_like_one_shard(shards: dict[str, int]) -> None:
+    """Threads or worker processes change where envs are stepped, not what they compute:
+    observations, rewards, flags, info arrays and episode metrics (with autoresets) equal the
+    unsharded batch's; errors name the env in the whole batch."""
+    kw = {**SHORT[LCT], "max_episode_s": 8.0}
+    one = gym.make_vec(LCT, num_envs=5, vectorization_mode="vector_entry_point", threads=1, **kw)
+    sharded = gym.make_vec(LCT, num_envs=5, vectorization_mode="vector_entry_point", **shards, **kw)
+    assert len(sharded.unwrapped.shards) == 2
+    ends = 0
+    for t, (a, b) in enumerate(zip(_rollout(one, 120, 3), _rollout(sharded, 120, 3), strict=True)):
+        for x, y in zip(a[:-1], b[:-1], strict=True):
+            _same(f"step {t}", x, y)
+        info_a, info_b = a[-1], b[-1]
+        assert info_a.keys() == info_b.keys()
+        for key, value in info_a.items():
+            if key == "episode_metrics":
+                ends += int(info_a["_episode_metrics"].sum())
+                for mk in value:
+                    _same(f"step {t} metric {mk}", info_b[key][mk], value[mk])
+            else:
+                _same(f"step {t} info {key}", info_b[key], value)
+    assert ends >= 5  # episodes ended (off the road or at 8 s) and were reset in both
+    a = np.zeros((5, 2), dtype=np.float32)
+    a[4, 0] = np.nan
+    with pytest.raises(ValueError, match="env 4: action contains NaN"):
+        sharded.step(a)
+    if "processes" in shards:  # a worker that dies is reported, not waited for
+        worker = sharded.unwrapped.shards[1]._process
+        worker.kill()
+        worker.join()
+        with pytest.raises(RuntimeError, match="native batch worker 1 died"):
+            sharded.step(np.zeros((5, 2), dtype=np.float32))
+    one.close()
+    sharded.close()

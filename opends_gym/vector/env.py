@@ -22,6 +22,9 @@ Options: `record_metrics=False` skips the per-step traces (and `episode_metrics`
 take ~0.5 MB per env for the LCT's 300 s limit, and a batch whose traces would not fit in
 memory is refused. `threads` splits the envs into shards stepped in parallel threads
 (the compiled kernels release the GIL); by default one per CPU (at most 4) from 2048 envs.
+`processes=N` runs N shards in worker processes instead (`opends_gym.vector.shards`): the
+Python between kernels then runs in parallel too, which on two cores gives ~2x one shard
+where threads give ~1.2x; the workers start in a second or two (spawned, numba's cache).
 """
 
 from __future__ import annotations
@@ -38,8 +41,8 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
-from ..sim.jit import kernel
 from .core import BatchCore
+from .shards import LocalShard, ProcessShard
 from .trace import _physical_memory
 
 
@@ -49,7 +52,14 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
     metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
     def __init__(
-        self, env_id: str, batch_cls: type[BatchCore], num_envs: int, record_metrics: bool = True, threads: int | None = None, **kwargs: Any
+        self,
+        env_id: str,
+        batch_cls: type[BatchCore],
+        num_envs: int,
+        record_metrics: bool = True,
+        threads: int | None = None,
+        processes: int | None = None,
+        **kwargs: Any,
     ) -> None:
         if num_envs < 1:
             raise ValueError(f"num_envs must be at least 1, not {num_envs}")
@@ -75,21 +85,39 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
                     f"the episode traces of {num_envs} envs need {need / 2**30:.1f} GiB (for episode_metrics); "
                     "use fewer envs, a shorter max_episode_s, or record_metrics=False"
                 )
-        shards = _shard_count(num_envs, threads)
+        if processes is not None and threads not in (None, 1):
+            raise ValueError("choose threads or processes for the shards, not both")
+        if processes is not None and processes < 1:
+            raise ValueError(f"processes must be at least 1, not {processes}")
+        shards = max(1, min(processes, num_envs)) if processes is not None else _shard_count(num_envs, threads)
         bounds = np.linspace(0, num_envs, shards + 1).astype(int)
         self._slices = [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
-        templates = [template] + [gym.make(env_id, disable_env_checker=True, **kwargs).unwrapped for _ in range(shards - 1)]
-        self.cores = [batch_cls(t, sl.stop - sl.start, record_metrics) for t, sl in zip(templates, self._slices)]  # type: ignore[arg-type]
-        self.core = self.cores[0]
-        self._pool = ThreadPoolExecutor(max_workers=shards, thread_name_prefix="opends-native") if shards > 1 else None
+        self._k = int(template.config.nearby_vehicles)
+        self._obs_size = len(EGO_NAMES) + self._k * len(VEHICLE_NAMES) + len(template.stimulus_names)
+        self.shards: list[LocalShard | ProcessShard] = []
+        self._pool: ThreadPoolExecutor | None = None
+        if processes is not None and shards > 1:
+            probe = batch_cls(template, 1, False).info()  # the info keys and their types, for the shared arrays
+            info_dtypes = {key: np.asarray(v).dtype.str for key, v in probe.items()}
+            for i, sl in enumerate(self._slices):
+                try:
+                    n = sl.stop - sl.start
+                    self.shards.append(ProcessShard(env_id, batch_cls, n, record_metrics, kwargs, self._k, self._obs_size, info_dtypes, i))
+                except BaseException:
+                    self.close_extras()
+                    raise
+            template.close()
+        else:
+            templates = [template] + [gym.make(env_id, disable_env_checker=True, **kwargs).unwrapped for _ in range(shards - 1)]
+            cores = [batch_cls(t, sl.stop - sl.start, record_metrics) for t, sl in zip(templates, self._slices)]  # type: ignore[arg-type]
+            self.shards = [LocalShard(c, self._k, self._obs_size) for c in cores]
+            self._pool = ThreadPoolExecutor(max_workers=shards, thread_name_prefix="opends-native") if shards > 1 else None
         self.record_metrics = record_metrics
         self.single_observation_space = template.observation_space
         self.single_action_space = template.action_space
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self.render_mode = None
-        self._k = int(template.config.nearby_vehicles)
-        self._obs_size = len(EGO_NAMES) + self._k * len(VEHICLE_NAMES) + len(template.stimulus_names)
         self._autoreset = np.zeros(num_envs, dtype=bool)
         self._started = False
 
@@ -108,13 +136,12 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
                 raise ValueError(f"reset(seed=list) needs {self.num_envs} seeds, got {len(seeds)}")
         if options is not None and "reset_mask" in options:
             raise ValueError("reset_mask belongs to the DISABLED autoreset mode; this env autoresets on the next step")
-        for core, sl in zip(self.cores, self._slices):
-            core.reset_rows(np.arange(core.n), seeds[sl])
+        parts = [shard.reset(seeds[sl]) for shard, sl in zip(self.shards, self._slices)]
         self._autoreset[:] = False
         self._started = True
-        obs = np.concatenate([_observe(c, self._k, self._obs_size) for c in self.cores])
-        values = _concat([c.info() for c in self.cores])
-        return obs, self._info_dict(values, np.zeros(self.num_envs, dtype=bool))
+        obs = np.concatenate([p[0] for p in parts])
+        values = _concat([p[1] for p in parts])
+        return obs, self._info_dict(values, [[] for _ in parts])
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
@@ -122,11 +149,15 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         a = np.asarray(actions)
         if a.shape != self.action_space.shape:
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {a.shape}")
-        jobs = [(c, a[sl], self._autoreset[sl]) for c, sl in zip(self.cores, self._slices)]
-        if self._pool is None:
-            parts = [self._step_shard(*job) for job in jobs]
+        jobs = [(shard, a[sl], self._autoreset[sl]) for shard, sl in zip(self.shards, self._slices)]
+        if self._pool is not None:
+            parts = list(self._pool.map(lambda job: job[0].step(job[1], job[2]), jobs))
+        elif len(jobs) > 1:  # worker processes: start them all, then collect
+            for shard, actions, resetting in jobs:
+                shard.send_step(actions, resetting)  # type: ignore[union-attr]
+            parts = [shard.receive() for shard, _, _ in jobs]  # type: ignore[union-attr]
         else:
-            parts = list(self._pool.map(lambda job: self._step_shard(*job), jobs))
+            parts = [shard.step(actions, resetting) for shard, actions, resetting in jobs]
         for part, sl in zip(parts, self._slices):
             err = part[-1]
             if err is not None:  # name the env in the whole batch, not in its shard
@@ -136,43 +167,33 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         terminated = np.concatenate([p[2] for p in parts])
         truncated = np.concatenate([p[3] for p in parts])
         ended = terminated | truncated
-        info = self._info_dict(_concat([p[4] for p in parts]), ended)
+        info = self._info_dict(_concat([p[4] for p in parts]), [p[5] for p in parts])
         self._autoreset = ended
         return obs, reward, terminated, truncated, info
-
-    def _step_shard(self, core: BatchCore, actions: np.ndarray, resetting: np.ndarray) -> tuple[Any, ...]:
-        """One shard's step, NEXT_STEP autoreset included (runs in a worker thread when sharded)."""
-        try:
-            stepping = ~resetting
-            reward, terminated, truncated, values = core.step_rows(actions, stepping)
-            if resetting.any():
-                core.reset_rows(np.flatnonzero(resetting), None)
-                fresh = core.info()
-                values = {k: np.where(resetting, fresh[k], v) for k, v in values.items()}
-            reward = np.where(stepping, reward, 0.0)
-            return _observe(core, self._k, self._obs_size), reward, terminated, truncated, values, None
-        except (ValueError, RuntimeError, FloatingPointError) as e:
-            return (None,) * 5 + (e,)
 
     def close_extras(self, **kwargs: Any) -> None:
         if self._pool is not None:
             self._pool.shutdown(wait=True)
-        for core in self.cores:
-            core.template.close()
+        for shard in self.shards:
+            shard.close()
 
     # ------------------------------------------------------------------ outputs
-    def _info_dict(self, values: dict[str, np.ndarray], ended: np.ndarray) -> dict[str, Any]:
+    def _info_dict(self, values: dict[str, np.ndarray], ended_metrics: list[list[tuple[int, dict[str, float]]]]) -> dict[str, Any]:
+        """Info arrays with their `_key` masks, plus `episode_metrics` of the episodes that
+        ended (each shard's list of (env in the shard, metrics))."""
         info: dict[str, Any] = {}
         full = np.ones(self.num_envs, dtype=bool)
         for k, v in values.items():
             info[k] = v
             info[f"_{k}"] = full
-        if ended.any() and self.record_metrics:
+        if any(ended_metrics):
             metrics: dict[str, Any] = {}
-            for e in np.flatnonzero(ended).tolist():
-                j = next(i for i, sl in enumerate(self._slices) if sl.start <= e < sl.stop)
-                _add_numbers(metrics, self.cores[j].episode_metrics(e - self._slices[j].start), e, self.num_envs)
-            info["episode_metrics"], info["_episode_metrics"] = metrics, ended.copy()
+            mask = np.zeros(self.num_envs, dtype=bool)
+            for sl, shard_metrics in zip(self._slices, ended_metrics):
+                for e, values_e in shard_metrics:
+                    _add_numbers(metrics, values_e, sl.start + e, self.num_envs)
+                    mask[sl.start + e] = True
+            info["episode_metrics"], info["_episode_metrics"] = metrics, mask
         return info
 
 
@@ -209,36 +230,3 @@ def _renumber(message: str, offset: int) -> str:
         if head.isdigit():
             return f"env {int(head) + offset}:{rest}"
     return message
-
-
-def _observe(c: BatchCore, k: int, size: int) -> np.ndarray:
-    """The kinematics observation of every env of a shard (float32, as the single env's)."""
-    s = c.s
-    out = np.empty((c.n, size), dtype=np.float32)
-    ego_features(out, s.u, s.yaw, c.guide.road_heading, c.offset, c.lat, c.lane, s.steer_in, s.r)
-    base = len(EGO_NAMES)
-    vehicles = c.vehicle_slots(k) if k else None
-    if vehicles is not None:
-        out[:, base : base + vehicles.shape[1]] = vehicles
-    elif k:
-        out[:, base : base + k * len(VEHICLE_NAMES)] = 0.0
-    stim = c._stimulus()
-    if stim.shape[1]:
-        out[:, base + k * len(VEHICLE_NAMES) :] = stim
-    return out
-
-
-@kernel
-def ego_features(out: np.ndarray, u: np.ndarray, yaw: np.ndarray, heading: float, offset: np.ndarray, lat: np.ndarray, lane: np.ndarray,
-                 steer: np.ndarray, r: np.ndarray) -> None:  # fmt: skip
-    """`ObservationType.ego_features` of every env into the first columns of `out` (float32):
-    speed, heading error (wrapped to [-pi, pi)), lane offset, lateral position, lane, steering,
-    yaw rate."""
-    for e in range(len(u)):
-        out[e, 0] = u[e]
-        out[e, 1] = (yaw[e] - heading + math.pi) % (2.0 * math.pi) - math.pi
-        out[e, 2] = offset[e]
-        out[e, 3] = lat[e]
-        out[e, 4] = lane[e]
-        out[e, 5] = steer[e]
-        out[e, 6] = r[e]
