@@ -3,6 +3,7 @@
     python benchmarks/native_batch.py                       # LCT, N = 1 ... 16384
     python benchmarks/native_batch.py --env platoon --sizes 64 1024 --seconds 5
     python benchmarks/native_batch.py --no-metrics          # without the per-step traces
+    python benchmarks/native_batch.py --sizes 4096 --processes 2   # shards in 2 worker processes
 
 A lane-keeping policy (the instructed lane for the LCT) keeps the episodes long; the
 first steps are not timed (warm-up). Prints one row per N: env-steps per second, ms per
@@ -52,16 +53,20 @@ def main() -> None:
     p.add_argument("--sizes", type=int, nargs="+", default=[1, 16, 256, 1024, 4096, 16384])
     p.add_argument("--seconds", type=float, default=8.0)
     p.add_argument("--no-metrics", action="store_true", help="record_metrics=False (no traces, no episode_metrics)")
+    shards = p.add_mutually_exclusive_group()
+    shards.add_argument("--threads", type=int, help="shards stepped in this many threads (default: one per core from 2048 envs)")
+    shards.add_argument("--processes", type=int, help="shards in this many worker processes")
     args = p.parse_args()
+    sharding = {k: v for k, v in (("threads", args.threads), ("processes", args.processes)) if v is not None}
     env_id, lct = IDS[args.env], args.env == "lct"
-    print(f"{env_id}, fast backend, 10 Hz policy / 60 Hz physics, record_metrics={not args.no_metrics}")
+    print(f"{env_id}, fast backend, 10 Hz policy / 60 Hz physics, record_metrics={not args.no_metrics}, shards: {sharding or 'default'}")
     print(f"{'mode':<8} {'N':>7} {'env-steps/s':>14} {'ms/step':>10}")
     sync = gym.make_vec(env_id, num_envs=min(args.sizes), vectorization_mode="sync")
     rate, ms = measure(sync, min(args.seconds, 5.0), lct)
     print(f"{'sync':<8} {sync.num_envs:>7} {rate:>14,.0f} {ms:>10.2f}", flush=True)
     sync.close()
     for n in args.sizes:
-        env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", record_metrics=not args.no_metrics)
+        env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", record_metrics=not args.no_metrics, **sharding)
         rate, ms = measure(env, args.seconds, lct)
         print(f"{'native':<8} {n:>7} {rate:>14,.0f} {ms:>10.2f}", flush=True)
         env.close()
