@@ -23,8 +23,8 @@ take ~0.5 MB per env for the LCT's 300 s limit, and a batch whose traces would n
 memory is refused. `threads` splits the envs into shards stepped in parallel threads
 (the compiled kernels release the GIL); by default one per CPU (at most 4) from 2048 envs.
 `processes=N` runs N shards in worker processes instead (`opends_gym.vector.shards`): the
-Python between kernels then runs in parallel too, which on two cores gives ~2x one shard
-where threads give ~1.2x; the workers start in a second or two (spawned, numba's cache).
+Python between kernels then runs in parallel too, at the price of a pipe round trip per
+step (worth it for thousands of envs); the workers are forked where the OS can.
 """
 
 from __future__ import annotations
