@@ -209,3 +209,31 @@ def test_policy_settings_file_chooses_sampled_actions_and_is_checked(quick_run: 
     (tmp_path / "model.policy.json").write_text("{deterministic: false", encoding="utf-8")
     with pytest.raises(ValueError, match=r"model\.policy\.json: line 1: not JSON"):
         PolicyDriver("ppo", tmp_path / "model.zip")
+
+
+def test_sac_trains_saves_and_drives_through_the_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The off-policy path: a short SAC run writes its model and normaliser, and the model
+    drives an episode through `--agent sac:PATH`."""
+    raw = yaml.safe_load((ROOT / "configs" / "lct_sac.yaml").read_text(encoding="utf-8"))
+    raw.update(
+        env_kwargs={"signs": 3, "lead_in_m": 100, "lead_out_m": 100, "policy_hz": 5, "max_episode_s": 30},
+        total_steps=1200,
+        checkpoint_every_steps=600,
+        eval_every_steps=600,
+        eval_episodes=1,
+        progress_bar=False,
+        output=str(tmp_path / "run"),
+    )
+    raw["hyperparameters"].update(learning_starts=200, buffer_size=2000)
+    (tmp_path / "sac.yaml").write_text(yaml.safe_dump(raw), encoding="utf-8")
+    cfg, base = load_train_config(tmp_path / "sac.yaml")
+    assert cfg.algorithm == "sac"
+    metrics = train(cfg, base, tmp_path / "run")
+    assert metrics["algorithm"] == "sac" and metrics["mean"]["duration_s"] > 0
+    model = tmp_path / "run" / "model.zip"
+    assert model.is_file() and (tmp_path / "run" / "model.vecnormalize.pkl").is_file()
+    args = ["run", "OpenDS/LaneChangeTest-v0", "--agent", f"sac:{model}", "--json", "--episodes", "1"]
+    for option in ("signs=3", "lead_in_m=100", "lead_out_m=100", "policy_hz=5", "max_episode_s=30"):
+        args += ["--env-arg", option]
+    assert cli(args) == 0
+    assert json.loads(capsys.readouterr().out)["episodes"][0]["steps"] > 5
