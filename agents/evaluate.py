@@ -9,6 +9,7 @@ as `opends-gym run`, and the table shows each test's headline metrics (mean over
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 from pathlib import Path
@@ -23,16 +24,28 @@ from opends_gym.metrics.stats import mean_ci
 
 POLICIES = Path(__file__).resolve().parent / "policies"
 
-# (env id, the shipped policy's folder, the headline metrics)
-TESTS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
-    ("OpenDS/LaneChangeTest-v0", "lct_ppo", ("mdev_basic_m", "mdev_adapted_m", "lane_changes_correct", "sdlp_m")),
-    ("OpenDS/BrakeReaction-v0", "brake_ppo", ("stimulus_misses", "brake_onset_s", "BrakeSign_correct", "collisions")),
+# (env id, the headline metrics); every shipped policy trained on the env joins the rule drivers
+TESTS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("OpenDS/LaneChangeTest-v0", ("mdev_basic_m", "mdev_adapted_m", "lane_changes_correct", "sdlp_m")),
+    ("OpenDS/BrakeReaction-v0", ("stimulus_misses", "brake_onset_s", "BrakeSign_correct", "collisions")),
     (
         "OpenDS/ThreeVehiclePlatoon-v0",
-        "platoon_ppo",
         ("stimulus_misses", "stimulus_mean_rt_s", "longitudinal_deviation_mean_m", "lateral_deviation_mean_m"),
     ),
 )
+
+
+def shipped_policies(env_id: str) -> list[tuple[str, str]]:
+    """(agent spec, label) of each policy folder whose metrics.json names this env."""
+    out = []
+    for folder in sorted(POLICIES.iterdir()) if POLICIES.is_dir() else ():
+        meta = folder / "metrics.json"
+        if (folder / "model.zip").is_file() and meta.is_file():
+            info = json.loads(meta.read_text(encoding="utf-8"))
+            if info.get("env") == env_id:
+                algorithm = str(info.get("algorithm", "ppo"))
+                out.append((f"{algorithm}:{folder / 'model.zip'}", f"{algorithm} ({folder.name})"))
+    return out
 
 
 def run(env_id: str, agent_spec: str, episodes: int, seed: int) -> dict[str, float]:
@@ -54,16 +67,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=100)
     p.add_argument("--markdown", action="store_true", help="print Markdown tables (for the README)")
     args = p.parse_args(argv)
-    for env_id, policy, keys in TESTS:
-        agents = ["rule", "distracted:heavy"]
-        model = POLICIES / policy / "model.zip"
-        if model.is_file():
-            agents.append(f"ppo:{model}")
-        else:
-            print(f"({env_id}: no shipped policy at {model})", file=sys.stderr)
+    for env_id, keys in TESTS:
+        policies = shipped_policies(env_id)
+        if not policies:
+            print(f"({env_id}: no shipped policy in {POLICIES})", file=sys.stderr)
+        agents = ["rule", "distracted:heavy", *(spec for spec, _ in policies)]
         cols = ("return", *keys)
         results = {a: run(env_id, a, args.episodes, args.seed) for a in agents}
-        label = {a: (f"ppo ({policy})" if a.startswith("ppo:") else a) for a in agents}
+        label = {a: a for a in agents} | dict(policies)
         if args.markdown:
             print(f"\n**{env_id}** ({args.episodes} episodes, seeds {args.seed}..)\n")
             print("| driver | " + " | ".join(cols) + " |")

@@ -237,3 +237,22 @@ def test_sac_trains_saves_and_drives_through_the_cli(tmp_path: Path, capsys: pyt
         args += ["--env-arg", option]
     assert cli(args) == 0
     assert json.loads(capsys.readouterr().out)["episodes"][0]["steps"] > 5
+
+
+def test_evaluate_script_scores_every_driver_and_shipped_policy() -> None:
+    """agents/evaluate.py (the README's baseline tables) lists the rule driver, the heavily
+    distracted driver and every shipped policy under the env it was trained on."""
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, str(ROOT / "agents" / "evaluate.py"), "--episodes", "1", "--markdown"],
+                          capture_output=True, text=True, timeout=600)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    sections = {s.split("**")[0]: s for s in done.stdout.split("\n**")[1:]}
+    assert set(sections) == {"OpenDS/LaneChangeTest-v0", "OpenDS/BrakeReaction-v0", "OpenDS/ThreeVehiclePlatoon-v0"}
+    for folder in (ROOT / "agents" / "policies").iterdir():
+        if (folder / "metrics.json").is_file():
+            meta = json.loads((folder / "metrics.json").read_text(encoding="utf-8"))
+            assert f"| {meta['algorithm']} ({folder.name}) |" in sections[meta["env"]]
+    for text in sections.values():
+        assert "| rule |" in text and "| distracted:heavy |" in text
