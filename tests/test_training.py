@@ -150,6 +150,7 @@ def test_plot_curves_draws_every_shipped_policy(tmp_path: Path) -> None:
 
 SHIPPED = {  # policy folder: (env id, what its test requires of one episode)
     "lct_ppo": ("OpenDS/LaneChangeTest-v0", {"lane_changes_correct": (18, 18), "mdev_basic_m": (0.0, 0.5), "collisions": (0, 0)}),
+    "lct_sac": ("OpenDS/LaneChangeTest-v0", {"lane_changes_correct": (18, 18), "mdev_basic_m": (0.0, 1.5), "collisions": (0, 0)}),
     "platoon_ppo": ("OpenDS/ThreeVehiclePlatoon-v0", {"stimuli": (10, 10), "stimulus_misses": (0, 0), "collisions": (0, 0)}),
     "brake_ppo": (
         "OpenDS/BrakeReaction-v0",
@@ -160,13 +161,14 @@ SHIPPED = {  # policy folder: (env id, what its test requires of one episode)
 
 @pytest.mark.parametrize("name", sorted(SHIPPED))
 def test_shipped_policy_passes_its_test(name: str, capsys: pytest.CaptureFixture[str]) -> None:
-    """The PPO baselines in agents/policies drive their test through `--agent ppo:PATH`; a
-    sampling policy (brake_ppo's model.policy.json) repeats exactly for the same seed."""
+    """The baselines in agents/policies drive their test through `--agent ppo:PATH` (or
+    `sac:PATH`); a sampling policy (brake_ppo's model.policy.json) repeats exactly per seed."""
     env_id, required = SHIPPED[name]
     model = ROOT / "agents" / "policies" / name / "model.zip"
+    algorithm = json.loads((model.parent / "metrics.json").read_text(encoding="utf-8"))["algorithm"]
     runs = []
     for _ in range(2 if name == "brake_ppo" else 1):
-        assert cli(["run", env_id, "--agent", f"ppo:{model}", "--json", "--episodes", "1", "--seed", "7"]) == 0
+        assert cli(["run", env_id, "--agent", f"{algorithm}:{model}", "--json", "--episodes", "1", "--seed", "7"]) == 0
         runs.append(json.loads(capsys.readouterr().out)["episodes"][0])
     episode = runs[0]
     for key, (low, high) in required.items():
