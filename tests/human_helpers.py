@@ -6,6 +6,7 @@ import math
 import re
 import socket
 import threading
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -106,6 +107,13 @@ class ScriptedGateway:
                 return
             threading.Event().wait(0.01)
         raise AssertionError("the simulator never connected")
+
+    def wait_received(self, suffix: bytes, timeout_s: float = 5.0) -> bool:
+        """Wait until what the simulator sent ends with `suffix` (its reader thread may lag)."""
+        end = time.monotonic() + timeout_s
+        while not self.received.endswith(suffix) and time.monotonic() < end:
+            time.sleep(0.01)
+        return self.received.endswith(suffix)
 
     def drop(self) -> None:
         """Cut the current connection abruptly."""

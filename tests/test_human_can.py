@@ -123,8 +123,9 @@ def test_gateway_survives_hostile_input_and_reconnects() -> None:
         wait_for(lambda: b"$SimCarState#42.00#0.00#1.500#-3.000%" in gw.received)
     finally:
         src.close()
+        said_goodbye = gw.wait_received(b"exit")  # (before the gateway stops reading)
         gw.close()
-    assert gw.received.endswith(b"exit")  # OpenDS says goodbye
+    assert said_goodbye  # OpenDS says goodbye
 
 
 def test_gateway_loopback_drives_the_reaction_test() -> None:
