@@ -24,27 +24,25 @@ import numpy as np
 from ..task.model_car import Car
 from . import ego_fast as ef
 from . import ego_kernels as ek
+from .ego_kernels import (  # the constants the compiled powertrain uses too: one definition
+    ACCESSORIES_KW,
+    FUEL_LHV_KJ_PER_G,
+    INERTIA_MASS_FACTOR,
+    POWER_RPM_MAX,
+    POWER_RPM_MIN,
+    ROLLING_COEFF,
+    WHEEL_CONSTANT,
+    G,
+)
+from .ego_kernels import RPM_TABLE_STEP as _RPM_TABLE_STEP
+from .ego_kernels import TABLE_STEP as _TABLE_STEP
 
-G = 9.81
 BMEP_COEFFS = (-19950.8, 3479.90, -231.809, 8.25775, -0.169919, 0.00202259, -1.2921e-5, 3.42208e-8)  # kPa, n in 1/s
-RHO_AIR = 1.3  # kg/m^3
+RHO_AIR = 1.3  # kg/m^3 (ego_kernels.AIR_K = 0.5 x RHO_AIR x CW x FRONTAL_AREA_M2)
 CW = 0.3
 FRONTAL_AREA_M2 = 2.0
-ROLLING_COEFF = 0.008
-ACCESSORIES_KW = 0.75
-INERTIA_MASS_FACTOR = 1.03
-FUEL_LHV_KJ_PER_G = 43.7
-FUEL_DENSITY_G_PER_L = 760.0
-IDLE_FUEL_L_PER_S = 0.0003
-WHEEL_CONSTANT = 380.0 * 0.00006  # rpm = v_kmh * ratio / WHEEL_CONSTANT
-RPM_RATE_LIMIT = 5000.0  # rpm per second
-POWER_RPM_MIN, POWER_RPM_MAX = 1500.0, 5100.0
 CONSUMPTION_WINDOW_S = 2.0
 CONSUMPTION_UPDATE_S = 0.5
-MIN_DRIVE_SPEED = 2.0  # m/s: below this, drive force is the engine-block acceleration cap
-_TABLE_STEP = 0.1  # m/s resolution of the automatic gearbox table
-_RPM_TABLE_STEP = 10.0
-_AIR_K = 0.5 * RHO_AIR * CW * FRONTAL_AREA_M2
 _TABLE_MAX_SPEED = 120.0
 
 

@@ -120,6 +120,20 @@ def update_timers(active: np.ndarray, armed: np.ndarray, spec: np.ndarray, start
     return count
 
 
+@inline
+def lane_of(lateral: float, centres: np.ndarray, half_width: float) -> tuple[int, int]:
+    """(lane index, -1 off the lanes; index of the lane whose centre the offset is measured
+    from: that lane, or off the lanes the nearest one, the first of equals)."""
+    ln, ref, best = -1, 0, math.inf
+    for i in range(len(centres)):
+        gap = abs(lateral - centres[i])
+        if ln < 0 and gap <= half_width:
+            ln = i
+        if gap < best:
+            ref, best = i, gap
+    return ln, (ln if ln >= 0 else ref)
+
+
 @kernel
 def record_lanes(x: np.ndarray, z: np.ndarray, rows: np.ndarray, first: bool, sign: float, centres: np.ndarray, half_width: float,
                  keep_m: float, lat: np.ndarray, lane: np.ndarray, offset: np.ndarray, n: np.ndarray, mean: np.ndarray, m2: np.ndarray,
@@ -132,15 +146,7 @@ def record_lanes(x: np.ndarray, z: np.ndarray, rows: np.ndarray, first: bool, si
         if not rows[e]:
             continue
         la = -sign * x[e]
-        ln, ref, best = -1, 0, math.inf
-        for i in range(len(centres)):
-            gap = abs(la - centres[i])
-            if ln < 0 and gap <= half_width:
-                ln = i
-            if gap < best:
-                ref, best = i, gap
-        if ln >= 0:
-            ref = ln
+        ln, ref = lane_of(la, centres, half_width)
         off = la - centres[ref]
         if distance and not first:
             ds = py_hypot(x[e] - prev_x[e], z[e] - prev_z[e])

@@ -12,7 +12,6 @@ computes them with the guide's formulas.
 
 from __future__ import annotations
 
-import math
 import os
 
 import numpy as np
@@ -20,6 +19,7 @@ import numpy as np
 from ..envs.trace import COL, Trace
 from ..sim.guide import RoadGuide
 from ..sim.jit import kernel
+from .kernels import lane_of
 
 
 class TraceRing:
@@ -144,11 +144,5 @@ def _lane_columns(x: np.ndarray, sign: float, centres: np.ndarray, half: float, 
                   offset: np.ndarray) -> None:  # fmt: skip
     for e in range(len(x)):
         la = -sign * x[e]
-        ln, ref, best = -1, 0, math.inf
-        for i in range(len(centres)):
-            gap = abs(la - centres[i])
-            if ln < 0 and gap <= half:
-                ln = i
-            if gap < best:  # off the lanes: the nearest lane's centre (the first of equals)
-                ref, best = i, gap
-        lat[e], lane[e], offset[e] = la, ln, la - centres[ln if ln >= 0 else ref]
+        ln, ref = lane_of(la, centres, half)
+        lat[e], lane[e], offset[e] = la, ln, la - centres[ref]
