@@ -97,6 +97,19 @@ def body_step(
 
     x, z m; yaw rad (0 faces -Z); u forward, v left m/s; r rad/s; forces N.
     """
+    x, z, yaw, u, v, r, _, _ = body_step_trig(
+        p, x, z, yaw, u, v, r, dt, steer_rad, math.cos(steer_rad), math.sin(steer_rad), drive_n, brake_n, side_n
+    )
+    return x, z, yaw, u, v, r
+
+
+@inline
+def body_step_trig(p: np.ndarray, x: float, z: float, yaw: float, u: float, v: float, r: float, dt: float, steer_rad: float, cos_d: float,
+                   sin_d: float, drive_n: float, brake_n: float,
+                   side_n: float) -> tuple[float, float, float, float, float, float, float, float]:  # fmt: skip
+    """`body_step` given the cosine and sine of the steering angle, also returning the sine and
+    cosine of the new heading: a caller that holds the steering for several steps computes
+    them once, and one that needs the heading's (a box's centre) reuses them."""
     m, lf, lr = p[B_MASS], p[B_LF], p[B_LR]
     max_long = p[B_MAX_LONG]
     # longitudinal force: drive minus brakes (brakes oppose motion, never reverse it)
@@ -123,8 +136,6 @@ def body_step(
     v_dyn = r_dyn = 0.0
     if w_dyn > 0.0:
         # dynamic bicycle model with tanh-saturated tyre forces
-        cos_d = math.cos(steer_rad)
-        sin_d = math.sin(steer_rad)
         uu = u if au > 0.5 else math.copysign(0.5, u if u != 0.0 else 1.0)
         # slip angles; the force opposes the tyre's sideways slip, so reversing flips them
         sign = 1.0 if uu > 0.0 else -1.0
@@ -158,7 +169,7 @@ def body_step(
     # forward (-sin, -cos), left (-cos, +sin) in (x, z)
     x = x + (-u_new * sy - v_new * cy) * dt
     z = z + (-u_new * cy + v_new * sy) * dt
-    return x, z, yaw, u_new, v_new, r_new
+    return x, z, yaw, u_new, v_new, r_new, sy, cy
 
 
 @inline

@@ -166,14 +166,7 @@ class BatchCore:
     def step_rows(self, actions: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         """One policy step of the envs `rows`: (reward, terminated, truncated, info)."""
         c = self.actions.convert(actions, rows)
-        live = rows.copy()
-        for k in range(self.repeat):
-            self._physics_step(live, c)
-            self._record_row(live, first=False)
-            self._on_physics_step(live, k, c)
-            live &= ~self._stop_early()
-            if not live.any():
-                break
+        self._physics_steps(rows.copy(), c)
         s_now = self._s_along(self.s.z)
         self.progress = np.where(rows, s_now - self.last_s, 0.0)
         self.last_s = np.where(rows, s_now, self.last_s)
@@ -185,6 +178,17 @@ class BatchCore:
         terminated = self._terminated(self.new_collisions, task_end)
         truncated = ~terminated & (self.t >= self.config.max_episode_s - 1e-9)
         return reward, terminated & rows, truncated & rows, info
+
+    def _physics_steps(self, live: np.ndarray, c: BatchControls) -> None:
+        """The policy step's physics steps (action repeat) of the envs `live`, each followed by
+        its trace row and task hook; an env stops early when its episode ends."""
+        for k in range(self.repeat):
+            self._physics_step(live, c)
+            self._record_row(live, first=False)
+            self._on_physics_step(live, k, c)
+            live &= ~self._stop_early()
+            if not live.any():
+                break
 
     def _physics_step(self, live: np.ndarray, c: BatchControls) -> None:
         self.step_count += live

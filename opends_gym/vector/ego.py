@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from ..sim.ego_kernels import body_step, cruise_control, min_speed_gas, powertrain_core
-from ..sim.jit import kernel
+from ..sim.ego_kernels import body_step_trig, cruise_control, min_speed_gas, powertrain_core
+from ..sim.jit import inline, kernel
 from ..sim.vehicle import MAX_WHEEL_ANGLE_RAD
 
 
@@ -185,66 +185,43 @@ def step(p: EgoParams, s: EgoArrays, dt: float, steer: np.ndarray, gas: np.ndarr
 
 
 @kernel
-def _step_rows(
-    car: np.ndarray,
-    engine_on: bool,
-    suppress_cruise_off: bool,
-    min_speed: float,
-    dt: float,
-    live: np.ndarray,
-    x: np.ndarray,
-    z: np.ndarray,
-    yaw: np.ndarray,
-    u: np.ndarray,
-    v: np.ndarray,
-    r: np.ndarray,
-    gear: np.ndarray,
-    rpm: np.ndarray,
-    prev_v: np.ndarray,
-    fuel_used: np.ndarray,
-    fuel_left: np.ndarray,
-    steer_in: np.ndarray,
-    gas_in: np.ndarray,
-    brake_in: np.ndarray,
-    cruise_on: np.ndarray,
-    cruise_target: np.ndarray,
-    cruise_int: np.ndarray,
-    steer: np.ndarray,
-    gas: np.ndarray,
-    brake: np.ndarray,
-) -> None:
-    """`EgoCar.step` per row with the single env's own kernels: cruise control (no ACC),
-    minSpeed, powertrain and body."""
+def _step_rows(car: np.ndarray, engine_on: bool, suppress_cruise_off: bool, min_speed: float, dt: float, live: np.ndarray, x: np.ndarray,
+               z: np.ndarray, yaw: np.ndarray, u: np.ndarray, v: np.ndarray, r: np.ndarray, gear: np.ndarray, rpm: np.ndarray,
+               prev_v: np.ndarray, fuel_used: np.ndarray, fuel_left: np.ndarray, steer_in: np.ndarray, gas_in: np.ndarray,
+               brake_in: np.ndarray, cruise_on: np.ndarray, cruise_target: np.ndarray, cruise_int: np.ndarray, steer: np.ndarray,
+               gas: np.ndarray, brake: np.ndarray) -> None:  # fmt: skip
+    """`ego_step` for the rows `live`, in place."""
     for e in range(len(u)):
-        if not live[e]:
-            continue
-        v0 = u[e]
-        nan = math.nan
-        g, b, cruise_on[e], cruise_int[e] = cruise_control(
-            cruise_on[e], cruise_target[e], cruise_int[e], v0, gas[e], brake[e], dt, suppress_cruise_off, False, nan, 0.0, nan, nan
-        )
-        g = min_speed_gas(g, b, v0, gear[e], min_speed)
-        steer_in[e], gas_in[e], brake_in[e] = steer[e], g, b
-        gear[e], rpm[e], drive, brake_n, _, _, _, fuel_used[e], fuel_left[e] = powertrain_core(
-            car,
-            gear[e],
-            True,
-            engine_on,
-            rpm[e],
-            prev_v[e],
-            fuel_used[e],
-            fuel_left[e],
-            dt,
-            v0,
-            g * 1.0,
-            b,
-            0.0,
-            False,
-        )
-        prev_v[e] = v0
-        x[e], z[e], yaw[e], u[e], v[e], r[e] = body_step(
-            car, x[e], z[e], yaw[e], u[e], v[e], r[e], dt, steer[e] * MAX_WHEEL_ANGLE_RAD, drive, brake_n, 0.0
-        )
+        if live[e]:
+            v0, steer_in[e] = u[e], steer[e]
+            a = steer[e] * MAX_WHEEL_ANGLE_RAD
+            x[e], z[e], yaw[e], u[e], v[e], r[e], gear[e], rpm[e], fuel_used[e], fuel_left[e], cruise_on[e], cruise_int[e], gas_in[e], \
+                brake_in[e], _, _ = ego_step(car, engine_on, suppress_cruise_off, min_speed, dt, x[e], z[e], yaw[e], u[e], v[e], r[e],
+                                             gear[e], rpm[e], prev_v[e], fuel_used[e], fuel_left[e], cruise_on[e], cruise_target[e],
+                                             cruise_int[e], a, math.cos(a), math.sin(a), gas[e], brake[e])  # fmt: skip
+            prev_v[e] = v0
+
+
+@inline
+def ego_step(car: np.ndarray, engine_on: bool, suppress_cruise_off: bool, min_speed: float, dt: float, x: float, z: float, yaw: float,
+             u: float, v: float, r: float, gear: int, rpm: float, prev_v: float, fuel_used: float, fuel_left: float, cruise_on: bool,
+             cruise_target: float, cruise_int: float, steer_rad: float, cos_steer: float, sin_steer: float, gas: float,
+             brake: float) -> tuple[float, ...]:  # fmt: skip
+    """`EgoCar.step` of one car with the single env's own kernels: cruise control (no ACC),
+    minSpeed, powertrain and body (`body_step_trig`: the steering angle's cosine and sine are
+    given). Returns the new (x, z, yaw, u, v, r, gear, rpm, fuel used, fuel left, cruise on,
+    cruise integral), the pedals applied (gas, brake) and the new heading's sine and cosine;
+    the caller keeps the u it passed as the next step's `prev_v`, and the steering as applied."""
+    nan = math.nan
+    g, b, cruise_on, cruise_int = cruise_control(
+        cruise_on, cruise_target, cruise_int, u, gas, brake, dt, suppress_cruise_off, False, nan, 0.0, nan, nan
+    )
+    g = min_speed_gas(g, b, u, gear, min_speed)
+    gear, rpm, drive, brake_n, _, _, _, fuel_used, fuel_left = powertrain_core(
+        car, gear, True, engine_on, rpm, prev_v, fuel_used, fuel_left, dt, u, g * 1.0, b, 0.0, False
+    )
+    x, z, yaw, u, v, r, sy, cy = body_step_trig(car, x, z, yaw, u, v, r, dt, steer_rad, cos_steer, sin_steer, drive, brake_n, 0.0)
+    return x, z, yaw, u, v, r, gear, rpm, fuel_used, fuel_left, cruise_on, cruise_int, g, b, sy, cy
 
 
 def check_finite_pose(s: EgoArrays) -> None:

@@ -111,7 +111,8 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             templates = [template] + [gym.make(env_id, disable_env_checker=True, **kwargs).unwrapped for _ in range(shards - 1)]
             cores = [batch_cls(t, sl.stop - sl.start, record_metrics) for t, sl in zip(templates, self._slices)]  # type: ignore[arg-type]
             self.shards = [LocalShard(c, self._k, self._obs_size) for c in cores]
-            self._pool = ThreadPoolExecutor(max_workers=shards, thread_name_prefix="opends-native") if shards > 1 else None
+            # the calling thread steps the first shard itself; the pool the others
+            self._pool = ThreadPoolExecutor(max_workers=shards - 1, thread_name_prefix="opends-native") if shards > 1 else None
         self.record_metrics = record_metrics
         self.single_observation_space = template.observation_space
         self.single_action_space = template.action_space
@@ -151,7 +152,9 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {a.shape}")
         jobs = [(shard, a[sl], self._autoreset[sl]) for shard, sl in zip(self.shards, self._slices)]
         if self._pool is not None:
-            parts = list(self._pool.map(lambda job: job[0].step(job[1], job[2]), jobs))
+            pool = self._pool
+            others = [pool.submit(shard.step, actions, resetting) for shard, actions, resetting in jobs[1:]]
+            parts = [jobs[0][0].step(jobs[0][1], jobs[0][2])] + [f.result() for f in others]
         elif len(jobs) > 1:  # worker processes: start them all, then collect
             for shard, actions, resetting in jobs:
                 shard.send_step(actions, resetting)  # type: ignore[union-attr]

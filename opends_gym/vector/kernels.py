@@ -25,40 +25,70 @@ T_KIND, T_TIME_LIMIT, T_DISTANCE_LIMIT, T_TARGET_LANE, T_MIN_STEERING, T_ALLOW_B
 T_TARGET_SPEED, T_MUST_PRESS, T_ALLOW_LANE_CHANGE = 7, 8, 9
 N_TABLE = 10
 LANE = 0  # (timers.LANE)
+# columns of a trigger volume row (`TriggerBatch.vols`): centre, reach (no contact farther away along z), heading, half sizes
+V_CZ, V_CX, V_REACH, V_YAW, V_HX, V_HZ = range(6)
 FAIL, MISS, SUCCESS = 1, 2, 3
 
 
 @kernel
 def touch_triggers(x: np.ndarray, z: np.ndarray, yaw: np.ndarray, shift: float, rows: np.ndarray, hx: float, hz: float,
-                   cz: np.ndarray, cx: np.ndarray, reach: np.ndarray, table: np.ndarray, vol_triggers: np.ndarray, t: np.ndarray,
-                   locks: np.ndarray, out: np.ndarray) -> int:  # fmt: skip
+                   vols: np.ndarray, vol_triggers: np.ndarray, t: np.ndarray, locks: np.ndarray, near: np.ndarray,
+                   out: np.ndarray) -> int:  # fmt: skip
     """The trigger volume each car box (reference point x, z, heading yaw, centred `shift`
     ahead, half sizes hx, hz) of the envs `rows` overlaps and that has a trigger not locked
-    at time t (`out`, -1: none); the number of such envs. Volumes are sorted by cz and lie
-    far apart, so the nearest along z is the only candidate; `vol_triggers` lists each
-    volume's triggers (-1 padded)."""
+    at time t (`out`, -1: none); the number of such envs. `near` keeps each env's place in
+    the volume table (`nearest_volume`)."""
     count = 0
-    nv = len(cz)
     for e in range(len(x)):
         out[e] = -1
-        if not rows[e] or nv == 0:
-            continue
-        a = yaw[e]
-        bx, bz = x[e] - shift * math.sin(a), z[e] - shift * math.cos(a)
-        k = np.searchsorted(cz, bz)
-        lo = k - 1 if k > 0 else 0
-        hi = k if k < nv - 1 else nv - 1
-        j = lo if abs(cz[lo] - bz) <= abs(cz[hi] - bz) else hi
-        if not (abs(cz[j] - bz) < reach[j] and abs(cx[j] - bx) < reach[j] + 50.0):
-            continue
-        if not boxes_overlap(bx, bz, a, hx, hz, table[j, 0], table[j, 1], table[j, 2], table[j, 3], table[j, 4]):
-            continue
-        for i in vol_triggers[j]:
-            if i >= 0 and t[e] >= locks[e, i] - 1e-9:
+        if rows[e]:
+            bx, bz = box_centre(x[e], z[e], yaw[e], shift)
+            j, near[e] = nearest_volume(bx, bz, vols, near[e])
+            if j >= 0 and volume_fires(e, j, bx, bz, yaw[e], hx, hz, vols, vol_triggers, t[e], locks):
                 out[e] = j
                 count += 1
-                break
     return count
+
+
+@inline
+def box_centre(x: float, z: float, yaw: float, shift: float) -> tuple[float, float]:
+    """The centre of a car box whose reference point is (x, z), centred `shift` ahead."""
+    return x - shift * math.sin(yaw), z - shift * math.cos(yaw)
+
+
+@inline
+def nearest_volume(bx: float, bz: float, vols: np.ndarray, hint: int) -> tuple[int, int]:
+    """The trigger volume (row of `vols`, sorted by V_CZ) a box centred at (bx, bz) may touch
+    (-1: none within reach), and the first row with cz >= bz (np.searchsorted's), found by
+    walking from `hint` (that row at the last call: a car moves little between calls).
+    Volumes lie far apart, so the nearest along z is the only candidate."""
+    nv = vols.shape[0]
+    if nv == 0:
+        return -1, 0
+    lo = hint if 0 <= hint <= nv else 0
+    while lo > 0 and vols[lo - 1, V_CZ] >= bz:
+        lo -= 1
+    while lo < nv and vols[lo, V_CZ] < bz:
+        lo += 1
+    a = lo - 1 if lo > 0 else 0
+    b = lo if lo < nv - 1 else nv - 1
+    j = a if abs(vols[a, V_CZ] - bz) <= abs(vols[b, V_CZ] - bz) else b
+    reach = vols[j, V_REACH]
+    return (j if abs(vols[j, V_CZ] - bz) < reach and abs(vols[j, V_CX] - bx) < reach + 50.0 else -1), lo
+
+
+@inline
+def volume_fires(e: int, j: int, bx: float, bz: float, yaw: float, hx: float, hz: float, vols: np.ndarray, vol_triggers: np.ndarray,
+                 t: float, locks: np.ndarray) -> bool:  # fmt: skip
+    """Does env e's car box (centre bx, bz, heading yaw, half sizes hx, hz) overlap volume j,
+    which has a trigger not locked at time t? (`vol_triggers` lists each volume's triggers,
+    -1 padded.) Called only near a volume: it takes arrays, which an inlined call pays for."""
+    if not boxes_overlap(bx, bz, yaw, hx, hz, vols[j, V_CX], vols[j, V_CZ], vols[j, V_YAW], vols[j, V_HX], vols[j, V_HZ]):
+        return False
+    for i in vol_triggers[j]:  # noqa: SIM110 (a loop numba compiles)
+        if i >= 0 and t >= locks[e, i] - 1e-9:
+            return True
+    return False
 
 
 @inline
@@ -74,50 +104,61 @@ def lane_at(x: float, bands: np.ndarray) -> int:
 def update_timers(active: np.ndarray, armed: np.ndarray, spec: np.ndarray, start_t: np.ndarray, start_x: np.ndarray, start_z: np.ndarray,
                   peak: np.ndarray, hold_since: np.ndarray, braked: np.ndarray, start_lane: np.ndarray, table: np.ndarray,
                   bands: np.ndarray, rows: np.ndarray, t: np.ndarray, x: np.ndarray, z: np.ndarray, u: np.ndarray, steer: np.ndarray,
-                  brake: np.ndarray, done: np.ndarray) -> int:  # fmt: skip
-    """`ReactionCenter.update` for the running timers of the envs `rows`: steering peak, brake,
-    lane and speed checks, hold times and limits. A timer that ends is flagged in `done`
-    (FAIL, MISS, SUCCESS) for Python to score; returns how many ended."""
+                  brake: np.ndarray, done: np.ndarray, done_t: np.ndarray) -> int:  # fmt: skip
+    """`timer_step` for the running timers of the envs `rows`. A timer that ends is flagged
+    in `done` (FAIL, MISS, SUCCESS; 0 otherwise) at time `done_t` for Python to score;
+    returns how many ended."""
     count = 0
     for e in range(len(active)):
         done[e] = 0
-        if not (active[e] and rows[e]):
-            continue
-        k = spec[e]
-        lane_kind = table[k, T_KIND] == LANE
-        tl, dl = table[k, T_TIME_LIMIT], table[k, T_DISTANCE_LIMIT]
-        limit = (tl > 0.0 and t[e] - start_t[e] > tl + EPS) or (dl > 0.0 and py_hypot(x[e] - start_x[e], z[e] - start_z[e]) > dl)
-        arm = armed[e]
-        if not arm and limit:
-            active[e] = False  # an unarmed timer only expires
-        if lane_kind:
-            p = abs(steer[e]) * STEERING_WHEEL_MAX_DEG
-            peak[e] = peak[e] if peak[e] >= p else p
-        else:
-            braked[e] = braked[e] or brake[e] > 0.0
-        lane = lane_at(x[e], bands)
-        if lane_kind:
-            fail = table[k, T_ALLOW_BRAKE] == 0.0 and brake[e] > 0.0
-        else:
-            fail = table[k, T_ALLOW_LANE_CHANGE] == 0.0 and lane >= 0 and start_lane[e] >= 0 and lane != start_lane[e]
-        fail = fail and arm
-        miss = arm and not fail and limit
-        rest = arm and not fail and not miss
-        if lane_kind:
-            ok = lane == table[k, T_TARGET_LANE] and peak[e] >= table[k, T_MIN_STEERING] - EPS
-        else:
-            ok = u[e] <= table[k, T_TARGET_SPEED] + EPS and (braked[e] or table[k, T_MUST_PRESS] == 0.0)
-        hold = hold_since[e]
-        if rest and ok and math.isnan(hold):
-            hold = t[e]
-        if rest and not ok:
-            hold = math.nan
-        hold_since[e] = hold
-        success = rest and ok and t[e] - hold >= table[k, T_HOLD] - EPS
-        if fail or miss or success:
-            done[e] = FAIL if fail else MISS if miss else SUCCESS
-            count += 1
+        if active[e] and rows[e]:
+            how, expired, peak[e], braked[e], hold_since[e] = timer_step(
+                table, bands, spec[e], armed[e], start_t[e], start_x[e], start_z[e], peak[e], hold_since[e], braked[e], start_lane[e],
+                t[e], x[e], z[e], u[e], steer[e], brake[e],
+            )  # fmt: skip
+            if expired:
+                active[e] = False
+            if how:
+                done[e], done_t[e] = how, t[e]
+                count += 1
     return count
+
+
+@inline
+def timer_step(table: np.ndarray, bands: np.ndarray, k: int, armed: bool, start_t: float, start_x: float, start_z: float, peak: float,
+               hold_since: float, braked: bool, start_lane: int, t: float, x: float, z: float, u: float, steer: float,
+               brake: float) -> tuple[int, bool, float, bool, float]:  # fmt: skip
+    """`ReactionCenter.update` for one running timer of spec row k: steering peak, brake,
+    lane and speed checks, hold times and limits. Returns (how it ended: FAIL, MISS, SUCCESS
+    or 0; whether an unarmed timer expired, peak, braked, hold_since)."""
+    lane_kind = table[k, T_KIND] == LANE
+    tl, dl = table[k, T_TIME_LIMIT], table[k, T_DISTANCE_LIMIT]
+    limit = (tl > 0.0 and t - start_t > tl + EPS) or (dl > 0.0 and py_hypot(x - start_x, z - start_z) > dl)
+    expired = not armed and limit  # an unarmed timer only expires
+    if lane_kind:
+        p = abs(steer) * STEERING_WHEEL_MAX_DEG
+        peak = peak if peak >= p else p
+    else:
+        braked = braked or brake > 0.0
+    lane = lane_at(x, bands)
+    if lane_kind:
+        fail = table[k, T_ALLOW_BRAKE] == 0.0 and brake > 0.0
+    else:
+        fail = table[k, T_ALLOW_LANE_CHANGE] == 0.0 and lane >= 0 and start_lane >= 0 and lane != start_lane
+    fail = fail and armed
+    miss = armed and not fail and limit
+    rest = armed and not fail and not miss
+    if lane_kind:
+        ok = lane == table[k, T_TARGET_LANE] and peak >= table[k, T_MIN_STEERING] - EPS
+    else:
+        ok = u <= table[k, T_TARGET_SPEED] + EPS and (braked or table[k, T_MUST_PRESS] == 0.0)
+    if rest and ok and math.isnan(hold_since):
+        hold_since = t
+    if rest and not ok:
+        hold_since = math.nan
+    success = rest and ok and t - hold_since >= table[k, T_HOLD] - EPS
+    how = FAIL if fail else MISS if miss else SUCCESS if success else 0
+    return how, expired, peak, braked, hold_since
 
 
 @inline
@@ -138,26 +179,37 @@ def lane_of(lateral: float, centres: np.ndarray, half_width: float) -> tuple[int
 def record_lanes(x: np.ndarray, z: np.ndarray, rows: np.ndarray, first: bool, sign: float, centres: np.ndarray, half_width: float,
                  keep_m: float, lat: np.ndarray, lane: np.ndarray, offset: np.ndarray, n: np.ndarray, mean: np.ndarray, m2: np.ndarray,
                  distance: bool, prev_x: np.ndarray, prev_z: np.ndarray, dist: np.ndarray, area: np.ndarray) -> None:  # fmt: skip
-    """`OpenDSEnv._record_row`'s lane measures for the envs `rows`: lateral position, lane
-    (-1 off the lanes) and offset from the lane's centre (or the nearest lane's), the running
-    SDLP terms (Welford, samples within `keep_m` of the centre) and, with `distance`, the
-    distance driven and the area between the path and the lane centres (mean deviation)."""
+    """`lane_measures` for the envs `rows`, in place."""
     for e in range(len(x)):
-        if not rows[e]:
-            continue
-        la = -sign * x[e]
-        ln, ref = lane_of(la, centres, half_width)
-        off = la - centres[ref]
-        if distance and not first:
-            ds = py_hypot(x[e] - prev_x[e], z[e] - prev_z[e])
-            dist[e] = dist[e] + ds
-            area[e] = area[e] + 0.5 * (abs(offset[e]) + abs(off)) * ds
-        if abs(off) < keep_m:
-            count = n[e] + 1.0
-            d = off - mean[e]
-            mean[e] = mean[e] + d / count
-            m2[e] = m2[e] + d * (off - mean[e])
-            n[e] = count
-        lat[e], lane[e], offset[e] = la, ln, off
-        if distance:
-            prev_x[e], prev_z[e] = x[e], z[e]
+        if rows[e]:
+            lat[e], lane[e], offset[e], n[e], mean[e], m2[e], dist[e], area[e] = lane_measures(
+                x[e], z[e], first, sign, centres, half_width, keep_m, offset[e], n[e], mean[e], m2[e], distance, prev_x[e], prev_z[e],
+                dist[e], area[e],
+            )  # fmt: skip
+            if distance:
+                prev_x[e], prev_z[e] = x[e], z[e]
+
+
+@inline
+def lane_measures(x: float, z: float, first: bool, sign: float, centres: np.ndarray, half_width: float, keep_m: float, offset: float,
+                  n: float, mean: float, m2: float, distance: bool, prev_x: float, prev_z: float, dist: float,
+                  area: float) -> tuple[float, int, float, float, float, float, float, float]:  # fmt: skip
+    """`OpenDSEnv._record_row`'s lane measures at (x, z): lateral position, lane (-1 off the
+    lanes) and offset from the lane's centre (or the nearest lane's), the running SDLP terms
+    (Welford n, mean, m2 over samples within `keep_m` of the centre) and, with `distance`, the
+    distance driven and the area between the path and the lane centres (mean deviation);
+    `offset`, prev_x and prev_z are the previous row's."""
+    la = -sign * x
+    ln, ref = lane_of(la, centres, half_width)
+    off = la - centres[ref]
+    if distance and not first:
+        ds = py_hypot(x - prev_x, z - prev_z)
+        dist = dist + ds
+        area = area + 0.5 * (abs(offset) + abs(off)) * ds
+    if abs(off) < keep_m:
+        count = n + 1.0
+        d = off - mean
+        mean = mean + d / count
+        m2 = m2 + d * (off - mean)
+        n = count
+    return la, ln, off, n, mean, m2, dist, area

@@ -11,11 +11,12 @@ from typing import Any
 
 import numpy as np
 
+from ..envs.base import LANE_KEEPING_OFFSET_M
 from ..envs.lct import LaneChangeTestEnv
-from ..sim.jit import kernel
 from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
+from .lct_step import lct_substeps
 
 
 class LctBatch(BatchCore):
@@ -44,12 +45,50 @@ class LctBatch(BatchCore):
         self.has_prev = np.zeros(n, dtype=bool)
         self.prev_d = np.zeros(n)
         self.prev_dev = np.zeros(n)
+        if self.trace_columns != ("x_m", "z_m", "speed_mps", "steering") or self.has_traffic or self.needs_distance:
+            raise TypeError("lct_step writes the LCT's trace columns and measures; change it with them")
+        self._no_block = np.empty((len(self.trace_columns), 1, 1))
+        self._no_steps = np.zeros(n, dtype=np.int64)
+        self._steering = (np.zeros(n), np.zeros(n), np.zeros(n))  # lct_substeps' scratch
+        self._park = np.full(n, -1, dtype=np.int64)  # the physics step where a car waits for its triggers to fire (-1: none)
 
     def _reset_task(self, idx: np.ndarray) -> None:
         self.revealed[idx] = -1
         self.area[idx] = 0.0
         self.step_reward[idx] = 0.0
         self.has_prev[idx] = False
+
+    def _physics_steps(self, live: np.ndarray, c: BatchControls) -> None:
+        """`BatchCore._physics_steps` as one compiled loop (`lct_step`), back in Python only to
+        fire the triggers of the cars that touched their boxes and to score ended timers."""
+        s, trig, timers, ring, g = self.s, self.trig, self.timers, self.ring, self.guide
+        block_a, block_b = ring.reserve(self.repeat) if ring is not None else (self._no_block, self._no_block)
+        row0 = ring.g % ring.BLOCK if ring is not None else 0
+        ego_f = (s.x, s.z, s.yaw, s.u, s.v, s.r, s.rpm, s.prev_v, s.fuel_used, s.fuel_left, s.steer_in, s.gas_in, s.brake_in,
+                 s.cruise_target, s.cruise_int)  # fmt: skip
+        timer_f = (timers.start_t, timers.start_x, timers.start_z, timers.peak, timers.hold_since)
+        steps, resume = 0, False
+        while True:
+            parked, ran = lct_substeps(
+                resume, self.repeat, self.dt, live, self._park, self.step_count, self.t, trig.paused, self.p.car, self.p.engine_on,
+                self.p.suppress_cruise_off, self.p.min_speed, ego_f, s.gear, s.cruise_on, c.steer, c.gas, c.brake, self.car_shift,
+                self.car_half[0], self.car_half[1], trig.vols, trig.vol_triggers, trig.locks, trig.near, trig.contact, bool(timers.specs),
+                timers.active, timers.armed, timers.spec, timer_f, timers.braked, timers.start_lane, timers.table, timers.band_table,
+                timers.done, timers.done_t, g.sign, self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane,
+                self.offset, (self.rl["n"], self.rl["mean"], self.rl["m2"]), ring is not None, block_a, block_b, row0,
+                ring.steps if ring is not None else self._no_steps, self.start_z, self.norm, self.norm_d0, self.norm_step, self.scale,
+                self.has_prev, (self.prev_d, self.prev_dev, self.area, self.step_reward), self.off_road_limit, self._steering,
+            )  # fmt: skip
+            steps = max(steps, ran)
+            if timers.done.any():  # (before firing: a timer a trigger re-arms is scored first)
+                timers.score_ended(trig.started_at)
+            if not parked:
+                break
+            env = np.flatnonzero(trig.contact >= 0)
+            trig.fire(self.t, env, trig.contact[env], self._run_action)
+            resume = True
+        if ring is not None:
+            ring.g += steps
 
     def _on_action_rows(self, es: np.ndarray, act: CompiledAction, trigger: int) -> None:
         if act.name == "manipulateObject":
@@ -58,10 +97,6 @@ class LctBatch(BatchCore):
                 self.revealed[es] = np.maximum(self.revealed[es], k)
             return
         super()._on_action_rows(es, act, trigger)
-
-    def _on_physics_step(self, rows: np.ndarray, k: int, c: BatchControls) -> None:
-        lct_measures(self.s.z, self.lat, rows, self.start_z, self.norm, self.norm_d0, self.norm_step, self.scale, self.has_prev,
-                     self.prev_d, self.prev_dev, self.area, self.step_reward)  # fmt: skip
 
     def _stimulus(self) -> np.ndarray:
         z = self.s.z
@@ -84,26 +119,3 @@ class LctBatch(BatchCore):
     def _task_info(self, info: dict[str, np.ndarray]) -> None:
         dist = np.where(self.has_prev, self.prev_d, 0.0)
         info["mean_deviation_m"] = np.where(dist > 0, self.area / np.where(dist > 0, dist, 1.0), 0.0)
-
-
-@kernel
-def lct_measures(z: np.ndarray, lat: np.ndarray, rows: np.ndarray, start_z: float, norm: np.ndarray, d0: float, step: float,
-                 scale: float, has_prev: np.ndarray, prev_d: np.ndarray, prev_dev: np.ndarray, area: np.ndarray,
-                 reward: np.ndarray) -> None:  # fmt: skip
-    """`LaneChangeTestEnv._on_physics_step` per env of `rows`: the deviation from the normative
-    path (sampled every `step` metres from `d0`) at the distance driven, the area between the
-    two paths (trapezoids) and the reward's share of the step (m)."""
-    for e in range(len(z)):
-        if not rows[e]:
-            continue
-        d = start_z - z[e]
-        i = int((d - d0) / step)  # int(): towards zero
-        ideal = norm[0] if i < 0 else norm[len(norm) - 1] if i >= len(norm) else norm[i]
-        dev = abs(lat[e] - ideal)
-        if has_prev[e]:
-            mid = 0.5 * (dev + prev_dev[e])
-            dd = d - prev_d[e]
-            area[e] = area[e] + mid * dd
-            share = 1.0 - mid / scale
-            reward[e] = reward[e] + (share if share > 0.0 else 0.0) * dd
-        prev_d[e], prev_dev[e], has_prev[e] = d, dev, True

@@ -102,8 +102,9 @@ class TimerBatch:
         self.results: list[list[ReactionResult]] = [[] for _ in range(n)]
         self.n_results = np.zeros(n, dtype=np.int64)
         self.table = np.zeros((0, N_TABLE))  # one row per spec (columns `kernels.T_*`)
-        self._bands = np.array(bands, dtype=np.float64).reshape(-1, 2)
-        self._done = np.zeros(n, dtype=np.int64)
+        self.band_table = np.array(bands, dtype=np.float64).reshape(-1, 2)
+        self.done = np.zeros(n, dtype=np.int64)  # how each env's timer ended this step (`kernels.FAIL` ...; 0: it did not)
+        self.done_t = np.zeros(n)  # when
 
     def add_spec(self, key: int, name: str, args: dict[str, Any], lane_ids: tuple[str, ...]) -> None:
         spec = TimerSpec.from_args(name, args, lane_ids)
@@ -170,13 +171,16 @@ class TimerBatch:
         if not self.specs:
             return
         ended = update_timers(self.active, self.armed, self.spec, self.start_t, self.start_x, self.start_z, self.peak, self.hold_since,
-                              self.braked, self.start_lane, self.table, self._bands, rows, t, x, z, u, steer, brake,
-                              self._done)  # fmt: skip
-        if not ended:
-            return
-        for e in np.flatnonzero(self._done).tolist():
-            how = int(self._done[e])
-            now = float(t[e])
+                              self.braked, self.start_lane, self.table, self.band_table, rows, t, x, z, u, steer, brake, self.done,
+                              self.done_t)  # fmt: skip
+        if ended:
+            self.score_ended(started_at)
+
+    def score_ended(self, started_at: np.ndarray) -> None:
+        """Score the timers flagged in `done` (at their `done_t`) and clear the flags."""
+        for e in np.flatnonzero(self.done).tolist():
+            how = int(self.done[e])
+            now = float(self.done_t[e])
             if how == FAIL_:
                 result, rt = FAILURE, now - float(self.start_t[e])
             elif how == MISS_:
@@ -184,4 +188,5 @@ class TimerBatch:
             else:
                 result, rt = CORRECT, now - float(self.start_t[e]) - self.specs[int(self.spec[e])].hold_s
             self.active[e] = False
+            self.done[e] = 0
             self._score(e, result, rt, now, float(started_at[e]))

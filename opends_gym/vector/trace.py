@@ -26,7 +26,7 @@ class TraceRing:
     """`columns` recorded per physics step for `n` envs; episodes up to `max_steps` long.
     Columns that are not `Trace` columns (task measures) are read with `column`.
 
-    Rows live in blocks of BLOCK rows (one array per column and block). A block is
+    Rows live in blocks of BLOCK rows (one (columns, BLOCK, n) array per block). A block is
     allocated when first written and recycled once no running episode reaches back into it,
     so memory grows with the longest running episode (not with `max_steps` up front), short
     episodes stay in cache, and nothing is ever copied to make room.
@@ -44,8 +44,9 @@ class TraceRing:
                 f"the episode traces of {n} envs need {need / 2**30:.1f} GiB (for episode_metrics); "
                 "use fewer envs, a shorter max_episode_s, or record_metrics=False"
             )
-        self.blocks: dict[int, dict[str, np.ndarray]] = {}  # block number (g // BLOCK) -> column -> (BLOCK, n)
-        self._spare: list[dict[str, np.ndarray]] = []
+        self.index = {c: i for i, c in enumerate(columns)}
+        self.blocks: dict[int, np.ndarray] = {}  # block number (g // BLOCK) -> (column, BLOCK rows, n)
+        self._spare: list[np.ndarray] = []
         self.first = {c: np.zeros(n) for c in columns}  # the reset row of each env's episode
         self.g = 0  # rows written so far
         self.start = np.zeros(n, dtype=np.int64)  # g of each env's first step row
@@ -60,29 +61,39 @@ class TraceRing:
 
     def write(self, values: dict[str, np.ndarray], live: np.ndarray | None) -> None:
         """One physics step: a row for every env (rows of envs not `live` are never read)."""
-        b, row = divmod(self.g, self.BLOCK)
-        block = self.blocks.get(b)
-        if block is None:
-            block = self._new_block(b)
-        for c in self.columns:
-            block[c][row] = values[c]
+        block, row = self.reserve(1)[0], self.g % self.BLOCK
+        for c, i in self.index.items():
+            block[i, row] = values[c]
         self.g += 1
         if live is None:
             self.steps += 1
         else:
             self.steps[live] += 1
 
+    def reserve(self, rows: int) -> tuple[np.ndarray, np.ndarray]:
+        """The blocks holding the next `rows` (<= BLOCK) rows, from row g on: (block of row g,
+        block after it: the same one when they all fit). For writers that fill rows themselves
+        (a compiled step loop) and then advance `g` and `steps`."""
+        b = self.g // self.BLOCK
+        first = self.blocks.get(b)
+        if first is None:
+            first = self._new_block(b)
+        if (self.g + rows - 1) // self.BLOCK == b:
+            return first, first
+        second = self.blocks.get(b + 1)
+        return first, second if second is not None else self._new_block(b + 1)
+
     def set_last(self, c: str, values: np.ndarray) -> None:
         """Overwrite column c of the row written last (a measure known only after the row)."""
         b, row = divmod(self.g - 1, self.BLOCK)
-        self.blocks[b][c][row] = values
+        self.blocks[b][self.index[c], row] = values
 
-    def _new_block(self, b: int) -> dict[str, np.ndarray]:
+    def _new_block(self, b: int) -> np.ndarray:
         oldest = int(self.start.min()) // self.BLOCK  # blocks before it hold no running episode's rows
         for old in [k for k in self.blocks if k < oldest]:
             self._spare.append(self.blocks.pop(old))
         # np.empty, not zeros: numpy asks for huge pages then (fresh zeroed pages are slow to fault in)
-        block = self._spare.pop() if self._spare else {c: np.empty((self.BLOCK, self.n)) for c in self.columns}
+        block = self._spare.pop() if self._spare else np.empty((len(self.columns), self.BLOCK, self.n))
         self.blocks[b] = block
         return block
 
@@ -91,11 +102,12 @@ class TraceRing:
         k = int(self.steps[e])
         out = np.empty(k + 1)
         out[0] = self.first[c][e]
+        ci = self.index[c]
         g, end, i = int(self.start[e]), int(self.start[e]) + k, 1
         while g < end:
             b, row = divmod(g, self.BLOCK)
             take = min(self.BLOCK - row, end - g)
-            out[i : i + take] = self.blocks[b][c][row : row + take, e]
+            out[i : i + take] = self.blocks[b][ci, row : row + take, e]
             g, i = g + take, i + take
         return out
 

@@ -66,20 +66,19 @@ class TriggerBatch:
                 vols.append(Volume(o.position[0], o.position[2], o.yaw, hx, hz, tuple(tis)))
         vols.sort(key=lambda v: v.cz)
         self.volumes = vols
-        self._cz = np.array([v.cz for v in vols])
-        self._cx = np.array([v.cx for v in vols])
         car_r = math.hypot(*car_half)
-        self._reach = np.array([math.hypot(v.hx, v.hz) + car_r + 1.0 for v in vols])
         for a, b in itertools.pairwise(vols):
             if b.cz - a.cz <= 2.0 * max(math.hypot(a.hx, a.hz), math.hypot(b.hx, b.hz)) + 2.0 * car_r + 2.0:
                 raise ValueError("trigger volumes lie too close together for the native batch's contact search")
         self.car_half = car_half
-        self._table = np.array([(v.cx, v.cz, v.yaw, v.hx, v.hz) for v in vols]).reshape(-1, 5)
+        # one row per volume (columns `kernels.V_*`): one array, as each array an inlined kernel takes costs a reference count
+        self.vols = np.array([(v.cz, v.cx, math.hypot(v.hx, v.hz) + car_r + 1.0, v.yaw, v.hx, v.hz) for v in vols]).reshape(-1, 6)
         self.pause_s = np.array([t.pause_s for t in self.triggers])
         width = max([len(v.triggers) for v in vols], default=0)
         padded = [list(v.triggers) + [-1] * (width - len(v.triggers)) for v in vols]
-        self._vol_triggers = np.array(padded, dtype=np.int64).reshape(-1, width)  # each volume's triggers, -1 padded
-        self._contact = np.full(n, -1, dtype=np.int64)
+        self.vol_triggers = np.array(padded, dtype=np.int64).reshape(-1, width)  # each volume's triggers, -1 padded
+        self.contact = np.full(n, -1, dtype=np.int64)
+        self.near = np.zeros(n, dtype=np.int64)  # where each env's car was in the volume table (a search hint)
         # each volume's triggers in firing order (priority, then position)
         self._order = [sorted(v.triggers, key=lambda i: (-self.triggers[i].priority, i)) for v in vols]
         self.n_counters = core._n_counters
@@ -118,12 +117,12 @@ class TriggerBatch:
         """(env rows, volume index) of every car box (reference point x, z, heading yaw, the box
         centred `shift` ahead) of the envs `rows` over a trigger box with a trigger not locked
         at time t."""
-        n = touch_triggers(x, z, yaw, shift, rows, self.car_half[0], self.car_half[1], self._cz, self._cx, self._reach, self._table,
-                           self._vol_triggers, t, self.locks, self._contact)  # fmt: skip
+        n = touch_triggers(x, z, yaw, shift, rows, self.car_half[0], self.car_half[1], self.vols,
+                           self.vol_triggers, t, self.locks, self.near, self.contact)  # fmt: skip
         if n == 0:
             return _NONE, _NONE
-        env = np.flatnonzero(self._contact >= 0)
-        return env, self._contact[env]
+        env = np.flatnonzero(self.contact >= 0)
+        return env, self.contact[env]
 
     def fire(self, t: np.ndarray, env: np.ndarray, vol: np.ndarray, run: Callable[[np.ndarray, CompiledAction, int], None]) -> None:
         """Fire the triggers of the touched volumes: skip locked ones, lock, run their actions.
