@@ -48,17 +48,31 @@ class NormativeModel:
 def normative_path(
     d: np.ndarray, signs: Sequence[LctSign], lane_centers_m: Sequence[float], initial_lane: int, model: NormativeModel
 ) -> np.ndarray:
-    """Normative lateral position at each distance `d` (piecewise linear)."""
+    """Normative lateral position at each distance `d` (piecewise linear).
+
+    The latest sign whose lane change has started governs each point: its ramp from the old
+    lane to the new (constant gradient, clipped to 0..1), or before any, the initial lane.
+    Each point is looked up once (a sorted search), not once per sign."""
     d = np.asarray(d, dtype=float)
+    ordered = sorted(signs, key=lambda s: s.d_m)
+    start = np.array([s.d_m - model.start_before_sign_m for s in ordered])
+    length = np.array([max(model.length_per_lane_m * abs(s.to_lane - s.from_lane), 1e-6) for s in ordered])
+    end = start + length
+    y_from = np.array([float(lane_centers_m[s.from_lane]) for s in ordered])
+    y_to = np.array([float(lane_centers_m[s.to_lane]) for s in ordered])
     y = np.full(d.shape, float(lane_centers_m[initial_lane]))
-    for sign in sorted(signs, key=lambda s: s.d_m):
-        start = sign.d_m - model.start_before_sign_m
-        end = start + max(model.length_per_lane_m * abs(sign.to_lane - sign.from_lane), 1e-6)
-        y_from = float(lane_centers_m[sign.from_lane])
-        y_to = float(lane_centers_m[sign.to_lane])
-        ramp = np.clip((d - start) / (end - start), 0.0, 1.0)
-        after = d >= start
-        y = np.where(after, y_from + ramp * (y_to - y_from), y)
+    if not ordered:
+        return y + model.habitual_offset_m
+    if np.any(np.diff(start) < 0.0):  # (lane changes that start out of order: each sign in turn)
+        for k in range(len(ordered)):
+            ramp = np.clip((d - start[k]) / (end[k] - start[k]), 0.0, 1.0)
+            y = np.where(d >= start[k], y_from[k] + ramp * (y_to[k] - y_from[k]), y)
+        return y + model.habitual_offset_m
+    last = np.searchsorted(start, d, side="right") - 1  # the last sign started at d (-1: none; NaN: none)
+    on = (last >= 0) & ~np.isnan(d)
+    i = last[on]
+    ramp = np.clip((d[on] - start[i]) / (end[i] - start[i]), 0.0, 1.0)
+    y[on] = y_from[i] + ramp * (y_to[i] - y_from[i])
     return y + model.habitual_offset_m
 
 
@@ -91,20 +105,30 @@ def fit_lane_changes(
     y = np.asarray(y, dtype=float)
     ordered = sorted(signs, key=lambda s: s.d_m)
     out: list[LaneChangeFit] = []
+    # distance that never decreases (the usual drive): each window is a slice, found by a sorted search
+    monotonic = len(d) < 2 or bool(np.all(d[1:] >= d[:-1]))
     for k, sign in enumerate(ordered):
         y_from = float(lane_centers_m[sign.from_lane])
         y_to = float(lane_centers_m[sign.to_lane])
         shift = y_to - y_from
         window_start = sign.d_m - visibility_m
         window_end = ordered[k + 1].d_m - visibility_m if k + 1 < len(ordered) else (d[-1] if len(d) else sign.d_m)
-        mask = (d >= window_start) & (d <= window_end)
-        if shift == 0.0 or not np.any(mask):
+        window: slice | np.ndarray
+        if monotonic:
+            lo, hi = np.searchsorted(d, window_start, side="left"), np.searchsorted(d, window_end, side="right")
+            window = slice(int(lo), int(max(lo, hi)))
+            empty = hi <= lo
+        else:
+            mask = (d >= window_start) & (d <= window_end)
+            window, empty = mask, not np.any(mask)
+        if shift == 0.0 or empty:
             out.append(LaneChangeFit(sign, math.nan, math.nan, sign.from_lane == sign.to_lane, math.nan))
             continue
-        dd, frac = d[mask], (y[mask] - y_from) / shift
+        dd, y_in = d[window], y[window]
+        frac = (y_in - y_from) / shift
         i10 = np.flatnonzero(frac >= 0.1)
         i90 = np.flatnonzero(frac >= 0.9)
-        reached = bool(np.any(np.abs(y[mask] - y_to) < 0.5 * abs(shift) * 0.5))
+        reached = bool(np.any(np.abs(y_in - y_to) < 0.5 * abs(shift) * 0.5))
         if len(i10) == 0 or len(i90) == 0:
             out.append(LaneChangeFit(sign, math.nan, math.nan, reached, math.nan))
             continue

@@ -105,6 +105,11 @@ class BatchCore:
     def _on_physics_step(self, rows: np.ndarray, k: int, c: BatchControls) -> None:
         """After each physics step's trace row (the single env's `_on_physics_step`)."""
 
+    def observation(self, k: int, size: int) -> np.ndarray | None:
+        """The kinematics observation in one compiled pass, for batches that have one (None:
+        `shards.observe` assembles it from `vehicle_slots` and `_stimulus`)."""
+        return None
+
     def _stimulus(self) -> np.ndarray:
         return np.zeros((self.n, 0))
 
@@ -259,11 +264,9 @@ class BatchCore:
         return np.where(n >= 2, np.sqrt(self.rl["m2"] / np.maximum(n, 1.0)), 0.0)
 
     def info(self) -> dict[str, np.ndarray]:
-        result = np.zeros(self.n)
-        rt = np.zeros(self.n)
-        for e in np.flatnonzero(self.timers.n_results > self.reaction_cursor).tolist():
-            last = self.timers.results[e][-1]
-            result[e], rt[e] = float(last.result), float(last.reaction_time_s)
+        new = self.timers.n_results > self.reaction_cursor
+        result = np.where(new, self.timers.last_result, 0.0)
+        rt = np.where(new, self.timers.last_rt, 0.0)
         self.reaction_cursor = self.timers.n_results.copy()
         dist = self.rl["dist"]
         info = {
@@ -297,6 +300,6 @@ class BatchCore:
         w.t_s = float(self.t[e])
         w.collisions = int(self.collisions[e])
         w.ego.powertrain.state.fuel_used_l = float(self.s.fuel_used[e])
-        w.triggers.center.results = list(self.timers.results[e])
+        w.triggers.center.results = self.timers.results_of(e)
         self._load_episode(e)
         return tpl.episode_metrics()

@@ -213,3 +213,9 @@ def lane_measures(x: float, z: float, first: bool, sign: float, centres: np.ndar
         m2 = m2 + d * (off - mean)
         n = count
     return la, ln, off, n, mean, m2, dist, area
+
+
+@inline
+def heading_error(yaw: float, heading: float) -> float:
+    """`ObservationType.ego_features`' heading error: yaw - heading wrapped to [-pi, pi)."""
+    return (yaw - heading + math.pi) % (2.0 * math.pi) - math.pi

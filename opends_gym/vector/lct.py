@@ -13,10 +13,11 @@ import numpy as np
 
 from ..envs.base import LANE_KEEPING_OFFSET_M
 from ..envs.lct import LaneChangeTestEnv
+from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
-from .lct_step import lct_substeps
+from .lct_step import lct_observation, lct_outcomes, lct_substeps
 
 
 class LctBatch(BatchCore):
@@ -57,6 +58,48 @@ class LctBatch(BatchCore):
         self.area[idx] = 0.0
         self.step_reward[idx] = 0.0
         self.has_prev[idx] = False
+
+    def step_rows(self, actions: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """`BatchCore.step_rows` with its ending (progress, info, reward, flags) in one compiled
+        pass (`lct_outcomes`)."""
+        c = self.actions.convert(actions, rows)
+        self._physics_steps(rows.copy(), c)
+        n, s, tm = self.n, self.s, self.timers
+        floats = tuple(np.empty(n) for _ in range(6))
+        new_collisions = np.empty(n, dtype=np.int64)
+        reward, terminated, truncated = np.empty(n), np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        lct_outcomes(rows, self.guide.sign, self.guide.start_xz[1], s.z, s.u, self.last_s, self.progress, self.collisions,
+                     self.collisions_seen, self.new_collisions, tm.n_results, self.reaction_cursor, tm.last_result, tm.last_rt,
+                     self.rl["n"], self.rl["m2"], self.has_prev, self.prev_d, self.area, self.lat, self.off_road_limit, self.step_reward,
+                     self.reward_scale, self.off_road_penalty, self.trig.paused, bool(self.config.terminate_on_collision), self.t,
+                     float(self.config.max_episode_s), floats, (new_collisions,), reward, terminated, truncated)  # fmt: skip
+        speed_kmh, result, rt, mdev, sdlp, progress = floats
+        info = {
+            "sim_time_s": self.t.copy(),
+            "speed_kmh": speed_kmh,
+            "lateral_offset_m": self.offset.copy(),
+            "lane_index": self.lane.copy(),
+            "fuel_used_l": s.fuel_used.copy(),
+            "collisions": self.collisions.copy(),
+            "reaction_result": result,
+            "reaction_time_s": rt,
+            "mean_deviation_m": mdev,
+            "sdlp_m": sdlp,
+            "headway_s": self.headway.copy(),
+            "ttc_s": self.ttc.copy(),
+            "progress_m": progress,
+            "new_collisions": new_collisions,
+        }
+        return reward, terminated, truncated, info
+
+    def observation(self, k: int, size: int) -> np.ndarray:
+        if size != len(EGO_NAMES) + k * len(VEHICLE_NAMES) + 3:
+            raise ValueError(f"lct_observation writes 7 ego features, {k} empty vehicle slots and 3 stimulus values, not {size} values")
+        out = np.empty((self.n, size), dtype=np.float32)
+        s = self.s
+        lct_observation(out, s.u, s.yaw, self.guide.road_heading, self.offset, self.lat, self.lane, s.steer_in, s.r, s.z, self.revealed,
+                        self.sign_z, self.sign_lane, self.lane_lat)  # fmt: skip
+        return out
 
     def _physics_steps(self, live: np.ndarray, c: BatchControls) -> None:
         """`BatchCore._physics_steps` as one compiled loop (`lct_step`), back in Python only to

@@ -19,7 +19,7 @@ import numpy as np
 from ..sim.jit import inline, kernel
 from ..sim.vehicle import MAX_WHEEL_ANGLE_RAD
 from .ego import ego_step
-from .kernels import lane_measures, nearest_volume, timer_step, volume_fires
+from .kernels import heading_error, lane_measures, nearest_volume, timer_step, volume_fires
 
 
 @kernel
@@ -138,3 +138,78 @@ def lct_measure(z: float, lat: float, start_z: float, norm: np.ndarray, d0: floa
         share = 1.0 - mid / scale
         reward = reward + (share if share > 0.0 else 0.0) * dd
     return d, dev, area, reward
+
+
+@kernel
+def lct_observation(out: np.ndarray, u: np.ndarray, yaw: np.ndarray, heading: float, offset: np.ndarray, lat: np.ndarray,
+                    lane: np.ndarray, steer: np.ndarray, r: np.ndarray, z: np.ndarray, revealed: np.ndarray, sign_z: np.ndarray,
+                    sign_lane: np.ndarray, lane_lat: np.ndarray) -> None:  # fmt: skip
+    """The LCT's kinematics observation (float32): the ego features (`shards.ego_features`),
+    zeros for the vehicle slots, then the stimulus of `LctBatch._stimulus`: the revealed
+    sign's visibility, the lateral gap to its lane and the distance driven past it (m)."""
+    width = out.shape[1]
+    for e in range(len(u)):
+        out[e, 0] = u[e]
+        out[e, 1] = heading_error(yaw[e], heading)
+        out[e, 2] = offset[e]
+        out[e, 3] = lat[e]
+        out[e, 4] = lane[e]
+        out[e, 5] = steer[e]
+        out[e, 6] = r[e]
+        for i in range(7, width - 3):
+            out[e, i] = 0.0
+        k = revealed[e]
+        distance = 0.0
+        if k >= 0:
+            d = z[e] - sign_z[k]
+            distance = 0.0 if d < 0.0 else d  # (np.maximum: NaN stays NaN)
+        target = sign_lane[k] if k >= 0 else sign_lane[len(sign_lane) - 1]
+        out[e, width - 3] = 1.0 if k >= 0 and distance > 0.0 else 0.0
+        out[e, width - 2] = lane_lat[target] - lat[e]
+        out[e, width - 1] = distance
+
+
+@kernel
+def lct_outcomes(rows: np.ndarray, sign: float, origin_z: float, z: np.ndarray, u: np.ndarray, last_s: np.ndarray,
+                 progress: np.ndarray, collisions: np.ndarray, collisions_seen: np.ndarray, new_collisions: np.ndarray,
+                 n_results: np.ndarray, cursor: np.ndarray, last_result: np.ndarray, last_rt: np.ndarray, sd_n: np.ndarray,
+                 sd_m2: np.ndarray, has_prev: np.ndarray, prev_d: np.ndarray, area: np.ndarray, lat: np.ndarray, off_road: float,
+                 step_reward: np.ndarray, reward_scale: float, penalty: float, paused: np.ndarray, terminate_on_collision: bool,
+                 t: np.ndarray, max_s: float, info_f: tuple, info_i: tuple, reward: np.ndarray, terminated: np.ndarray,
+                 truncated: np.ndarray) -> None:  # fmt: skip
+    """The end of `BatchCore.step_rows` for the LCT in one pass: progress along the road,
+    new collisions, the info values (`info_f`: speed_kmh, reaction_result, reaction_time_s,
+    mean_deviation_m, sdlp_m, progress_m; `info_i`: new_collisions), the reward (which
+    empties `step_reward`) and the episode flags of the envs `rows` (the others: reward 0,
+    flags False), with the formulas of `BatchCore.info`, `LctBatch._reward`,
+    `_task_terminated` and `BatchCore._terminated`."""
+    speed_kmh, result, rt, mdev, sdlp, progress_m = info_f
+    (new_coll_out,) = info_i
+    for e in range(len(z)):
+        s_now = -sign * (z[e] - origin_z)
+        progress[e] = s_now - last_s[e] if rows[e] else 0.0
+        if rows[e]:
+            last_s[e] = s_now
+        new_collisions[e] = collisions[e] - collisions_seen[e] if rows[e] else 0
+        collisions_seen[e] = collisions[e]
+        fresh = n_results[e] > cursor[e]
+        result[e] = last_result[e] if fresh else 0.0
+        rt[e] = last_rt[e] if fresh else 0.0
+        cursor[e] = n_results[e]
+        speed_kmh[e] = u[e] * 3.6
+        n = sd_n[e]
+        sdlp[e] = math.sqrt(sd_m2[e] / (n if n > 1.0 else 1.0)) if n >= 2 else 0.0
+        dist = prev_d[e] if has_prev[e] else 0.0
+        mdev[e] = area[e] / dist if dist > 0 else 0.0
+        progress_m[e] = progress[e]
+        new_coll_out[e] = new_collisions[e]
+        task_end = abs(lat[e]) > off_road
+        r = reward_scale * step_reward[e]
+        step_reward[e] = 0.0
+        if task_end:
+            r = r - penalty
+        r = r - 10.0 * float(new_collisions[e])
+        ended = paused[e] or task_end or (terminate_on_collision and new_collisions[e] > 0)
+        reward[e] = r if rows[e] else 0.0
+        terminated[e] = ended and rows[e]
+        truncated[e] = not ended and t[e] >= max_s - 1e-9 and rows[e]

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import ctypes
 import gc
-import math
 import multiprocessing as mp
 import traceback
 import tracemalloc
@@ -27,6 +26,7 @@ import numpy as np
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from ..sim.jit import kernel
 from .core import BatchCore
+from .kernels import heading_error
 
 # obs, reward, terminated, truncated, info arrays, [(env in shard, episode metrics)], error
 StepResult = tuple[Any, ...]
@@ -218,6 +218,9 @@ def _serve(conn: Connection, env_id: str, batch_cls: type[BatchCore], n: int, re
 
 def observe(c: BatchCore, k: int, size: int) -> np.ndarray:
     """The kinematics observation of every env of a shard (float32, as the single env's)."""
+    own = c.observation(k, size)
+    if own is not None:
+        return own
     s = c.s
     out = np.empty((c.n, size), dtype=np.float32)
     ego_features(out, s.u, s.yaw, c.guide.road_heading, c.offset, c.lat, c.lane, s.steer_in, s.r)
@@ -241,7 +244,7 @@ def ego_features(out: np.ndarray, u: np.ndarray, yaw: np.ndarray, heading: float
     yaw rate."""
     for e in range(len(u)):
         out[e, 0] = u[e]
-        out[e, 1] = (yaw[e] - heading + math.pi) % (2.0 * math.pi) - math.pi
+        out[e, 1] = heading_error(yaw[e], heading)
         out[e, 2] = offset[e]
         out[e, 3] = lat[e]
         out[e, 4] = lane[e]

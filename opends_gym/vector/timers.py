@@ -99,8 +99,10 @@ class TimerBatch:
         self.hold_since = np.full(n, np.nan)
         self.braked = np.zeros(n, dtype=bool)
         self.start_lane = np.full(n, -1, dtype=np.int64)
-        self.results: list[list[ReactionResult]] = [[] for _ in range(n)]
+        self.results: list[list[tuple[int, int, float, float, float, float]]] = [[] for _ in range(n)]  # see `_score`
         self.n_results = np.zeros(n, dtype=np.int64)
+        self.last_result = np.zeros(n)  # the latest result's code and reaction time (s)
+        self.last_rt = np.zeros(n)  # (rounded to the nanosecond, as ReactionResult)
         self.table = np.zeros((0, N_TABLE))  # one row per spec (columns `kernels.T_*`)
         self.band_table = np.array(bands, dtype=np.float64).reshape(-1, 2)
         self.done = np.zeros(n, dtype=np.int64)  # how each env's timer ended this step (`kernels.FAIL` ...; 0: it did not)
@@ -147,21 +149,31 @@ class TimerBatch:
             self.armed[es] = u >= spec.start_speed_mps - 1e-9
 
     def _score(self, e: int, result: int, rt_s: float, t: float, started_at: float) -> None:
-        spec = self.specs[int(self.spec[e])]
-        self.results[e].append(
-            ReactionResult(
-                timer_id=spec.timer_id,
-                kind="laneChange" if spec.kind == LANE else "brake",
-                group=spec.group,
-                result=result,
-                reaction_time_s=round(rt_s, 9),
-                start_t_s=round(float(self.start_t[e]), 9),
-                t_s=round(t, 9),
-                experiment_time_s=round(t - started_at, 9),
-                comment=spec.comment,
-            )
-        )
+        """Log a result: as a plain tuple (the `ReactionResult` is built when asked for, by
+        `results_of`: most are never read) and as env e's latest result and reaction time."""
+        self.results[e].append((int(self.spec[e]), result, rt_s, float(self.start_t[e]), t, started_at))
         self.n_results[e] += 1
+        self.last_result[e], self.last_rt[e] = result, round(rt_s, 9)
+
+    def results_of(self, e: int) -> list[ReactionResult]:
+        """Env e's results this episode, as `ReactionCenter.results` holds them."""
+        out = []
+        for k, result, rt_s, start_t, t, started_at in self.results[e]:
+            spec = self.specs[k]
+            out.append(
+                ReactionResult(
+                    timer_id=spec.timer_id,
+                    kind="laneChange" if spec.kind == LANE else "brake",
+                    group=spec.group,
+                    result=result,
+                    reaction_time_s=round(rt_s, 9),
+                    start_t_s=round(start_t, 9),
+                    t_s=round(t, 9),
+                    experiment_time_s=round(t - started_at, 9),
+                    comment=spec.comment,
+                )
+            )
+        return out
 
     # ------------------------------------------------------------------ polling
     def update(self, rows: np.ndarray, t: np.ndarray, x: np.ndarray, z: np.ndarray, u: np.ndarray, steer: np.ndarray, brake: np.ndarray,
