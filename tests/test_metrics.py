@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -153,6 +154,67 @@ def test_lct_normative_path_and_mdev() -> None:
     # the adapted model learns the late start and scores the consistent driver ~0
     assert res["adapted_start_before_sign_m"] == pytest.approx(15.0, abs=0.2)
     assert res["mdev_adapted_m"] < 0.02
+
+
+def _normative_by_sign(d: np.ndarray, signs: list[LctSign], centers: list[float], initial: int, model: NormativeModel) -> np.ndarray:
+    """The normative path as its definition reads: each sign in turn ramps every point past its start."""
+    y = np.full(d.shape, float(centers[initial]))
+    for sign in sorted(signs, key=lambda s: s.d_m):
+        start = sign.d_m - model.start_before_sign_m
+        end = start + max(model.length_per_lane_m * abs(sign.to_lane - sign.from_lane), 1e-6)
+        ramp = np.clip((d - start) / (end - start), 0.0, 1.0)
+        y = np.where(d >= start, centers[sign.from_lane] + ramp * (centers[sign.to_lane] - centers[sign.from_lane]), y)
+    return y + model.habitual_offset_m
+
+
+def _fits_by_mask(d: np.ndarray, y: np.ndarray, signs: list[LctSign], centers: list[float], visibility_m: float) -> list[tuple[float, ...]]:
+    """`fit_lane_changes` as its definition reads: a boolean window per sign."""
+    ordered = sorted(signs, key=lambda s: s.d_m)
+    out: list[tuple[float, ...]] = []
+    for k, sign in enumerate(ordered):
+        shift = centers[sign.to_lane] - centers[sign.from_lane]
+        lo = sign.d_m - visibility_m
+        hi = ordered[k + 1].d_m - visibility_m if k + 1 < len(ordered) else d[-1]
+        mask = (d >= lo) & (d <= hi)
+        if shift == 0.0 or not mask.any():
+            out.append((math.nan, math.nan, float(sign.from_lane == sign.to_lane), math.nan))
+            continue
+        frac = (y[mask] - centers[sign.from_lane]) / shift
+        reached = float(np.any(np.abs(y[mask] - centers[sign.to_lane]) < 0.25 * abs(shift)))
+        i10, i90 = np.flatnonzero(frac >= 0.1), np.flatnonzero(frac >= 0.9)
+        if len(i10) == 0 or len(i90) == 0:
+            out.append((math.nan, math.nan, reached, math.nan))
+            continue
+        length = max((d[mask][i90[0]] - d[mask][i10[0]]) / 0.8, 1e-6)
+        start = d[mask][i10[0]] - 0.1 * length
+        out.append((start, length, reached, start - lo))
+    return out
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_lct_path_and_fits_equal_their_definitions(seed: int) -> None:
+    """normative_path looks each point up once and fit_lane_changes slices its windows when
+    the distance never decreases; both give exactly what the per-sign definitions give
+    (with standing still, driving back and points before the first sign)."""
+    from opends_gym.metrics.lct import fit_lane_changes
+
+    rng = np.random.default_rng(seed)
+    centers = [3.85, 0.0, -3.85]
+    lanes = rng.integers(0, 3, 9)
+    signs = [LctSign(float(150 * (k + 1) + rng.uniform(-20, 20)), int(a), int(b)) for k, (a, b) in enumerate(itertools.pairwise(lanes))]
+    model = NormativeModel(float(rng.uniform(0, 40)), float(rng.uniform(5, 120)), float(rng.normal(0, 0.3)))  # (ramps may overlap)
+    d = np.cumsum(rng.uniform(0.0, 0.5, 3000)) - 60.0
+    edges = [s.d_m - model.start_before_sign_m for s in signs] + [s.d_m - 40.0 for s in signs]  # ramps start, windows open
+    d = np.sort(np.concatenate([d, edges, edges]))  # points exactly on them, twice
+    d[100:140] = d[100]  # standing still
+    y = np.cumsum(rng.normal(0, 0.05, len(d)))
+    y[np.isin(d, edges)] += 2.0  # (a sample on a window's edge decides its fit)
+    for dist in (d, d + np.where(np.arange(len(d)) % 97 == 0, -3.0, 0.0)):  # monotonic, then driving back now and then
+        assert np.array_equal(
+            normative_path(dist, signs, centers, int(lanes[0]), model), _normative_by_sign(dist, signs, centers, int(lanes[0]), model)
+        )
+        fits = [(f.start_d_m, f.length_m, float(f.reached_target), f.latency_m) for f in fit_lane_changes(dist, y, signs, centers, 40.0)]
+        assert np.array_equal(np.array(fits), np.array(_fits_by_mask(dist, y, signs, centers, 40.0)), equal_nan=True)
 
 
 def test_mean_ci() -> None:

@@ -15,8 +15,10 @@ from ..task import DrivingTask
 from .base import OpenDSEnv
 from .config import EnvConfig
 from .lct_task import LctGeometry, LctSignSpec, build_lct_task, sign_sequence
+from .trace import COL
 
 _GEOMETRY_FIELDS = {f.name for f in dataclasses.fields(LctGeometry)}
+_Z, _LAT = COL["z_m"], COL["lateral_m"]
 
 
 @dataclass(frozen=True)
@@ -122,6 +124,9 @@ class LaneChangeTestEnv(OpenDSEnv):
         self._norm_d0 = float(d[0])
         self._norm = normative_path(d, self.metric_signs, self.lane_laterals, self.initial_lane, self.basic).tolist()
         self.half_road = g.lanes * g.lane_width_m / 2
+        cfg: Any = self.config  # (frozen: the per-step limits are read once)
+        self._off_road_m = self.half_road + cfg.off_road_margin_m
+        self._deviation_scale = cfg.reward_deviation_scale_m
         self._start_z = float(self.world.task.start_pose.position_m[2])  # (a scene lookup: not per step)
 
     def _norm_at(self, d: float) -> float:
@@ -135,14 +140,13 @@ class LaneChangeTestEnv(OpenDSEnv):
         self._prev: tuple[float, float] | None = None
 
     def _on_physics_step(self) -> None:
-        tr = self.trace
-        d = self._start_z - tr.last("z_m")
-        dev = abs(tr.last("lateral_m") - self._norm_at(d))
+        row = self.trace.last_row()  # (this runs every physics step: one row lookup, no names)
+        d = self._start_z - row[_Z]
+        dev = abs(row[_LAT] - self._norm_at(d))
         if self._prev is not None:
             d0, dev0 = self._prev
             self._area += 0.5 * (dev + dev0) * (d - d0)
-            scale = self.config.reward_deviation_scale_m  # type: ignore[attr-defined]
-            self._step_reward += max(0.0, 1.0 - 0.5 * (dev + dev0) / scale) * (d - d0)
+            self._step_reward += max(0.0, 1.0 - 0.5 * (dev + dev0) / self._deviation_scale) * (d - d0)
         self._prev = (d, dev)
 
     def _active_sign(self) -> LctSignSpec | None:
@@ -173,7 +177,8 @@ class LaneChangeTestEnv(OpenDSEnv):
         info["mean_deviation_m"] = self._area / dist if dist > 0 else 0.0
 
     def _task_terminated(self) -> bool:
-        return abs(self.trace.last("lateral_m")) > self.half_road + self.config.off_road_margin_m  # type: ignore[attr-defined]
+        row = self.trace.last_row()
+        return bool(row) and abs(row[_LAT]) > self._off_road_m
 
     def _episode_metrics(self) -> dict[str, float]:
         tr = self.trace
@@ -182,11 +187,11 @@ class LaneChangeTestEnv(OpenDSEnv):
         y = tr.col("lateral_m")
         passed = [s for s in self.metric_signs if s.d_m <= d[-1]]
         out: dict[str, float] = {}
+        fits = fit_lane_changes(d, y, passed, self.lane_laterals, g.visibility_m) if passed else []
         if len(d) > 1 and passed:
-            out.update(lct_mdev(d, y, passed, self.lane_laterals, self.initial_lane, self.basic, g.visibility_m))
+            out.update(lct_mdev(d, y, passed, self.lane_laterals, self.initial_lane, self.basic, g.visibility_m, fits))
         else:
             out.update({"mdev_basic_m": math.nan, "mdev_adapted_m": math.nan})
-        fits = fit_lane_changes(d, y, passed, self.lane_laterals, g.visibility_m) if passed else []
         timer = self._timer_results()
         latencies = []
         for k, f in enumerate(fits):

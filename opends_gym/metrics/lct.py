@@ -140,10 +140,19 @@ def fit_lane_changes(
 
 
 def fit_adapted_model(
-    d: np.ndarray, y: np.ndarray, signs: Sequence[LctSign], lane_centers_m: Sequence[float], visibility_m: float, fallback: NormativeModel
+    d: np.ndarray,
+    y: np.ndarray,
+    signs: Sequence[LctSign],
+    lane_centers_m: Sequence[float],
+    visibility_m: float,
+    fallback: NormativeModel,
+    fits: Sequence[LaneChangeFit] | None = None,
 ) -> NormativeModel:
-    """A driver's own normative model: median start and length, median in-lane offset."""
-    fits = [f for f in fit_lane_changes(d, y, signs, lane_centers_m, visibility_m) if math.isfinite(f.start_d_m)]
+    """A driver's own normative model: median start and length, median in-lane offset.
+    `fits`: `fit_lane_changes` of the same inputs, when the caller has them already."""
+    if fits is None:
+        fits = fit_lane_changes(d, y, signs, lane_centers_m, visibility_m)
+    fits = [f for f in fits if math.isfinite(f.start_d_m)]
     if not fits:
         return fallback
     start_before = float(np.median([f.sign.d_m - f.start_d_m for f in fits]))
@@ -164,10 +173,12 @@ def lct_mdev(
     initial_lane: int,
     basic: NormativeModel,
     visibility_m: float,
+    fits: Sequence[LaneChangeFit] | None = None,
 ) -> dict[str, float]:
-    """MDEV against the basic and the adapted model, plus the fitted adapted parameters."""
+    """MDEV against the basic and the adapted model, plus the fitted adapted parameters
+    (`fits`: `fit_lane_changes` of the same inputs, when the caller has them already)."""
     y_basic = normative_path(d, signs, lane_centers_m, initial_lane, basic)
-    adapted = fit_adapted_model(d, y, signs, lane_centers_m, visibility_m, basic)
+    adapted = fit_adapted_model(d, y, signs, lane_centers_m, visibility_m, basic, fits)
     y_adapted = normative_path(d, signs, lane_centers_m, initial_lane, adapted)
     return {
         "mdev_basic_m": mean_deviation(d, y, y_basic),

@@ -126,8 +126,9 @@ class BatchCore:
     def _task_info(self, info: dict[str, np.ndarray]) -> None:
         """Add or override info arrays."""
 
-    def _load_episode(self, e: int) -> None:
-        """Put env e's task state into the template before `episode_metrics()`."""
+    def _load_episode(self, e: int, columns: np.ndarray | None) -> None:
+        """Put env e's task state into the template before `episode_metrics()` (its trace is
+        loaded; `columns`: the ring's columns of the episode, when read already)."""
 
     # ------------------------------------------------------------------ reset
     def reset_rows(self, idx: np.ndarray, seeds: list[int | None] | None) -> None:
@@ -288,18 +289,27 @@ class BatchCore:
         self._task_info(info)
         return info
 
-    def episode_metrics(self, e: int) -> dict[str, float]:
-        """Env e's `episode_metrics()`, scored by the template env's own code."""
+    def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
+        """`episode_metrics` of the envs `es` (their traces read together)."""
+        if self.ring is None:
+            raise RuntimeError("episode metrics were switched off (record_metrics=False)")
+        columns = self.ring.columns_of(es)
+        return [(e, self.episode_metrics(e, columns[e])) for e in es]
+
+    def episode_metrics(self, e: int, columns: np.ndarray | None = None) -> dict[str, float]:
+        """Env e's `episode_metrics()`, scored by the template env's own code (`columns`: its
+        trace from `TraceRing.columns_of`, when read already)."""
         if self.ring is None:
             raise RuntimeError("episode metrics were switched off (record_metrics=False)")
         tpl = self.template
         constant = {c: 0.0 for c in ("yaw_rad", "accelerator", "brake")} | {"headway_s": math.inf, "ttc_s": math.inf}
-        tpl.trace = self.ring.to_trace(e, self.guide, self.dt, {k: v for k, v in constant.items() if k not in self.trace_columns})
+        constant = {k: v for k, v in constant.items() if k not in self.trace_columns}
+        tpl.trace = self.ring.to_trace(e, self.guide, self.dt, constant, columns)
         w = tpl.world
         w.step_count = int(self.step_count[e])
         w.t_s = float(self.t[e])
         w.collisions = int(self.collisions[e])
         w.ego.powertrain.state.fuel_used_l = float(self.s.fuel_used[e])
         w.triggers.center.results = self.timers.results_of(e)
-        self._load_episode(e)
+        self._load_episode(e, columns)
         return tpl.episode_metrics()

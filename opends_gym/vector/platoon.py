@@ -304,12 +304,12 @@ class PlatoonBatch(BatchCore):
         self.dirty[:] = False
         return r - self.collision_penalty * info["new_collisions"].astype(np.float64)
 
-    def _load_episode(self, e: int) -> None:
+    def _load_episode(self, e: int, columns: np.ndarray | None) -> None:
         assert self.ring is not None
-        off = self.ring.to_trace(e, self.guide, self.dt, {}).col("lane_offset_m")[1:]
+        off = self.template.trace.col("lane_offset_m")[1:]  # (the episode's trace, loaded just before)
         lb = self.spec.lateral_tolerance
         lat = np.maximum(np.maximum(0.0, lb.lower_bound_m - off), off - lb.upper_bound_m) if lb is not None else np.zeros(0)
-        lon = self.ring.column(e, "lon_dev")[1:]
+        lon = (self.ring.column(e, "lon_dev") if columns is None else columns[self.trace_columns.index("lon_dev")])[1:]
         self.template.platoon.state = PlatoonState(stimuli=list(self.stimuli[e]), lon_dev=list(lon), lat_dev=list(lat))
 
 

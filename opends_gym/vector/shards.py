@@ -44,7 +44,7 @@ def step_shard(core: BatchCore, actions: np.ndarray, resetting: np.ndarray, k: i
             values = {key: np.where(resetting, fresh[key], v) for key, v in values.items()}
         reward = np.where(stepping, reward, 0.0)
         ended = np.flatnonzero(terminated | truncated).tolist()
-        metrics = [(e, core.episode_metrics(e)) for e in ended] if core.record_metrics else []
+        metrics = core.episodes_metrics(ended) if core.record_metrics and ended else []
         return observe(core, k, obs_size), reward, terminated, truncated, values, metrics, None
     except SHARD_ERRORS as e:
         return (None,) * 6 + (e,)

@@ -111,15 +111,39 @@ class TraceRing:
             g, i = g + take, i + take
         return out
 
-    def to_trace(self, e: int, guide: RoadGuide, dt_s: float, constant: dict[str, float]) -> Trace:
-        """Env e's episode as the single env's `Trace` (missing columns from `constant`)."""
+    def columns_of(self, es: list[int]) -> dict[int, np.ndarray]:
+        """The episodes so far of the envs `es` (reset row first), as one (column, row) array
+        each. Envs whose episodes started together are read together, a block's rows at a
+        time (reading one env's column alone touches a cache line per row)."""
+        groups: dict[tuple[int, int], list[int]] = {}
+        for e in es:
+            groups.setdefault((int(self.start[e]), int(self.steps[e])), []).append(e)
+        out: dict[int, np.ndarray] = {}
+        for (g, k), members in groups.items():
+            idx = np.asarray(members)
+            data = np.empty((len(self.columns), len(members), k + 1))
+            for ci, c in enumerate(self.columns):
+                data[ci, :, 0] = self.first[c][idx]
+            end, i = g + k, 1
+            while g < end:
+                b, row = divmod(g, self.BLOCK)
+                take = min(self.BLOCK - row, end - g)
+                data[:, :, i : i + take] = self.blocks[b][:, row : row + take, idx].transpose(0, 2, 1)
+                g, i = g + take, i + take
+            for j, e in enumerate(members):
+                out[e] = data[:, j, :]
+        return out
+
+    def to_trace(self, e: int, guide: RoadGuide, dt_s: float, constant: dict[str, float], columns: np.ndarray | None = None) -> Trace:
+        """Env e's episode as the single env's `Trace` (missing columns from `constant`;
+        `columns`: its `columns_of` array, when read already)."""
         k = int(self.steps[e]) + 1
         tr = Trace(capacity=max(k, 1))
         data = tr._data
         data[:, COL["t_s"]] = np.arange(k) * dt_s
-        for c in self.columns:
+        for ci, c in enumerate(self.columns):
             if c in COL:
-                data[:, COL[c]] = self.column(e, c)
+                data[:, COL[c]] = self.column(e, c) if columns is None else columns[ci]
         for c, v in constant.items():
             data[:, COL[c]] = v
         lat, lane, offset = lane_columns(guide, data[:, COL["x_m"]], data[:, COL["z_m"]])
