@@ -4,11 +4,15 @@
     python benchmarks/native_batch.py --env platoon --sizes 64 1024 --seconds 5
     python benchmarks/native_batch.py --no-metrics          # without the per-step traces
     python benchmarks/native_batch.py --sizes 4096 --processes 2   # shards in 2 worker processes
+    python benchmarks/native_batch.py --sizes 4096 --episode       # one whole LCT episode, scoring included
 
 A lane-keeping policy (the instructed lane for the LCT) keeps the episodes long; the
 first steps are not timed (warm-up). Prints one row per N: env-steps per second, ms per
 batched step, and the same for Gymnasium's SyncVectorEnv of single envs at the smallest N
-for comparison.
+for comparison. The timed window ends before the LCT's episodes do (~1,940 steps). With
+`--episode` each batch instead drives one whole episode from reset to the end of the track
+and reports the rate over all of it, with the step where every env's episode ends and is
+scored (`episode_metrics`, unless --no-metrics) on its own.
 """
 
 from __future__ import annotations
@@ -35,7 +39,9 @@ def policy(obs: np.ndarray, width: int, lct: bool) -> np.ndarray:
 
 
 def measure(env: gym.vector.VectorEnv, seconds: float, lct: bool) -> tuple[float, float]:
-    width = env.single_action_space.shape[0]
+    shape = env.single_action_space.shape
+    assert shape is not None
+    width = shape[0]
     obs, _ = env.reset(seed=0)
     for _ in range(3):
         obs, *_ = env.step(policy(obs, width, lct))
@@ -47,12 +53,31 @@ def measure(env: gym.vector.VectorEnv, seconds: float, lct: bool) -> tuple[float
     return steps * env.num_envs / dt, 1000.0 * dt / steps
 
 
+def whole_episode(env: gym.vector.VectorEnv, lct: bool) -> tuple[float, int, float]:
+    """Reset, then step until every env's episode has ended once: (env-steps per second over
+    it all, steps, seconds of the slowest step: the one that scores the episodes)."""
+    shape = env.single_action_space.shape
+    assert shape is not None
+    width = shape[0]
+    obs, _ = env.reset(seed=0)
+    ended = np.zeros(env.num_envs, dtype=bool)
+    steps, slowest, t0 = 0, 0.0, time.perf_counter()
+    while not ended.all():
+        t1 = time.perf_counter()
+        obs, _, terminated, truncated, _ = env.step(policy(obs, width, lct))
+        slowest = max(slowest, time.perf_counter() - t1)
+        ended |= terminated | truncated
+        steps += 1
+    return steps * env.num_envs / (time.perf_counter() - t0), steps, slowest
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--env", choices=sorted(IDS), default="lct")
     p.add_argument("--sizes", type=int, nargs="+", default=[1, 16, 256, 1024, 4096, 16384])
-    p.add_argument("--seconds", type=float, default=8.0)
+    p.add_argument("--seconds", type=float, default=4.0)
     p.add_argument("--no-metrics", action="store_true", help="record_metrics=False (no traces, no episode_metrics)")
+    p.add_argument("--episode", action="store_true", help="one whole episode per batch size, its end (scoring) included")
     shards = p.add_mutually_exclusive_group()
     shards.add_argument("--threads", type=int, help="shards stepped in this many threads (default: one per core from 2048 envs)")
     shards.add_argument("--processes", type=int, help="shards in this many worker processes")
@@ -65,10 +90,16 @@ def main() -> None:
     rate, ms = measure(sync, min(args.seconds, 5.0), lct)
     print(f"{'sync':<8} {sync.num_envs:>7} {rate:>14,.0f} {ms:>10.2f}", flush=True)
     sync.close()
+    if args.episode:
+        print(f"{'mode':<8} {'N':>7} {'env-steps/s':>14} {'steps':>7} {'slowest step s':>15}  (one whole episode)")
     for n in args.sizes:
         env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", record_metrics=not args.no_metrics, **sharding)
-        rate, ms = measure(env, args.seconds, lct)
-        print(f"{'native':<8} {n:>7} {rate:>14,.0f} {ms:>10.2f}", flush=True)
+        if args.episode:
+            rate, steps, slowest = whole_episode(env, lct)
+            print(f"{'native':<8} {n:>7} {rate:>14,.0f} {steps:>7} {slowest:>15.2f}", flush=True)
+        else:
+            rate, ms = measure(env, args.seconds, lct)
+            print(f"{'native':<8} {n:>7} {rate:>14,.0f} {ms:>10.2f}", flush=True)
         env.close()
 
 
