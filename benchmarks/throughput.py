@@ -411,7 +411,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="fewer rows and shorter runs (about 2 minutes)")
     ap.add_argument("--seconds", type=float, default=None, help="wall seconds per measurement")
     ap.add_argument("--async-max", type=int, default=None, help="largest AsyncVectorEnv in the scaling table")
-    ap.add_argument("--rounds", type=int, default=3, help="interleaved rounds of the goal measurements")
+    ap.add_argument("--rounds", type=int, default=5, help="interleaved rounds of the goal measurements")
     ap.add_argument("--out", type=Path, default=RESULTS)
     args = ap.parse_args()
     logging.disable(logging.WARNING)  # corpus tasks warn about their quirks at load time

@@ -219,3 +219,19 @@ def lane_measures(x: float, z: float, first: bool, sign: float, centres: np.ndar
 def heading_error(yaw: float, heading: float) -> float:
     """`ObservationType.ego_features`' heading error: yaw - heading wrapped to [-pi, pi)."""
     return (yaw - heading + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@kernel
+def ego_features(out: np.ndarray, u: np.ndarray, yaw: np.ndarray, heading: float, offset: np.ndarray, lat: np.ndarray, lane: np.ndarray,
+                 steer: np.ndarray, r: np.ndarray) -> None:  # fmt: skip
+    """`ObservationType.ego_features` of every env into the first columns of `out` (float32):
+    speed, heading error (wrapped to [-pi, pi)), lane offset, lateral position, lane, steering,
+    yaw rate."""
+    for e in range(len(u)):
+        out[e, 0] = u[e]
+        out[e, 1] = heading_error(yaw[e], heading)
+        out[e, 2] = offset[e]
+        out[e, 3] = lat[e]
+        out[e, 4] = lane[e]
+        out[e, 5] = steer[e]
+        out[e, 6] = r[e]

@@ -17,7 +17,8 @@ from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
-from .lct_step import lct_observation, lct_outcomes, lct_substeps
+from .kernels import ego_features
+from .lct_step import lct_outcomes, lct_stimulus, lct_substeps
 
 
 class LctBatch(BatchCore):
@@ -97,8 +98,8 @@ class LctBatch(BatchCore):
             raise ValueError(f"lct_observation writes 7 ego features, {k} empty vehicle slots and 3 stimulus values, not {size} values")
         out = np.empty((self.n, size), dtype=np.float32)
         s = self.s
-        lct_observation(out, s.u, s.yaw, self.guide.road_heading, self.offset, self.lat, self.lane, s.steer_in, s.r, s.z, self.revealed,
-                        self.sign_z, self.sign_lane, self.lane_lat)  # fmt: skip
+        ego_features(out, s.u, s.yaw, self.guide.road_heading, self.offset, self.lat, self.lane, s.steer_in, s.r)
+        lct_stimulus(out, self.lat, s.z, self.revealed, self.sign_z, self.sign_lane, self.lane_lat)
         return out
 
     def _physics_steps(self, live: np.ndarray, c: BatchControls) -> None:

@@ -19,7 +19,7 @@ import numpy as np
 from ..sim.jit import inline, kernel
 from ..sim.vehicle import MAX_WHEEL_ANGLE_RAD
 from .ego import ego_step
-from .kernels import heading_error, lane_measures, nearest_volume, timer_step, volume_fires
+from .kernels import lane_measures, nearest_volume, timer_step, volume_fires
 
 
 @kernel
@@ -141,21 +141,13 @@ def lct_measure(z: float, lat: float, start_z: float, norm: np.ndarray, d0: floa
 
 
 @kernel
-def lct_observation(out: np.ndarray, u: np.ndarray, yaw: np.ndarray, heading: float, offset: np.ndarray, lat: np.ndarray,
-                    lane: np.ndarray, steer: np.ndarray, r: np.ndarray, z: np.ndarray, revealed: np.ndarray, sign_z: np.ndarray,
-                    sign_lane: np.ndarray, lane_lat: np.ndarray) -> None:  # fmt: skip
-    """The LCT's kinematics observation (float32): the ego features (`shards.ego_features`),
-    zeros for the vehicle slots, then the stimulus of `LctBatch._stimulus`: the revealed
-    sign's visibility, the lateral gap to its lane and the distance driven past it (m)."""
+def lct_stimulus(out: np.ndarray, lat: np.ndarray, z: np.ndarray, revealed: np.ndarray, sign_z: np.ndarray, sign_lane: np.ndarray,
+                 lane_lat: np.ndarray) -> None:  # fmt: skip
+    """The LCT observation's columns after the ego features (float32): zeros for the vehicle
+    slots, then the stimulus of `LctBatch._stimulus`: the revealed sign's visibility, the
+    lateral gap to its lane and the distance driven past it (m)."""
     width = out.shape[1]
-    for e in range(len(u)):
-        out[e, 0] = u[e]
-        out[e, 1] = heading_error(yaw[e], heading)
-        out[e, 2] = offset[e]
-        out[e, 3] = lat[e]
-        out[e, 4] = lane[e]
-        out[e, 5] = steer[e]
-        out[e, 6] = r[e]
+    for e in range(len(lat)):
         for i in range(7, width - 3):
             out[e, i] = 0.0
         k = revealed[e]

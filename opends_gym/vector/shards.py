@@ -24,9 +24,8 @@ import gymnasium as gym
 import numpy as np
 
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
-from ..sim.jit import kernel
 from .core import BatchCore
-from .kernels import heading_error
+from .kernels import ego_features
 
 # obs, reward, terminated, truncated, info arrays, [(env in shard, episode metrics)], error
 StepResult = tuple[Any, ...]
@@ -234,19 +233,3 @@ def observe(c: BatchCore, k: int, size: int) -> np.ndarray:
     if stim.shape[1]:
         out[:, base + k * len(VEHICLE_NAMES) :] = stim
     return out
-
-
-@kernel
-def ego_features(out: np.ndarray, u: np.ndarray, yaw: np.ndarray, heading: float, offset: np.ndarray, lat: np.ndarray, lane: np.ndarray,
-                 steer: np.ndarray, r: np.ndarray) -> None:  # fmt: skip
-    """`ObservationType.ego_features` of every env into the first columns of `out` (float32):
-    speed, heading error (wrapped to [-pi, pi)), lane offset, lateral position, lane, steering,
-    yaw rate."""
-    for e in range(len(u)):
-        out[e, 0] = u[e]
-        out[e, 1] = heading_error(yaw[e], heading)
-        out[e, 2] = offset[e]
-        out[e, 3] = lat[e]
-        out[e, 4] = lane[e]
-        out[e, 5] = steer[e]
-        out[e, 6] = r[e]
