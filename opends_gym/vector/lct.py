@@ -49,7 +49,7 @@ class LctBatch(BatchCore):
         self.prev_dev = np.zeros(n)
         if self.trace_columns != ("x_m", "z_m", "speed_mps", "steering") or self.has_traffic or self.needs_distance:
             raise TypeError("lct_step writes the LCT's trace columns and measures; change it with them")
-        self._no_block = np.empty((len(self.trace_columns), 1, 1))
+        self._no_block = np.empty((1, 1, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
         self._steering = (np.zeros(n), np.zeros(n), np.zeros(n))  # lct_substeps' scratch
         self._park = np.full(n, -1, dtype=np.int64)  # the physics step where a car waits for its triggers to fire (-1: none)

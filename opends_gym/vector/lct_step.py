@@ -51,7 +51,7 @@ def lct_substeps(resume: bool, repeat: int, dt: float, live: np.ndarray, park: n
     sd_n, sd_mean, sd_m2 = sdlp
     prev_d, prev_dev, area, reward = path
     angle, cos_a, sin_a = steering
-    block = block_a.shape[1]
+    block = block_a.shape[0]
     parked, ran = 0, 0
     for e in range(len(live)):
         if not resume:
@@ -101,7 +101,7 @@ def lct_substeps(resume: bool, repeat: int, dt: float, live: np.ndarray, park: n
             if ring:
                 row = row0 + k
                 out, i = (block_a, row) if row < block else (block_b, row - block)
-                out[0, i, e], out[1, i, e], out[2, i, e], out[3, i, e] = xe, ze, ue, si
+                out[i, e, 0], out[i, e, 1], out[i, e, 2], out[i, e, 3] = xe, ze, ue, si
                 rs += 1
             pd, pdev, ar, rw = lct_measure(ze, la, start_z, norm, d0, norm_step, scale, hp, pd, pdev, ar, rw)
             hp = True

@@ -26,7 +26,9 @@ class TraceRing:
     """`columns` recorded per physics step for `n` envs; episodes up to `max_steps` long.
     Columns that are not `Trace` columns (task measures) are read with `column`.
 
-    Rows live in blocks of BLOCK rows (one (columns, BLOCK, n) array per block). A block is
+    Rows live in blocks of BLOCK rows (one (BLOCK, n, columns) array per block: a car's values
+    of one step share a cache line, for the compiled step loop that writes them and for the
+    reads of one car's episode). A block is
     allocated when first written and recycled once no running episode reaches back into it,
     so memory grows with the longest running episode (not with `max_steps` up front), short
     episodes stay in cache, and nothing is ever copied to make room.
@@ -45,7 +47,7 @@ class TraceRing:
                 "use fewer envs, a shorter max_episode_s, or record_metrics=False"
             )
         self.index = {c: i for i, c in enumerate(columns)}
-        self.blocks: dict[int, np.ndarray] = {}  # block number (g // BLOCK) -> (column, BLOCK rows, n)
+        self.blocks: dict[int, np.ndarray] = {}  # block number (g // BLOCK) -> (BLOCK rows, n, column)
         self._spare: list[np.ndarray] = []
         self.first = {c: np.zeros(n) for c in columns}  # the reset row of each env's episode
         self.g = 0  # rows written so far
@@ -63,7 +65,7 @@ class TraceRing:
         """One physics step: a row for every env (rows of envs not `live` are never read)."""
         block, row = self.reserve(1)[0], self.g % self.BLOCK
         for c, i in self.index.items():
-            block[i, row] = values[c]
+            block[row, :, i] = values[c]
         self.g += 1
         if live is None:
             self.steps += 1
@@ -86,14 +88,14 @@ class TraceRing:
     def set_last(self, c: str, values: np.ndarray) -> None:
         """Overwrite column c of the row written last (a measure known only after the row)."""
         b, row = divmod(self.g - 1, self.BLOCK)
-        self.blocks[b][self.index[c], row] = values
+        self.blocks[b][row, :, self.index[c]] = values
 
     def _new_block(self, b: int) -> np.ndarray:
         oldest = int(self.start.min()) // self.BLOCK  # blocks before it hold no running episode's rows
         for old in [k for k in self.blocks if k < oldest]:
             self._spare.append(self.blocks.pop(old))
         # np.empty, not zeros: numpy asks for huge pages then (fresh zeroed pages are slow to fault in)
-        block = self._spare.pop() if self._spare else np.empty((len(self.columns), self.BLOCK, self.n))
+        block = self._spare.pop() if self._spare else np.empty((self.BLOCK, self.n, len(self.columns)))
         self.blocks[b] = block
         return block
 
@@ -107,7 +109,7 @@ class TraceRing:
         while g < end:
             b, row = divmod(g, self.BLOCK)
             take = min(self.BLOCK - row, end - g)
-            out[i : i + take] = self.blocks[b][ci, row : row + take, e]
+            out[i : i + take] = self.blocks[b][row : row + take, e, ci]
             g, i = g + take, i + take
         return out
 
@@ -128,7 +130,7 @@ class TraceRing:
             while g < end:
                 b, row = divmod(g, self.BLOCK)
                 take = min(self.BLOCK - row, end - g)
-                data[:, :, i : i + take] = self.blocks[b][:, row : row + take, idx].transpose(0, 2, 1)
+                data[:, :, i : i + take] = self.blocks[b][row : row + take, idx, :].transpose(2, 1, 0)
                 g, i = g + take, i + take
             for j, e in enumerate(members):
                 out[e] = data[:, j, :]
