@@ -22,9 +22,10 @@ Options: `record_metrics=False` skips the per-step traces (and `episode_metrics`
 take ~0.5 MB per env for the LCT's 300 s limit, and a batch whose traces would not fit in
 memory is refused. `threads` splits the envs into shards stepped in parallel threads
 (the compiled kernels release the GIL); by default one per CPU (at most 4) from 2048 envs.
-`processes=N` runs N shards in worker processes instead (`opends_gym.vector.shards`): the
-Python between kernels then runs in parallel too, at the price of a pipe round trip per
-step (worth it for thousands of envs); the workers are forked where the OS can.
+`processes=N` runs N shards in separate processes instead (`opends_gym.vector.shards`): the
+first in the calling process, each other one in a worker process of its own, so the Python
+between kernels runs in parallel too, at the price of a pipe round trip per step for the
+workers (worth it for thousands of envs); the workers are forked where the OS can.
 """
 
 from __future__ import annotations
@@ -96,17 +97,20 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self._obs_size = len(EGO_NAMES) + self._k * len(VEHICLE_NAMES) + len(template.stimulus_names)
         self.shards: list[LocalShard | ProcessShard] = []
         self._pool: ThreadPoolExecutor | None = None
-        if processes is not None and shards > 1:
+        self._workers = processes is not None and shards > 1
+        if self._workers:
+            # the calling process steps the first shard itself (no round trip for it), a worker each of the others
             probe = batch_cls(template, 1, False).info()  # the info keys and their types, for the shared arrays
             info_dtypes = {key: np.asarray(v).dtype.str for key, v in probe.items()}
-            for i, sl in enumerate(self._slices):
+            first = self._slices[0]
+            self.shards.append(LocalShard(batch_cls(template, first.stop - first.start, record_metrics), self._k, self._obs_size))
+            for i, sl in enumerate(self._slices[1:], start=1):
                 try:
                     n = sl.stop - sl.start
                     self.shards.append(ProcessShard(env_id, batch_cls, n, record_metrics, kwargs, self._k, self._obs_size, info_dtypes, i))
                 except BaseException:
                     self.close_extras()
                     raise
-            template.close()
         else:
             templates = [template] + [gym.make(env_id, disable_env_checker=True, **kwargs).unwrapped for _ in range(shards - 1)]
             cores = [batch_cls(t, sl.stop - sl.start, record_metrics) for t, sl in zip(templates, self._slices)]  # type: ignore[arg-type]
@@ -155,10 +159,10 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             pool = self._pool
             others = [pool.submit(shard.step, actions, resetting) for shard, actions, resetting in jobs[1:]]
             parts = [jobs[0][0].step(jobs[0][1], jobs[0][2])] + [f.result() for f in others]
-        elif len(jobs) > 1:  # worker processes: start them all, then collect
-            for shard, actions, resetting in jobs:
+        elif self._workers:  # start the worker processes, step the first shard here, then collect
+            for shard, actions, resetting in jobs[1:]:
                 shard.send_step(actions, resetting)  # type: ignore[union-attr]
-            parts = [shard.receive() for shard, _, _ in jobs]  # type: ignore[union-attr]
+            parts = [jobs[0][0].step(jobs[0][1], jobs[0][2])] + [shard.receive() for shard, _, _ in jobs[1:]]  # type: ignore[union-attr]
         else:
             parts = [shard.step(actions, resetting) for shard, actions, resetting in jobs]
         for part, sl in zip(parts, self._slices):
