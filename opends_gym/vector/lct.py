@@ -2,7 +2,8 @@
 
 Why: signs are revealed by their trigger boxes (`manipulateObject visible`), so each env
 keeps the highest sign index revealed; the normative-path deviation, the reward and the
-running MDEV accumulate per physics step as arrays, with the single env's formulas.
+running MDEV accumulate per physics step, with the single env's formulas. The physics steps
+of a policy step, its outcomes and the observation run as compiled passes (`lct_step`).
 """
 
 from __future__ import annotations
@@ -94,8 +95,10 @@ class LctBatch(BatchCore):
         return reward, terminated, truncated, info
 
     def observation(self, k: int, size: int) -> np.ndarray:
+        """The ego features (the shared kernel), empty vehicle slots and the sign stimulus
+        (`lct_stimulus`)."""
         if size != len(EGO_NAMES) + k * len(VEHICLE_NAMES) + 3:
-            raise ValueError(f"lct_observation writes 7 ego features, {k} empty vehicle slots and 3 stimulus values, not {size} values")
+            raise ValueError(f"the LCT observation has 7 ego features, {k} empty vehicle slots and 3 stimulus values, not {size} values")
         out = np.empty((self.n, size), dtype=np.float32)
         s = self.s
         ego_features(out, s.u, s.yaw, self.guide.road_heading, self.offset, self.lat, self.lane, s.steer_in, s.r)
@@ -141,24 +144,6 @@ class LctBatch(BatchCore):
                 self.revealed[es] = np.maximum(self.revealed[es], k)
             return
         super()._on_action_rows(es, act, trigger)
-
-    def _stimulus(self) -> np.ndarray:
-        z = self.s.z
-        r = self.revealed
-        on = r >= 0
-        lane = self.sign_lane[np.where(on, r, -1)]
-        distance = np.where(on, np.maximum(0.0, z - self.sign_z[r]), 0.0)
-        visible = np.where(on & (distance > 0.0), 1.0, 0.0)
-        return np.stack([visible, self.lane_lat[lane] - self.lat, distance], axis=1)
-
-    def _task_terminated(self) -> np.ndarray:
-        return np.abs(self.lat) > self.off_road_limit
-
-    def _reward(self, info: dict[str, np.ndarray], terminated_task: np.ndarray) -> np.ndarray:
-        r = self.reward_scale * self.step_reward
-        self.step_reward[:] = 0.0
-        r = np.where(terminated_task, r - self.off_road_penalty, r)
-        return r - 10.0 * info["new_collisions"].astype(np.float64)
 
     def _task_info(self, info: dict[str, np.ndarray]) -> None:
         dist = np.where(self.has_prev, self.prev_d, 0.0)

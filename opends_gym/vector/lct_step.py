@@ -5,7 +5,7 @@ and Python between them (six times per policy step). That Python holds the GIL, 
 stepped in threads mostly waited for each other. Here one kernel runs the whole loop (ego
 car, trigger contacts, reaction timers, lane measures, trace rows, the LCT's path measures,
 early stop) with the same per-car functions as those kernels (`vector.ego.ego_step`,
-`kernels.*`, `lct.lct_measure`), so the results are the same floats. It returns to Python
+`kernels.*`, `lct_measure` below), so the results are the same floats. It returns to Python
 only for the cars that touch a trigger box (its actions are Python), which it then finishes
 in a second call; reaction timers that end are scored by Python afterwards.
 """
@@ -144,8 +144,8 @@ def lct_measure(z: float, lat: float, start_z: float, norm: np.ndarray, d0: floa
 def lct_stimulus(out: np.ndarray, lat: np.ndarray, z: np.ndarray, revealed: np.ndarray, sign_z: np.ndarray, sign_lane: np.ndarray,
                  lane_lat: np.ndarray) -> None:  # fmt: skip
     """The LCT observation's columns after the ego features (float32): zeros for the vehicle
-    slots, then the stimulus of `LctBatch._stimulus`: the revealed sign's visibility, the
-    lateral gap to its lane and the distance driven past it (m)."""
+    slots, then the stimulus of `LaneChangeTestEnv._stimulus`: the revealed sign's visibility,
+    the lateral gap to its lane and the distance driven past it (m)."""
     width = out.shape[1]
     for e in range(len(lat)):
         for i in range(7, width - 3):
@@ -173,8 +173,8 @@ def lct_outcomes(rows: np.ndarray, sign: float, origin_z: float, z: np.ndarray, 
     new collisions, the info values (`info_f`: speed_kmh, reaction_result, reaction_time_s,
     mean_deviation_m, sdlp_m, progress_m; `info_i`: new_collisions), the reward (which
     empties `step_reward`) and the episode flags of the envs `rows` (the others: reward 0,
-    flags False), with the formulas of `BatchCore.info`, `LctBatch._reward`,
-    `_task_terminated` and `BatchCore._terminated`."""
+    flags False), with the formulas of `BatchCore.info`, `LaneChangeTestEnv._reward` and
+    `_task_terminated`, and `BatchCore._terminated`."""
     speed_kmh, result, rt, mdev, sdlp, progress_m = info_f
     (new_coll_out,) = info_i
     for e in range(len(z)):
