@@ -222,9 +222,3 @@ def ego_step(car: np.ndarray, engine_on: bool, suppress_cruise_off: bool, min_sp
     )
     x, z, yaw, u, v, r, sy, cy = body_step_trig(car, x, z, yaw, u, v, r, dt, steer_rad, cos_steer, sin_steer, drive, brake_n, 0.0)
     return x, z, yaw, u, v, r, gear, rpm, fuel_used, fuel_left, cruise_on, cruise_int, g, b, sy, cy
-
-
-def check_finite_pose(s: EgoArrays) -> None:
-    if not (np.all(np.isfinite(s.x)) and np.all(np.isfinite(s.z))):
-        bad = int(np.flatnonzero(~(np.isfinite(s.x) & np.isfinite(s.z)))[0])
-        raise FloatingPointError(f"env {bad}: the ego pose is not finite")
