@@ -24,7 +24,7 @@ from opends_gym.metrics import (
     time_to_collision,
 )
 from opends_gym.metrics.deviation import quad_area
-from opends_gym.metrics.lateral import lane_exceedances
+from opends_gym.metrics.lateral import lane_exceedances, lane_keeping_mask
 from opends_gym.metrics.lct import mean_deviation as lct_area_mean
 from opends_gym.metrics.reaction import brake_reaction_time, summarize_reactions
 from opends_gym.metrics.stats import t_quantile
@@ -196,7 +196,7 @@ def test_lct_path_and_fits_equal_their_definitions(seed: int) -> None:
     """normative_path looks each point up once and fit_lane_changes slices its windows when
     the distance never decreases; both give exactly what the per-sign definitions give
     (with standing still, driving back and points before the first sign)."""
-    from opends_gym.metrics.lct import fit_lane_changes
+    from opends_gym.metrics.lct import fit_adapted_model, fit_lane_changes
 
     rng = np.random.default_rng(seed)
     centers = [3.85, 0.0, -3.85]
@@ -215,6 +215,40 @@ def test_lct_path_and_fits_equal_their_definitions(seed: int) -> None:
         )
         fits = [(f.start_d_m, f.length_m, float(f.reached_target), f.latency_m) for f in fit_lane_changes(dist, y, signs, centers, 40.0)]
         assert np.array_equal(np.array(fits), np.array(_fits_by_mask(dist, y, signs, centers, 40.0)), equal_nan=True)
+        assert fit_adapted_model(dist, y, signs, centers, 40.0, model) == _adapted_by_mask(dist, y, signs, centers, model)
+
+
+def _adapted_by_mask(d: np.ndarray, y: np.ndarray, signs: list[LctSign], centers: list[float], fallback: NormativeModel) -> NormativeModel:
+    """`fit_adapted_model` as its definition reads: the lane-keeping samples by a mask per fitted change."""
+    from opends_gym.metrics.lct import fit_lane_changes
+
+    fits = [f for f in fit_lane_changes(d, y, signs, centers, 40.0) if math.isfinite(f.start_d_m)]
+    if not fits:
+        return fallback
+    start_before = float(np.median([f.sign.d_m - f.start_d_m for f in fits]))
+    per_lane = float(np.median([f.length_m / max(1, abs(f.sign.to_lane - f.sign.from_lane)) for f in fits]))
+    basic = _normative_by_sign(d, signs, centers, signs[0].from_lane, NormativeModel(start_before, per_lane))
+    keeping = np.ones(len(d), dtype=bool)
+    for f in fits:
+        keeping &= ~((d >= f.start_d_m) & (d <= f.start_d_m + f.length_m))
+    return NormativeModel(start_before, per_lane, float(np.median(y[keeping] - basic[keeping])) if keeping.any() else 0.0)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_lane_keeping_mask_equals_its_definition(seed: int) -> None:
+    """Each sample is compared with the nearest lane changes only; the result is that of
+    comparing it with all of them, also at exactly the window's distance and when the clock
+    stands still or runs backwards."""
+    rng = np.random.default_rng(seed)
+    n = 4000
+    t = np.round(np.arange(n) / 60.0 * 4) / 4  # repeated times, exactly 2.5 s apart from many changes
+    lane = np.repeat(rng.integers(-1, 3, n // 40 + 1), 40)[:n].astype(float)
+    for clock in (t, t[::-1].copy()):
+        for window in (2.5, 0.0, 1.0):
+            keep = lane >= 0
+            for tc in clock[1:][lane[1:] != lane[:-1]]:
+                keep &= np.abs(clock - tc) > window
+            assert np.array_equal(lane_keeping_mask(clock, lane, window), keep)
 
 
 def test_mean_ci() -> None:

@@ -35,11 +35,22 @@ def lane_exceedances(lateral_m: np.ndarray, half_lane_m: float, half_car_m: floa
 
 
 def lane_keeping_mask(t_s: np.ndarray, lane_index: np.ndarray, window_s: float = 2.5) -> np.ndarray:
-    """True for samples farther than `window_s` from any change of lane index (or off-lane)."""
+    """True for samples farther than `window_s` from any change of lane index (or off-lane).
+
+    With the changes in time order (a trace's clock), each sample is compared with the two
+    changes nearest it only: |t - tc| is smallest at one of them (rounding keeps t - tc
+    monotonic in tc), so the result is that of comparing it with every change."""
     t = np.asarray(t_s, dtype=float)
     lane = np.asarray(lane_index, dtype=float)
     keep = lane >= 0
     changes = t[1:][lane[1:] != lane[:-1]]
-    for tc in changes:
-        keep &= np.abs(t - tc) > window_s
-    return keep
+    if len(changes) == 0:
+        return keep
+    if np.any(changes[1:] < changes[:-1]) or np.isnan(changes).any():
+        for tc in changes:
+            keep &= np.abs(t - tc) > window_s
+        return keep
+    after = np.searchsorted(changes, t)  # the first change at or after each sample
+    above = changes[np.minimum(after, len(changes) - 1)]
+    below = changes[np.maximum(after - 1, 0)]
+    return keep & (np.abs(t - above) > window_s) & (np.abs(t - below) > window_s)

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..sim.jit import kernel
+
 
 @dataclass(frozen=True)
 class LctSign:
@@ -52,7 +54,7 @@ def normative_path(
 
     The latest sign whose lane change has started governs each point: its ramp from the old
     lane to the new (constant gradient, clipped to 0..1), or before any, the initial lane.
-    Each point is looked up once (a sorted search), not once per sign."""
+    Each point is looked up once (a compiled sorted search), not once per sign."""
     d = np.asarray(d, dtype=float)
     ordered = sorted(signs, key=lambda s: s.d_m)
     start = np.array([s.d_m - model.start_before_sign_m for s in ordered])
@@ -68,12 +70,29 @@ def normative_path(
             ramp = np.clip((d - start[k]) / (end[k] - start[k]), 0.0, 1.0)
             y = np.where(d >= start[k], y_from[k] + ramp * (y_to[k] - y_from[k]), y)
         return y + model.habitual_offset_m
-    last = np.searchsorted(start, d, side="right") - 1  # the last sign started at d (-1: none; NaN: none)
-    on = (last >= 0) & ~np.isnan(d)
-    i = last[on]
-    ramp = np.clip((d[on] - start[i]) / (end[i] - start[i]), 0.0, 1.0)
-    y[on] = y_from[i] + ramp * (y_to[i] - y_from[i])
+    _ramps(d, start, end, y_from, y_to, y)
     return y + model.habitual_offset_m
+
+
+@kernel
+def _ramps(d: np.ndarray, start: np.ndarray, end: np.ndarray, y_from: np.ndarray, y_to: np.ndarray, y: np.ndarray) -> None:
+    """`normative_path` for starts in order: at each d the last lane change started there
+    (a binary search) sets y on its ramp, clipped to 0..1; before the first (or NaN) y stays."""
+    for i in range(len(d)):
+        di = d[i]
+        lo, hi = 0, len(start)  # the number of starts <= di (np.searchsorted, side 'right')
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if start[mid] <= di:
+                lo = mid + 1
+            else:
+                hi = mid
+        k = lo - 1
+        if k < 0 or math.isnan(di):
+            continue
+        ramp = (di - start[k]) / (end[k] - start[k])
+        ramp = 0.0 if ramp < 0.0 else 1.0 if ramp > 1.0 else ramp
+        y[i] = y_from[k] + ramp * (y_to[k] - y_from[k])
 
 
 def mean_deviation(d: np.ndarray, y: np.ndarray, y_norm: np.ndarray) -> float:
@@ -125,18 +144,32 @@ def fit_lane_changes(
             out.append(LaneChangeFit(sign, math.nan, math.nan, sign.from_lane == sign.to_lane, math.nan))
             continue
         dd, y_in = d[window], y[window]
-        frac = (y_in - y_from) / shift
-        i10 = np.flatnonzero(frac >= 0.1)
-        i90 = np.flatnonzero(frac >= 0.9)
-        reached = bool(np.any(np.abs(y_in - y_to) < 0.5 * abs(shift) * 0.5))
-        if len(i10) == 0 or len(i90) == 0:
+        i10, i90, reached = _ramp_points(y_in, y_from, y_to, shift, 0.5 * abs(shift) * 0.5)
+        if i10 < 0 or i90 < 0:
             out.append(LaneChangeFit(sign, math.nan, math.nan, reached, math.nan))
             continue
-        d10, d90 = float(dd[i10[0]]), float(dd[i90[0]])
+        d10, d90 = float(dd[i10]), float(dd[i90])
         length = max((d90 - d10) / 0.8, 1e-6)
         start = d10 - 0.1 * length
         out.append(LaneChangeFit(sign, start, length, reached, start - window_start))
     return out
+
+
+@kernel
+def _ramp_points(y: np.ndarray, y_from: float, y_to: float, shift: float, near_m: float) -> tuple[int, int, bool]:
+    """In one window of a lane change: the first samples 10 % and 90 % of the way from the
+    old lane to the new (-1: none) and whether any came within `near_m` of the new lane."""
+    i10 = i90 = -1
+    reached = False
+    for i in range(len(y)):
+        frac = (y[i] - y_from) / shift
+        if i10 < 0 and frac >= 0.1:
+            i10 = i
+        if i90 < 0 and frac >= 0.9:
+            i90 = i
+        if abs(y[i] - y_to) < near_m:
+            reached = True
+    return i10, i90, reached
 
 
 def fit_adapted_model(
@@ -150,6 +183,7 @@ def fit_adapted_model(
 ) -> NormativeModel:
     """A driver's own normative model: median start and length, median in-lane offset.
     `fits`: `fit_lane_changes` of the same inputs, when the caller has them already."""
+    d = np.asarray(d, dtype=float)
     if fits is None:
         fits = fit_lane_changes(d, y, signs, lane_centers_m, visibility_m)
     fits = [f for f in fits if math.isfinite(f.start_d_m)]
@@ -159,8 +193,13 @@ def fit_adapted_model(
     per_lane = float(np.median([f.length_m / max(1, abs(f.sign.to_lane - f.sign.from_lane)) for f in fits]))
     basic = normative_path(d, signs, lane_centers_m, signs[0].from_lane if signs else 0, NormativeModel(start_before, per_lane))
     keeping = np.ones(len(d), dtype=bool)
-    for f in fits:
-        keeping &= ~((d >= f.start_d_m) & (d <= f.start_d_m + f.length_m))
+    monotonic = len(d) < 2 or bool(np.all(d[1:] >= d[:-1]))
+    for f in fits:  # (a distance that never decreases: each change's samples are a slice)
+        lo, hi = f.start_d_m, f.start_d_m + f.length_m
+        if monotonic:
+            keeping[np.searchsorted(d, lo, side="left") : np.searchsorted(d, hi, side="right")] = False
+        else:
+            keeping &= ~((d >= lo) & (d <= hi))
     offset = float(np.median(np.asarray(y)[keeping] - basic[keeping])) if np.any(keeping) else 0.0
     return NormativeModel(start_before, per_lane, offset)
 
