@@ -124,18 +124,21 @@ def fit_lane_changes(
     y = np.asarray(y, dtype=float)
     ordered = sorted(signs, key=lambda s: s.d_m)
     out: list[LaneChangeFit] = []
+    starts = [sign.d_m - visibility_m for sign in ordered]
+    ends = [*starts[1:], d[-1] if len(d) else (ordered[-1].d_m if ordered else 0.0)]
     # distance that never decreases (the usual drive): each window is a slice, found by a sorted search
     monotonic = len(d) < 2 or bool(np.all(d[1:] >= d[:-1]))
+    if monotonic:
+        first, stop = np.searchsorted(d, starts, side="left"), np.searchsorted(d, ends, side="right")
     for k, sign in enumerate(ordered):
         y_from = float(lane_centers_m[sign.from_lane])
         y_to = float(lane_centers_m[sign.to_lane])
         shift = y_to - y_from
-        window_start = sign.d_m - visibility_m
-        window_end = ordered[k + 1].d_m - visibility_m if k + 1 < len(ordered) else (d[-1] if len(d) else sign.d_m)
+        window_start, window_end = starts[k], ends[k]
         window: slice | np.ndarray
         if monotonic:
-            lo, hi = np.searchsorted(d, window_start, side="left"), np.searchsorted(d, window_end, side="right")
-            window = slice(int(lo), int(max(lo, hi)))
+            lo, hi = int(first[k]), int(stop[k])
+            window = slice(lo, max(lo, hi))
             empty = hi <= lo
         else:
             mask = (d >= window_start) & (d <= window_end)
@@ -193,12 +196,13 @@ def fit_adapted_model(
     per_lane = float(np.median([f.length_m / max(1, abs(f.sign.to_lane - f.sign.from_lane)) for f in fits]))
     basic = normative_path(d, signs, lane_centers_m, signs[0].from_lane if signs else 0, NormativeModel(start_before, per_lane))
     keeping = np.ones(len(d), dtype=bool)
-    monotonic = len(d) < 2 or bool(np.all(d[1:] >= d[:-1]))
-    for f in fits:  # (a distance that never decreases: each change's samples are a slice)
-        lo, hi = f.start_d_m, f.start_d_m + f.length_m
-        if monotonic:
-            keeping[np.searchsorted(d, lo, side="left") : np.searchsorted(d, hi, side="right")] = False
-        else:
+    lows = [f.start_d_m for f in fits]
+    highs = [f.start_d_m + f.length_m for f in fits]
+    if len(d) < 2 or bool(np.all(d[1:] >= d[:-1])):  # a distance that never decreases: each change's samples are a slice
+        for a, b in zip(np.searchsorted(d, lows, side="left"), np.searchsorted(d, highs, side="right"), strict=True):
+            keeping[a:b] = False
+    else:
+        for lo, hi in zip(lows, highs, strict=True):
             keeping &= ~((d >= lo) & (d <= hi))
     offset = float(np.median(np.asarray(y)[keeping] - basic[keeping])) if np.any(keeping) else 0.0
     return NormativeModel(start_before, per_lane, offset)
