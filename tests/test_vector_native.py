@@ -172,6 +172,8 @@ def test_bullet_render_and_reset_mask_are_refused_clearly() -> None:
         gym.make_vec(LCT, num_envs=2, vectorization_mode="vector_entry_point", polcy_hz=20)
     with pytest.raises(MemoryError, match="record_metrics=False"):  # refused before anything is allocated
         gym.make_vec(LCT, num_envs=10**7, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match=r"at most 256 physics steps per policy step, not 300 \(physics_hz 60.0 / policy_hz 0.2\)"):
+        gym.make_vec(LCT, num_envs=2, vectorization_mode="vector_entry_point", policy_hz=0.2)
     env = gym.make_vec(LCT, num_envs=2, vectorization_mode="vector_entry_point")
     with pytest.raises(ValueError, match="reset_mask"):
         env.reset(options={"reset_mask": np.array([True, False])})

@@ -20,6 +20,7 @@ from .actions import BatchControls
 from .core import BatchCore
 from .kernels import ego_features
 from .lct_step import lct_outcomes, lct_stimulus, lct_substeps
+from .trace import TraceRing
 
 
 class LctBatch(BatchCore):
@@ -50,6 +51,11 @@ class LctBatch(BatchCore):
         self.prev_dev = np.zeros(n)
         if self.trace_columns != ("x_m", "z_m", "speed_mps", "steering") or self.has_traffic or self.needs_distance:
             raise TypeError("lct_step writes the LCT's trace columns and measures; change it with them")
+        if self.repeat > TraceRing.BLOCK:  # (lct_substeps writes a policy step's rows into at most two ring blocks)
+            raise ValueError(
+                f"the native Lane Change Test batch runs at most {TraceRing.BLOCK} physics steps per policy step, not "
+                f"{self.repeat} (physics_hz {cfg.physics_hz} / policy_hz {cfg.policy_hz}): raise policy_hz"
+            )
         self._no_block = np.empty((1, 1, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
         self._steering = (np.zeros(n), np.zeros(n), np.zeros(n))  # lct_substeps' scratch
