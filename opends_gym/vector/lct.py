@@ -51,11 +51,6 @@ class LctBatch(BatchCore):
         self.prev_dev = np.zeros(n)
         if self.trace_columns != ("x_m", "z_m", "speed_mps", "steering") or self.has_traffic or self.needs_distance:
             raise TypeError("lct_step writes the LCT's trace columns and measures; change it with them")
-        if self.repeat > TraceRing.BLOCK:  # (lct_substeps writes a policy step's rows into at most two ring blocks)
-            raise ValueError(
-                f"the native Lane Change Test batch runs at most {TraceRing.BLOCK} physics steps per policy step, not "
-                f"{self.repeat} (physics_hz {cfg.physics_hz} / policy_hz {cfg.policy_hz}): raise policy_hz"
-            )
         self._no_block = np.empty((1, 1, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
         self._steering = (np.zeros(n), np.zeros(n), np.zeros(n))  # lct_substeps' scratch
@@ -113,35 +108,43 @@ class LctBatch(BatchCore):
 
     def _physics_steps(self, live: np.ndarray, c: BatchControls) -> None:
         """`BatchCore._physics_steps` as one compiled loop (`lct_step`), back in Python only to
-        fire the triggers of the cars that touched their boxes and to score ended timers."""
+        fire the triggers of the cars that touched their boxes and to score ended timers. A
+        policy step of more physics steps than a ring block holds runs a block at a time."""
         s, trig, timers, ring, g = self.s, self.trig, self.timers, self.ring, self.guide
-        block_a, block_b = ring.reserve(self.repeat) if ring is not None else (self._no_block, self._no_block)
-        row0 = ring.g % ring.BLOCK if ring is not None else 0
         ego_f = (s.x, s.z, s.yaw, s.u, s.v, s.r, s.rpm, s.prev_v, s.fuel_used, s.fuel_left, s.steer_in, s.gas_in, s.brake_in,
                  s.cruise_target, s.cruise_int)  # fmt: skip
         timer_f = (timers.start_t, timers.start_x, timers.start_z, timers.peak, timers.hold_since)
-        steps, resume = 0, False
-        while True:
-            parked, ran = lct_substeps(
-                resume, self.repeat, self.dt, live, self._park, self.step_count, self.t, trig.paused, self.p.car, self.p.engine_on,
-                self.p.suppress_cruise_off, self.p.min_speed, ego_f, s.gear, s.cruise_on, c.steer, c.gas, c.brake, self.car_shift,
-                self.car_half[0], self.car_half[1], trig.vols, trig.vol_triggers, trig.locks, trig.near, trig.contact, bool(timers.specs),
-                timers.active, timers.armed, timers.spec, timer_f, timers.braked, timers.start_lane, timers.table, timers.band_table,
-                timers.done, timers.done_t, g.sign, self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane,
-                self.offset, (self.rl["n"], self.rl["mean"], self.rl["m2"]), ring is not None, block_a, block_b, row0,
-                ring.steps if ring is not None else self._no_steps, self.start_z, self.norm, self.norm_d0, self.norm_step, self.scale,
-                self.has_prev, (self.prev_d, self.prev_dev, self.area, self.step_reward), self.off_road_limit, self._steering,
-            )  # fmt: skip
-            steps = max(steps, ran)
-            if timers.done.any():  # (before firing: a timer a trigger re-arms is scored first)
-                timers.score_ended(trig.started_at)
-            if not parked:
+        k_from = 0
+        while k_from < self.repeat:
+            k_to = min(self.repeat, k_from + TraceRing.BLOCK)
+            block_a, block_b = ring.reserve(k_to - k_from) if ring is not None else (self._no_block, self._no_block)
+            row0 = ring.g % ring.BLOCK - k_from if ring is not None else 0
+            steps, resume = k_from, False
+            while True:
+                parked, ran = lct_substeps(
+                    resume, k_from, k_to, self.dt, live, self._park, self.step_count, self.t, trig.paused, self.p.car, self.p.engine_on,
+                    self.p.suppress_cruise_off, self.p.min_speed, ego_f, s.gear, s.cruise_on, c.steer, c.gas, c.brake, self.car_shift,
+                    self.car_half[0], self.car_half[1], trig.vols, trig.vol_triggers, trig.locks, trig.near, trig.contact,
+                    bool(timers.specs), timers.active, timers.armed, timers.spec, timer_f, timers.braked, timers.start_lane,
+                    timers.table, timers.band_table, timers.done, timers.done_t, g.sign, self.centres, g.lane_width_m / 2.0,
+                    LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, (self.rl["n"], self.rl["mean"], self.rl["m2"]),
+                    ring is not None, block_a, block_b, row0, ring.steps if ring is not None else self._no_steps, self.start_z,
+                    self.norm, self.norm_d0, self.norm_step, self.scale, self.has_prev,
+                    (self.prev_d, self.prev_dev, self.area, self.step_reward), self.off_road_limit, self._steering,
+                )  # fmt: skip
+                steps = max(steps, ran)
+                if timers.done.any():  # (before firing: a timer a trigger re-arms is scored first)
+                    timers.score_ended(trig.started_at)
+                if not parked:
+                    break
+                env = np.flatnonzero(trig.contact >= 0)
+                trig.fire(self.t, env, trig.contact[env], self._run_action)
+                resume = True
+            if ring is not None:
+                ring.g += steps - k_from
+            if steps < k_to:  # every car stopped early
                 break
-            env = np.flatnonzero(trig.contact >= 0)
-            trig.fire(self.t, env, trig.contact[env], self._run_action)
-            resume = True
-        if ring is not None:
-            ring.g += steps
+            k_from = k_to
 
     def _on_action_rows(self, es: np.ndarray, act: CompiledAction, trigger: int) -> None:
         if act.name == "manipulateObject":

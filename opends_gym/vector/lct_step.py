@@ -23,7 +23,7 @@ from .kernels import lane_measures, nearest_volume, timer_step, volume_fires
 
 
 @kernel
-def lct_substeps(resume: bool, repeat: int, dt: float, live: np.ndarray, park: np.ndarray, step_count: np.ndarray, t: np.ndarray,
+def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarray, park: np.ndarray, step_count: np.ndarray, t: np.ndarray,
                  paused: np.ndarray, car: np.ndarray, engine_on: bool, suppress_cruise_off: bool, min_speed: float, ego: tuple,
                  gear: np.ndarray, cruise_on: np.ndarray, steer: np.ndarray, gas: np.ndarray, brake: np.ndarray, shift: float, hx: float,
                  hz: float, vols: np.ndarray, vol_triggers: np.ndarray, locks: np.ndarray, near: np.ndarray, contact: np.ndarray,
@@ -33,13 +33,14 @@ def lct_substeps(resume: bool, repeat: int, dt: float, live: np.ndarray, park: n
                  sdlp: tuple, ring: bool, block_a: np.ndarray, block_b: np.ndarray, row0: int, ring_steps: np.ndarray, start_z: float,
                  norm: np.ndarray, d0: float, norm_step: float, scale: float, has_prev: np.ndarray, path: tuple, off_road: float,
                  steering: tuple) -> tuple[int, int]:  # fmt: skip
-    """The physics steps of the envs `live` (cleared for those that stop early), car by car:
-    each car's state stays in registers for its steps.
+    """Physics steps k_from..k_to-1 of the policy step for the envs `live` (cleared for those
+    that stop early), car by car: each car's state stays in registers for its steps.
 
     A car that touches a trigger box in its physics step k is parked there (`park[e] = k`,
     `contact[e]` the volume; -1 otherwise) for Python to fire the triggers; a call with
     `resume` then goes on with the parked cars only, after their contact test. Returns (cars
-    parked, the most physics steps a finished car ran). The tuples hold float arrays: `ego`
+    parked, the most physics steps a finished car ran, counted from the policy step's first;
+    trace row k goes to row `row0 + k` of the two blocks). The tuples hold float arrays: `ego`
     (x, z, yaw, u, v, r, rpm, prev_v, fuel_used, fuel_left, steer_in, gas_in, brake_in,
     cruise_target, cruise_int), `timer_f` (start_t, start_x, start_z, peak, hold_since),
     `sdlp` (n, mean, m2), `path` (prev_d, prev_dev, area, reward), `steering` (each car's
@@ -52,15 +53,15 @@ def lct_substeps(resume: bool, repeat: int, dt: float, live: np.ndarray, park: n
     prev_d, prev_dev, area, reward = path
     angle, cos_a, sin_a = steering
     block = block_a.shape[0]
-    parked, ran = 0, 0
+    parked, ran = 0, k_from
     for e in range(len(live)):
         if not resume:
             contact[e] = -1
         if not live[e] or (resume and park[e] < 0):
             continue
-        k, moved = (park[e], True) if resume else (0, False)
+        k, moved = (park[e], True) if resume else (k_from, False)
         park[e], contact[e] = -1, -1
-        if not resume:
+        if not resume and k_from == 0:
             angle[e] = steer[e] * MAX_WHEEL_ANGLE_RAD
             cos_a[e], sin_a[e] = math.cos(angle[e]), math.sin(angle[e])
         # the car's state, kept in locals until it stops, parks or ends the policy step
@@ -69,7 +70,7 @@ def lct_substeps(resume: bool, repeat: int, dt: float, live: np.ndarray, park: n
         si, gi, bi, con, cint, sc, te = steer_in[e], gas_in[e], brake_in[e], cruise_on[e], cruise_int[e], step_count[e], t[e]
         la, ln, off, sn, sm, sm2, nr, rs = lat[e], lane[e], offset[e], sd_n[e], sd_mean[e], sd_m2[e], near[e], ring_steps[e]
         pd, pdev, ar, rw, hp = prev_d[e], prev_dev[e], area[e], reward[e], has_prev[e]
-        while k < repeat:
+        while k < k_to:
             if not moved:
                 sc += 1
                 te = sc * dt
