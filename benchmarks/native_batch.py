@@ -38,10 +38,14 @@ def policy(obs: np.ndarray, width: int, lct: bool) -> np.ndarray:
     return a
 
 
-def measure(env: gym.vector.VectorEnv, seconds: float, lct: bool) -> tuple[float, float]:
+def action_width(env: gym.vector.VectorEnv) -> int:
     shape = env.single_action_space.shape
     assert shape is not None
-    width = shape[0]
+    return int(shape[0])
+
+
+def measure(env: gym.vector.VectorEnv, seconds: float, lct: bool) -> tuple[float, float]:
+    width = action_width(env)
     obs, _ = env.reset(seed=0)
     for _ in range(3):
         obs, *_ = env.step(policy(obs, width, lct))
@@ -56,9 +60,7 @@ def measure(env: gym.vector.VectorEnv, seconds: float, lct: bool) -> tuple[float
 def whole_episode(env: gym.vector.VectorEnv, lct: bool) -> tuple[float, int, float]:
     """Reset, then step until every env's episode has ended once: (env-steps per second over
     it all, steps, seconds of the slowest step: the one that scores the episodes)."""
-    shape = env.single_action_space.shape
-    assert shape is not None
-    width = shape[0]
+    width = action_width(env)
     obs, _ = env.reset(seed=0)
     ended = np.zeros(env.num_envs, dtype=bool)
     steps, slowest, t0 = 0, 0.0, time.perf_counter()

@@ -26,14 +26,19 @@ import numpy as np
 ALGORITHMS = ("ppo", "sac", "a2c", "td3")
 
 
+def _beside(model_path: Path, suffix: str) -> Path:
+    """`<model>` + suffix, next to `<model>.zip`."""
+    return model_path.with_name(model_path.name.removesuffix(".zip") + suffix)
+
+
 def normalizer_path(model_path: Path) -> Path:
     """Where `opends-gym train` saves the observation normaliser of a model."""
-    return model_path.with_name(model_path.name.removesuffix(".zip") + ".vecnormalize.pkl")
+    return _beside(model_path, ".vecnormalize.pkl")
 
 
 def settings_path(model_path: Path) -> Path:
     """The optional `<model>.policy.json` with how to act (`deterministic`)."""
-    return model_path.with_name(model_path.name.removesuffix(".zip") + ".policy.json")
+    return _beside(model_path, ".policy.json")
 
 
 def _read_deterministic(model_path: Path) -> bool:

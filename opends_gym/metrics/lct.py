@@ -126,8 +126,7 @@ def fit_lane_changes(
     out: list[LaneChangeFit] = []
     starts = [sign.d_m - visibility_m for sign in ordered]
     ends = [*starts[1:], d[-1] if len(d) else (ordered[-1].d_m if ordered else 0.0)]
-    # distance that never decreases (the usual drive): each window is a slice, found by a sorted search
-    monotonic = len(d) < 2 or bool(np.all(d[1:] >= d[:-1]))
+    monotonic = _never_decreases(d)  # (the usual drive): each window is a slice, found by a sorted search
     if monotonic:
         first, stop = np.searchsorted(d, starts, side="left"), np.searchsorted(d, ends, side="right")
     for k, sign in enumerate(ordered):
@@ -156,6 +155,10 @@ def fit_lane_changes(
         start = d10 - 0.1 * length
         out.append(LaneChangeFit(sign, start, length, reached, start - window_start))
     return out
+
+
+def _never_decreases(d: np.ndarray) -> bool:
+    return len(d) < 2 or bool(np.all(d[1:] >= d[:-1]))
 
 
 @kernel
@@ -198,7 +201,7 @@ def fit_adapted_model(
     keeping = np.ones(len(d), dtype=bool)
     lows = [f.start_d_m for f in fits]
     highs = [f.start_d_m + f.length_m for f in fits]
-    if len(d) < 2 or bool(np.all(d[1:] >= d[:-1])):  # a distance that never decreases: each change's samples are a slice
+    if _never_decreases(d):  # each change's samples are a slice
         for a, b in zip(np.searchsorted(d, lows, side="left"), np.searchsorted(d, highs, side="right"), strict=True):
             keeping[a:b] = False
     else:

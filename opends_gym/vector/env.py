@@ -33,6 +33,7 @@ from __future__ import annotations
 import itertools
 import math
 import os
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -97,8 +98,7 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self._obs_size = len(EGO_NAMES) + self._k * len(VEHICLE_NAMES) + len(template.stimulus_names)
         self.shards: list[LocalShard | ProcessShard] = []
         self._pool: ThreadPoolExecutor | None = None
-        self._workers = processes is not None and shards > 1
-        if self._workers:
+        if processes is not None and shards > 1:
             # the calling process steps the first shard itself (no round trip for it), a worker each of the others
             probe = batch_cls(template, 1, False).info()  # the info keys and their types, for the shared arrays
             info_dtypes = {key: np.asarray(v).dtype.str for key, v in probe.items()}
@@ -155,16 +155,17 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         if a.shape != self.action_space.shape:
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {a.shape}")
         jobs = [(shard, a[sl], self._autoreset[sl]) for shard, sl in zip(self.shards, self._slices)]
-        if self._pool is not None:
-            pool = self._pool
-            others = [pool.submit(shard.step, actions, resetting) for shard, actions, resetting in jobs[1:]]
-            parts = [jobs[0][0].step(jobs[0][1], jobs[0][2])] + [f.result() for f in others]
-        elif self._workers:  # start the worker processes, step the first shard here, then collect
-            for shard, actions, resetting in jobs[1:]:
-                shard.send_step(actions, resetting)  # type: ignore[union-attr]
-            parts = [jobs[0][0].step(jobs[0][1], jobs[0][2])] + [shard.receive() for shard, _, _ in jobs[1:]]  # type: ignore[union-attr]
-        else:
-            parts = [shard.step(actions, resetting) for shard, actions, resetting in jobs]
+        # start the other shards (worker processes or pool threads), step the first one here, then collect
+        collect: list[Callable[[], Any]] = []
+        for shard, actions, resetting in jobs[1:]:
+            if isinstance(shard, ProcessShard):
+                shard.send_step(actions, resetting)
+                collect.append(shard.receive)
+            else:
+                assert self._pool is not None
+                collect.append(self._pool.submit(shard.step, actions, resetting).result)
+        first, actions, resetting = jobs[0]
+        parts = [first.step(actions, resetting)] + [get() for get in collect]
         for part, sl in zip(parts, self._slices):
             err = part[-1]
             if err is not None:  # name the env in the whole batch, not in its shard
