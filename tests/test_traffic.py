@@ -141,6 +141,64 @@ def test_jump_segment_teleports_and_end_point_stops_for_good() -> None:
     assert tr.speed[ender] == 0.0 and abs(tr.positions[ender, 2] + 80.0) < 12.0
 
 
+def _loop_network() -> DrivingTask:
+    """A loop of segments with the cases a leg's end can bring: plain continuations (some only
+    10 cm long, so several pass in one step), waypoint attributes, a wait, a fork drawn at
+    random, a preferred branch, a jump and an end point."""
+    wps = [
+        road_wp("A", 0, 0, turn_signal="left", brake_light_on=True, head_light_intensity=0.5),
+        road_wp("B", 0, -60, head_light_intensity=0.8),
+        road_wp("B1", 0, -60.1, turn_signal="right"),
+        road_wp("B2", 0, -60.2, turn_signal="off", brake_light_on=False),
+        road_wp("C", 0, -120, waiting_time_s=1.5),
+        road_wp("D", 40, -160),
+        road_wp("E1", 80, -120),
+        road_wp("E2", 80, -200),
+        road_wp("F", 120, -60),
+        road_wp("G", 160, 0),
+        road_wp("H", 200, 0),
+    ]
+    segs = [segment("AB", "A", "B", 70.0), segment("BB1", "B", "B1"), segment("B1B2", "B1", "B2", 90.0), segment("B2C", "B2", "C"),
+            segment("CD", "C", "D"), segment("DE1", "D", "E1", probability=0.5), segment("DE2", "D", "E2", probability=0.5),
+            segment("E1F", "E1", "F"), segment("E2F", "E2", "F"), segment("FG", "F", "G"), segment("GA", "G", "A", jump=True),
+            segment("GH", "G", "H", probability=0.5)]  # fmt: skip
+    cars = tuple(TrafficVehicle(id=f"car{k}", start_way_point=wp, segment_refs=refs)
+                 for k, (wp, refs) in enumerate([("A", ()), ("B", ()), ("C", ("DE2",)), ("E1", ()), ("F", ())]))  # fmt: skip
+    return small_task(cars, network(wps, segs))
+
+
+def test_network_legs_continued_by_the_kernel_match_the_python_leg_logic() -> None:
+    """Cars whose next segment leaves nothing to chance are moved on by a compiled kernel; the
+    rest (waits, forks, preferred segments, jumps, end points) by Python. Both must give the
+    same traffic as Python alone, step for step."""
+    task = _loop_network()
+    fast, plain = world_for(task, seed=3), world_for(task, seed=3)
+    plain.traffic._quiet_cars[:] = False  # every leg end through `LegLogic._arrive`
+    assert fast.traffic._quiet_cars.sum() == 4  # (car2 prefers a segment)
+    python_arrivals = []
+    for w in (fast, plain):
+        calls = []
+        arrive = w.traffic._arrive
+        w.traffic._arrive = lambda i, arrive=arrive, calls=calls: (calls.append(i), arrive(i))[1]  # type: ignore[method-assign]
+        python_arrivals.append(calls)
+    turn_seen, head_lights, jumps = set(), set(), 0
+    for _ in range(int(60.0 / fast.dt_s)):
+        before = fast.traffic.positions.copy()
+        fast.step()
+        plain.step()
+        a, b = fast.traffic, plain.traffic
+        for name in ("f", "i", "b", "pos", "end_xz"):
+            assert np.array_equal(getattr(a.st, name), getattr(b.st, name), equal_nan=True), name
+        assert np.array_equal(a.brake_light, b.brake_light) and np.array_equal(a.turn_signal, b.turn_signal)
+        turn_seen.update(int(t) for t in a.turn_signal)
+        head_lights.update(float(h) for h in a.st.head_light)
+        jumps += int(np.sum(np.hypot(*(a.positions - before)[:, [0, 2]].T) > 20.0))
+    assert len(python_arrivals[0]) < len(python_arrivals[1]) - 10  # the plain continuations needed no Python
+    assert python_arrivals[0]  # ... and the others still reached it
+    assert {0, 1, 2} <= turn_seen and 0.8 in head_lights and jumps > 0
+    assert fast.traffic.st.halted.any()  # someone took GH to the end point
+
+
 # ---------------------------------------------------------------------- obstacles and lights
 def test_car_stops_behind_the_parked_ego_car_and_goes_on_when_it_leaves() -> None:
     w = world_for(small_task((straight_car("c"),)), ego_at=(0.0, 0.0, -300.0))

@@ -41,7 +41,7 @@ from .traffic_motion import ARRIVED, BLOCK, N_WORK, NOTHING_LIVE, PASSED_LIGHT, 
 from .traffic_paths import PathBank
 from .traffic_queries import nearest_ahead, touching
 from .traffic_routes import OwnPath, PositionResolver, RoadNetwork, build_own_path
-from .traffic_state import MotionState, Specs
+from .traffic_state import N_COLUMNS, MotionState, Specs
 
 if TYPE_CHECKING:
     from .world import World
@@ -110,6 +110,11 @@ class TrafficManager(TrafficControls):
         self._any_seg_prio = self.network is not None and bool(self._seg_prio.any())
         self._any_seg_nb = self.network is not None and bool(self._seg_nb.any())
         self._half_diag = np.hypot(self.half_extents[:, 0], self.half_extents[:, 1])
+        # road-network legs that end without a choice to make are continued by the kernel
+        lights = self.lights
+        self._net_table = self.network.continuations(lambda name: lights is not None and lights.index_of(name) is not None) \
+            if self.network is not None else np.zeros((1, N_COLUMNS))  # fmt: skip
+        self._quiet_cars = np.array([k == KIND_NET and not p for k, p in zip(self.kind, self.preferred)], dtype=bool).reshape(n)
         self.st = MotionState.empty(n)
         self.light_queue: list[list[tuple[int, float, float]]] = [[] for _ in range(n)]
         # the kernels' per-step inputs and scratch (allocated once)
@@ -224,7 +229,8 @@ class TrafficManager(TrafficControls):
         stop = self.lights.stop_mask if self.lights is not None and len(self.lights.stop_mask) else self._no_lights
         if not self._any_seg_prio:  # the usual step: one call, unless an object needs Python
             code, passed = step_objects(st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, self.sp.packed, pf, pp, pi,
-                                        self._t_now, self._ego, dt_s, work, flags, stop, self.brake_light, self.turn_signal)  # fmt: skip
+                                        self._t_now, self._ego, dt_s, work, flags, stop, self.brake_light, self.turn_signal,
+                                        self._net_table, self._quiet_cars)  # fmt: skip
             if code == NOTHING_LIVE:
                 return
             python_events = passed < 0

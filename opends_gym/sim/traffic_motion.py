@@ -42,7 +42,7 @@ from .traffic_paths import sample_point
 from .traffic_state import MotionState, Specs
 from .vehicle import MAX_WHEEL_ANGLE_RAD
 
-__all__ = ["MotionState", "Specs", "advance_carrots", "bend_speed", "drive", "outputs"]
+__all__ = ["MotionState", "Specs", "advance_carrots", "bend_speed", "continue_on_network", "drive", "outputs"]
 
 CARROT_LEAD_MPS = 10.0 / 3.6
 WHEELBASE_M = 2.7
@@ -240,6 +240,45 @@ def advance_carrots(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray
     return arrived
 
 
+@kernel
+def continue_on_network(f: np.ndarray, i: np.ndarray, b: np.ndarray, end_xz: np.ndarray, net: np.ndarray, quiet_cars: np.ndarray,
+                        flags: np.ndarray) -> int:  # fmt: skip
+    """Cars flagged ARRIVED that `quiet_cars` marks (road-network cars with no preferred
+    segments) enter their next segment here, as `LegLogic._arrive` would, while nothing in
+    it needs Python (`net`: `RoadNetwork.continuations`): no wait at the waypoint, no end
+    point, jump, traffic light or random choice of the segment after. Their ARRIVED flag is
+    cleared; the others keep it. Returns how many are left for Python."""
+    left = 0
+    for k in range(len(flags)):
+        if not flags[k] & ARRIVED or not quiet_cars[k]:
+            left += 1 if flags[k] & ARRIVED else 0
+            continue
+        for_python = False
+        for _ in range(32):  # (several short legs may pass in one step; `_arrive` takes 32 at most)
+            if f[ts.F_S, k] < f[ts.F_LEG_END, k] - 1e-9:
+                break
+            nxt = i[ts.I_NEXT_SEG, k]
+            if (net[i[ts.I_LEG, k], ts.N_END_WAITS] != 0.0 and not b[ts.B_WAITED, k]) or nxt < 0 or net[nxt, ts.N_QUIET] == 0.0:
+                for_python = True
+                break
+            over = f[ts.F_S, k] - f[ts.F_LEG_END, k]
+            i[ts.I_PID, k], f[ts.F_S, k], i[ts.I_LEG, k], f[ts.F_LEG_END, k] = int(net[nxt, ts.N_PATH]), over, nxt, net[nxt, ts.N_LENGTH]
+            f[ts.F_V_LEG, k], i[ts.I_NEXT_SEG, k], f[ts.F_V_NEXT, k] = net[nxt, ts.N_SPEED], int(net[nxt, ts.N_NEXT]), net[nxt, ts.N_V_NEXT]
+            end_xz[k, 0], end_xz[k, 1] = net[nxt, ts.N_END_X], net[nxt, ts.N_END_Z]
+            b[ts.B_WAITED, k] = False
+            # the attributes of the waypoint the segment starts from (`LegLogic._apply_wp`)
+            if not math.isnan(net[nxt, ts.N_TURN]):
+                i[ts.I_TURN_PATH, k] = int(net[nxt, ts.N_TURN])
+            i[ts.I_BRAKE_PATH, k] = int(net[nxt, ts.N_BRAKE])
+            if not math.isnan(net[nxt, ts.N_HEAD]):
+                f[ts.F_HEAD_LIGHT, k] = net[nxt, ts.N_HEAD]
+        if for_python:
+            left += 1
+        else:
+            flags[k] &= ~ARRIVED
+    return left
+
+
 @inline
 def _sort_worlds(pos: np.ndarray, group: int, order: np.ndarray, rank: np.ndarray, axes: np.ndarray, work: np.ndarray) -> None:
     """Each world's objects sorted along the coordinate (x or z) they spread most on."""
@@ -393,17 +432,21 @@ def outputs(i: np.ndarray, b: np.ndarray, brake_light: np.ndarray, turn_signal: 
 @kernel
 def step_objects(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray,
                  ext_cmd: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, t_now: np.ndarray, ego: np.ndarray,
-                 dt: float, work: np.ndarray, flags: np.ndarray, stop_mask: np.ndarray, brake_light: np.ndarray,
-                 turn_signal: np.ndarray) -> tuple[int, int]:  # fmt: skip
+                 dt: float, work: np.ndarray, flags: np.ndarray, stop_mask: np.ndarray, brake_light: np.ndarray, turn_signal: np.ndarray,
+                 net: np.ndarray, quiet_cars: np.ndarray) -> tuple[int, int]:  # fmt: skip
     """A whole traffic step of one world in one call when no object needs Python: `advance_carrots`,
-    `drive`, `outputs`. Returns (advance_carrots' code, lights passed); the second is -1 when
-    the step stopped after `advance_carrots` (waits over or legs ended: Python goes on)."""
+    `continue_on_network` for the legs that ended, `drive`, `outputs`. Returns (the number of
+    objects left for Python, flagged, or advance_carrots' negative code; lights passed); the
+    second is -1 when the step stopped for Python (waits over, legs ended that need it)."""
     n = f.shape[1]
     active = np.ones(n, dtype=np.bool_)
     group = n if n > 0 else 1
     code = advance_carrots(f, i, b, pos, sp, pf, pp, pi, group, active, t_now, dt, work, flags)
+    moved_on = code > 0
+    if moved_on:
+        code = continue_on_network(f, i, b, end_xz, net, quiet_cars, flags)
     if code != 0:
         return code, -1
-    passed = drive(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, group, active, ego, dt, work, flags, False, stop_mask)
+    passed = drive(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, group, active, ego, dt, work, flags, moved_on, stop_mask)
     outputs(i, b, brake_light, turn_signal)
     return 0, passed

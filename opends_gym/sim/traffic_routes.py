@@ -17,6 +17,8 @@ segment is an end point: the object stops there for good.
 from __future__ import annotations
 
 import logging
+import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,6 +28,7 @@ from ..task.model_scene import Point
 from ..task.model_task import DrivingTask
 from ..task.model_traffic import Pedestrian, TrafficVehicle, VehicleWayPoint
 from .traffic_paths import PathBank, catmull_rom, polyline
+from .traffic_state import N_COLUMNS, NEXT_DRAWN
 
 log = logging.getLogger(__name__)
 
@@ -203,6 +206,25 @@ class RoadNetwork:
 
     def preferred(self, refs: tuple[str, ...]) -> frozenset[int]:
         return frozenset(self.by_id[r] for r in refs if r in self.by_id)
+
+    def continuations(self, has_light: Callable[[str], bool]) -> np.ndarray:
+        """One row per segment (columns `traffic_motion.N_*`): what a car that leaves no choice
+        to chance does on entering it, so a compiled kernel can move cars on without Python
+        (`traffic_motion.continue_on_network`). A segment is enterable that way unless it is a
+        jump, its end waypoint has a traffic light (`has_light`, the car queues for it) or more
+        than one segment leaves it (the next one is drawn with the world's rng)."""
+        out = np.zeros((max(1, len(self.segments)), N_COLUMNS))
+        for k, seg in enumerate(self.segments):
+            to, start = self.waypoints[seg.to_wp], self.waypoints[seg.from_wp]
+            leaving = self.outgoing.get(seg.to_wp) or []
+            nxt = leaving[0] if len(leaving) == 1 else -1 if not leaving else NEXT_DRAWN
+            v_next = 0.0 if nxt < 0 else seg.speed if self.segments[nxt].jump else self.segments[nxt].speed
+            quiet = not seg.jump and nxt != NEXT_DRAWN and not (to.light is not None and has_light(to.light))
+            out[k] = (seg.path, seg.length, seg.speed, nxt, v_next, to.xyz[0], to.xyz[2],
+                      math.nan if start.turn_signal is None else start.turn_signal,
+                      -1 if start.brake_light is None else int(start.brake_light),
+                      math.nan if start.head_light is None else max(0.0, start.head_light), quiet, to.waiting_s > 0.0)  # fmt: skip
+        return out
 
     def choose_next(self, wp: str, preferred: frozenset[int], rng: np.random.Generator) -> int:
         """The segment taken at waypoint `wp` (-1 at an end point), drawn with `rng`."""

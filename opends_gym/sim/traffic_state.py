@@ -135,6 +135,13 @@ class MotionState:
             a[rows] = b[src_rows]
 
 
+# columns of `RoadNetwork.continuations` (one row per road-network segment): what a car
+# entering the segment takes on, for the kernel that moves cars from leg to leg without Python
+(N_PATH, N_LENGTH, N_SPEED, N_NEXT, N_V_NEXT, N_END_X, N_END_Z, N_TURN, N_BRAKE, N_HEAD, N_QUIET,
+ N_END_WAITS) = range(12)  # fmt: skip
+N_COLUMNS = 12
+NEXT_DRAWN = -2  # N_NEXT when several segments leave the end waypoint: drawn by Python (world rng)
+
 # rows of `Specs.packed`
 S_ACCEL, S_DEC_BRAKE, S_DEC_FREE, S_MIN_DIST, S_MAX_DIST, S_MAX_SPEED, S_SPAN_OK, S_SPAN_SAFE, S_FRICTION, S_IS_CAR, S_NEVER_FASTER = range(
     11
