@@ -63,6 +63,8 @@ class RoadGuide:
             self.lane_laterals_m = (0.0,)
             self.lane_ids = ("0",)
             self.lane_width_m = DEFAULT_LANE_WIDTH_M
+        # the start line's forward and left directions (the same floats `locate` computes)
+        self._start_axes = (-math.sin(self.start_yaw), -math.cos(self.start_yaw), -math.cos(self.start_yaw), math.sin(self.start_yaw))
 
     def locate(self, x: float, z: float) -> GuidePoint:
         if self.kind == "lanes":
@@ -74,10 +76,10 @@ class RoadGuide:
             _, _, heading = self.polyline.point_at(p.s_m)
             return GuidePoint(p.s_m, p.offset_m, heading, 0 if abs(p.offset_m) < self.lane_width_m / 2 else -1)
         # the start line: along the start heading through the start position
-        fx, fz = -math.sin(self.start_yaw), -math.cos(self.start_yaw)
+        fx, fz, lx, lz = self._start_axes
         dx, dz = x - self.start_xz[0], z - self.start_xz[1]
         s = dx * fx + dz * fz
-        lat = dx * (-math.cos(self.start_yaw)) + dz * math.sin(self.start_yaw)
+        lat = dx * lx + dz * lz
         return GuidePoint(s, lat, self.start_yaw, 0 if abs(lat) < self.lane_width_m / 2 else -1)
 
     def lane_position(self, x: float, z: float) -> tuple[float, float, int, float]:
@@ -92,6 +94,11 @@ class RoadGuide:
                 if abs(lat - c) <= half:
                     return s, lat, i, lat - c
             lane = -1
+        elif self.kind == "start_line":  # (`locate`, inlined: no GuidePoint, one lane at 0)
+            fx, fz, lx, lz = self._start_axes
+            dx, dz = x - self.start_xz[0], z - self.start_xz[1]
+            lat = dx * lx + dz * lz
+            return dx * fx + dz * fz, lat, 0 if abs(lat) < self.lane_width_m / 2 else -1, lat - 0.0
         else:
             p = self.locate(x, z)
             s, lat, lane = p.s_m, p.lateral_m, p.lane_index
