@@ -35,3 +35,22 @@ def test_start_line_lane_position_measures_along_and_across_the_start_heading(ya
         assert offset == lat  # measured from that lane's centre, on or off it
         p = g.locate(x, z)  # the same floats as the full answer
         assert (p.s_m, p.lateral_m, p.lane_index) == (s, lat, lane)
+
+
+def test_locate_answers_each_new_position_after_repeated_questions() -> None:
+    """The guide keeps its last answer for the same position; a moved car gets a new one."""
+    g = _start_line_guide(0.0, 0.0, 0.0)
+    first = g.locate(0.5, -10.0)
+    assert g.locate(0.5, -10.0) == first
+    moved = g.locate(-1.0, -12.5)
+    assert (moved.s_m, moved.lateral_m) == (12.5, 1.0)
+    assert g.locate(0.5, -10.0) == first
+
+
+def test_pedal_controls_equal_the_full_constructor() -> None:
+    from opends_gym.sim.controls import DriverControls
+
+    fast = DriverControls.pedals(-0.25, 0.5, 0.0)
+    assert fast == DriverControls(steering=-0.25, accelerator=0.5, brake=0.0)
+    fast.keys = ("KEY_A",)  # its own record: changing it leaves the defaults alone
+    assert DriverControls.pedals(0.0, 0.0, 0.0).keys == () and DriverControls().keys == ()

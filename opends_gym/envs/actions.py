@@ -64,7 +64,7 @@ class ContinuousAction(ActionType):
         if not all(map(math.isfinite, values)):
             raise ValueError(f"action contains NaN or infinity: {values}")
         steering, pedal = (-1.0 if v < -1.0 else 1.0 if v > 1.0 else v for v in values[:2])
-        return DriverControls(steering=steering, accelerator=max(pedal, 0.0), brake=max(-pedal, 0.0))
+        return DriverControls.pedals(steering, max(pedal, 0.0), max(-pedal, 0.0))
 
 
 BUTTONS = ("reaction", "horn", "indicator_left", "indicator_right")
@@ -160,7 +160,7 @@ class DiscreteAction(ActionType):
         p = self.guide.locate(s.x, s.z)
         steer = stanley_steering(s.yaw, p.heading_rad, p.lateral_m, lats[self.target_lane], s.u, s.r)
         pedal = speed_pedal(s.u, self.target_speed)
-        return DriverControls(steering=steer, accelerator=max(pedal, 0.0), brake=max(-pedal, 0.0))
+        return DriverControls.pedals(steer, max(pedal, 0.0), max(-pedal, 0.0))
 
 
 def _control_keys() -> tuple[str, ...]:

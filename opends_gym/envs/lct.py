@@ -150,11 +150,11 @@ class LaneChangeTestEnv(OpenDSEnv):
         self._prev = (d, dev)
 
     def _active_sign(self) -> LctSignSpec | None:
-        active = None
-        for spec, model in zip(self.sign_specs, self._sign_models):
+        """The last visible sign (searched from the end: asked every policy step)."""
+        for spec, model in zip(reversed(self.sign_specs), reversed(self._sign_models)):
             if model.visible:
-                active = spec
-        return active
+                return spec
+        return None
 
     def _stimulus(self) -> list[float]:
         s = self.world.ego.state

@@ -43,6 +43,15 @@ class DriverControls:
     remote_triggers: tuple[str, ...] = ()
     reset_to: str | None = None  # reset point id
 
+    @staticmethod
+    def pedals(steering: float, accelerator: float, brake: float) -> DriverControls:
+        """`DriverControls(steering=..., accelerator=..., brake=...)` without the dataclass
+        constructor's cost (an agent's action becomes one every policy step)."""
+        c = object.__new__(DriverControls)
+        c.__dict__.update(_DEFAULTS)
+        c.steering, c.accelerator, c.brake = steering, accelerator, brake
+        return c
+
     def clipped(self) -> DriverControls:
         """A copy with pedal and steering values forced into their ranges (NaN -> 0)."""
         c = object.__new__(DriverControls)  # a plain field copy: this runs every physics step
@@ -56,6 +65,9 @@ class DriverControls:
         v = float(self.clutch)
         c.clutch = 0.0 if v != v else 0.0 if v < 0.0 else 1.0 if v > 1.0 else v
         return c
+
+
+_DEFAULTS = dict(DriverControls().__dict__)  # (every default is immutable)
 
 
 @dataclass

@@ -63,10 +63,21 @@ class RoadGuide:
             self.lane_laterals_m = (0.0,)
             self.lane_ids = ("0",)
             self.lane_width_m = DEFAULT_LANE_WIDTH_M
+        self._last: tuple[float, float, GuidePoint] = (math.nan, math.nan, GuidePoint(0.0, 0.0, 0.0, -1))
         # the start line's forward and left directions (the same floats `locate` computes)
         self._start_axes = (-math.sin(self.start_yaw), -math.cos(self.start_yaw), -math.cos(self.start_yaw), math.sin(self.start_yaw))
 
     def locate(self, x: float, z: float) -> GuidePoint:
+        """Where (x, z) lies (the last answer is kept: a step asks it several times for the
+        same car position, the same float objects)."""
+        last = self._last
+        if last[0] is x and last[1] is z:
+            return last[2]
+        p = self._locate(x, z)
+        self._last = (x, z, p)
+        return p
+
+    def _locate(self, x: float, z: float) -> GuidePoint:
         if self.kind == "lanes":
             lat = -self.sign * x
             s = -self.sign * (z - self.start_xz[1])
