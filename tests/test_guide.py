@@ -54,3 +54,9 @@ def test_pedal_controls_equal_the_full_constructor() -> None:
     assert fast == DriverControls(steering=-0.25, accelerator=0.5, brake=0.0)
     fast.keys = ("KEY_A",)  # its own record: changing it leaves the defaults alone
     assert DriverControls.pedals(0.0, 0.0, 0.0).keys == () and DriverControls().keys == ()
+
+
+def test_nearest_lane_is_the_closest_centre_and_the_first_of_equals() -> None:
+    g = _start_line_guide(0.0, 0.0, 0.0)
+    g.lane_laterals_m = (-3.5, 0.0, 3.5)
+    assert [g.nearest_lane(v) for v in (-9.0, -1.0, 1.0, 1.75, 2.0, 40.0)] == [0, 1, 1, 1, 2, 2]

@@ -7,6 +7,7 @@ reject `polcy_hz=20` loudly instead of silently training with the default.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
@@ -34,9 +35,9 @@ class EnvConfig:
     reward_speed_weight: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
 
-    @property
+    @functools.cached_property
     def action_repeat(self) -> int:
-        """Physics steps per policy step."""
+        """Physics steps per policy step (kept: the env asks every policy step)."""
         return max(1, int(round(self.physics_hz / self.policy_hz)))
 
 

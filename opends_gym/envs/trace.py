@@ -6,6 +6,8 @@ keep one compact float array per episode (grown by doubling) instead of Python l
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 COLUMNS = (
@@ -60,7 +62,8 @@ class Trace:
         end = self._stored + len(rows)
         while end > len(self._data):
             self._data = np.concatenate([self._data, np.zeros_like(self._data)])
-        self._data[self._stored : end] = rows
+        flat = np.fromiter(itertools.chain.from_iterable(rows), dtype=np.float64, count=len(rows) * len(COLUMNS))
+        self._data[self._stored : end] = flat.reshape(len(rows), len(COLUMNS))  # (faster than from the tuples)
         self._stored = end
         rows.clear()
 

@@ -124,4 +124,11 @@ class RoadGuide:
         return -1
 
     def nearest_lane(self, lat: float) -> int:
-        return min(range(len(self.lane_laterals_m)), key=lambda i: abs(self.lane_laterals_m[i] - lat))
+        """The lane whose centre is nearest (the first of equals)."""
+        centres = self.lane_laterals_m
+        best, best_d = 0, abs(centres[0] - lat)
+        for i in range(1, len(centres)):
+            d = abs(centres[i] - lat)
+            if d < best_d:
+                best, best_d = i, d
+        return best
