@@ -86,12 +86,15 @@ class RoadGuide:
             p = self.polyline.project(x, z)
             _, _, heading = self.polyline.point_at(p.s_m)
             return GuidePoint(p.s_m, p.offset_m, heading, 0 if abs(p.offset_m) < self.lane_width_m / 2 else -1)
-        # the start line: along the start heading through the start position
+        s, lat = self._along_start_line(x, z)
+        return GuidePoint(s, lat, self.start_yaw, 0 if abs(lat) < self.lane_width_m / 2 else -1)
+
+    def _along_start_line(self, x: float, z: float) -> tuple[float, float]:
+        """(distance along, lateral position across) the line through the start position along
+        the start heading."""
         fx, fz, lx, lz = self._start_axes
         dx, dz = x - self.start_xz[0], z - self.start_xz[1]
-        s = dx * fx + dz * fz
-        lat = dx * lx + dz * lz
-        return GuidePoint(s, lat, self.start_yaw, 0 if abs(lat) < self.lane_width_m / 2 else -1)
+        return dx * fx + dz * fz, dx * lx + dz * lz
 
     def lane_position(self, x: float, z: float) -> tuple[float, float, int, float]:
         """(s, lateral, lane index, offset from the centre of that lane, or of the nearest lane
@@ -105,11 +108,9 @@ class RoadGuide:
                 if abs(lat - c) <= half:
                     return s, lat, i, lat - c
             lane = -1
-        elif self.kind == "start_line":  # (`locate`, inlined: no GuidePoint, one lane at 0)
-            fx, fz, lx, lz = self._start_axes
-            dx, dz = x - self.start_xz[0], z - self.start_xz[1]
-            lat = dx * lx + dz * lz
-            return dx * fx + dz * fz, lat, 0 if abs(lat) < self.lane_width_m / 2 else -1, lat - 0.0
+        elif self.kind == "start_line":  # (no GuidePoint; its one lane is centred on the line)
+            s, lat = self._along_start_line(x, z)
+            return s, lat, 0 if abs(lat) < self.lane_width_m / 2 else -1, lat - self.lane_laterals_m[0]
         else:
             p = self.locate(x, z)
             s, lat, lane = p.s_m, p.lateral_m, p.lane_index
