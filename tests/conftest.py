@@ -1,4 +1,4 @@
-"""Shared fixtures: the real OpenDS corpus in ../shared/opends-tasks and broken copies of it."""
+"""Shared fixtures: the real OpenDS corpus in tests/data/opends-tasks and broken copies of it."""
 
 from __future__ import annotations
 
@@ -9,9 +9,12 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-# The corpus of real OpenDS tasks lives beside the project (../shared/opends-tasks);
-# OPENDS_CORPUS points elsewhere when the checkout is not beside it.
-CORPUS = Path(os.environ.get("OPENDS_CORPUS", ROOT.parent / "shared" / "opends-tasks"))
+# The corpus of real OpenDS tasks ships with the tests (tests/data/opends-tasks, see its README
+# for origin and licence); OPENDS_CORPUS points at another corpus of the same layout.
+DATA = ROOT / "tests" / "data"
+CORPUS = Path(os.environ.get("OPENDS_CORPUS", DATA / "opends-tasks"))
+# Real OpenDS drive logs (carData.txt) and the task they were driven on (tests/data/opends-drives).
+DRIVES = DATA / "opends-drives"
 
 
 def corpus_task_dirs() -> list[Path]:
