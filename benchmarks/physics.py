@@ -63,7 +63,7 @@ class Row:
 
 
 def traffic_available() -> bool:
-    return importlib.util.find_spec("opends_gym.sim.traffic") is not None
+    return importlib.util.find_spec("opends_gym.sim.traffic.manager") is not None
 
 
 def load(case: Case) -> tuple[DrivingTask, float]:
@@ -135,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
     notes: list[str] = []
     for case in CASES:
         if case.traffic and not traffic_available():
-            notes.append(f"{case.label}: traffic not available (opends_gym.sim.traffic is missing); not measured")
+            notes.append(f"{case.label}: traffic not available (opends_gym.sim.traffic.manager is missing); not measured")
             continue
         if "/" in case.source and not (CORPUS / case.source).is_dir():
             notes.append(f"{case.label}: corpus not found at {CORPUS} (set OPENDS_CORPUS); not measured")

@@ -92,7 +92,7 @@ class _EdgeHugger:
         self.env = env.unwrapped
 
     def act(self, obs: Any, info: dict[str, Any]) -> np.ndarray:
-        from opends_gym.drivers.control import stanley_steering
+        from opends_gym.control.controllers import stanley_steering
 
         s = self.env.world.ego.state
         p = self.env.guide.locate(s.x, s.z)

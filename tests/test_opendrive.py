@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from opends_gym.sim.controls import DriverControls
-from opends_gym.sim.opendrive import OpenDriveError, OpenDriveMap
+from opends_gym.sim.opendrive.map import OpenDriveError, OpenDriveMap
 from opends_gym.sim.world import World, WorldConfig
 from opends_gym.task import load_task
 from opends_gym.task.model_traffic import ODConnection

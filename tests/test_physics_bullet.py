@@ -12,8 +12,8 @@ from pathlib import Path
 import pybullet as pb
 import pytest
 
+from opends_gym.sim.bullet.vehicle import BulletVehicle
 from opends_gym.sim.controls import DriverControls
-from opends_gym.sim.physics_bullet import BulletVehicle
 from opends_gym.sim.world import World, WorldConfig
 from opends_gym.task import DrivingTask, load_task
 from opends_gym.task.model_scene import Box, Model, ResetPoint, Terrain
@@ -104,7 +104,7 @@ def test_reset_point_moves_only_the_car() -> None:
 def test_missing_model_warns_once_and_a_box_stands_in(caplog) -> None:
     # two models with one missing asset: one warning; the 1 m stand-in cube stops the car
     models = (crate("sign1", -20.0, 0.0, key="Models/Nowhere/crate.scene"), crate("sign2", -20.0, 0.0, key="Models/Nowhere/crate.scene"))
-    with caplog.at_level(logging.WARNING, logger="opends_gym.sim.physics_bullet_scene"):
+    with caplog.at_level(logging.WARNING, logger="opends_gym.sim.bullet.scene"):
         w = bullet_world(with_models(open_road(20.0), *models))
         w.run(4.0, DriverControls(accelerator=0.2))
         w.reset()
@@ -125,7 +125,7 @@ def _wall_obj(path: Path, hx: float, hy: float, hz: float) -> None:
 def test_obj_model_file_gives_the_shape(tmp_path, caplog) -> None:
     _wall_obj(tmp_path / "wall.obj", 3.0, 1.0, 1.5)  # 1.5 m half depth, not the 0.5 m stand-in
     task = with_models(open_road(20.0), crate("wall", -20.0, 0.0, key="wall.obj", y=1.0), folder=tmp_path)
-    with caplog.at_level(logging.WARNING, logger="opends_gym.sim.physics_bullet_scene"):
+    with caplog.at_level(logging.WARNING, logger="opends_gym.sim.bullet.scene"):
         w = bullet_world(task)
     w.run(5.0, DriverControls(accelerator=0.2))
     assert bullet(w).warnings == []

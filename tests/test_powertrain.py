@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from opends_gym.sim.powertrain import (
+from opends_gym.sim.ego.powertrain import (
     Powertrain,
     bmep_kpa,
     engine_power_kw,

@@ -221,7 +221,7 @@ def _drive_reaction_test(w: World, plan: list[str], n_results: int) -> list[tupl
     """Keep lane 2 at 60 km/h; on the k-th armed timer do plan[k]: 'react' (brake to
     below 40 km/h, or change to the target lane), 'brake' (tap the brake) or 'ignore'.
     Returns the (t, speed, x, brake) trace."""
-    from opends_gym.drivers.control import speed_pedal, stanley_steering
+    from opends_gym.control.controllers import speed_pedal, stanley_steering
 
     bands = {b.id: (b.x_min, b.x_max) for b in w.road.lanes}
     home = sum(bands["2"]) / 2

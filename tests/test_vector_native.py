@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import opends_gym  # noqa: F401  (registers the ids)
-from opends_gym.sim.jit import kernel, py_hypot
+from opends_gym.jit import kernel, py_hypot
 from opends_gym.vector import NativeVectorEnv
 
 LCT = "OpenDS/LaneChangeTest-v0"

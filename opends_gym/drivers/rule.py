@@ -20,7 +20,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from .control import stanley_steering
+from ..control.controllers import stanley_steering
 from .intent import Intent, to_action
 from .percept import Percept, perceive
 

@@ -15,7 +15,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from ..drivers.control import speed_pedal, stanley_steering
+from ..control.controllers import speed_pedal, stanley_steering
 from ..sim.controls import DriverControls
 from ..sim.guide import RoadGuide
 from ..sim.world import World

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..drivers.control import pure_pursuit_steering, speed_pedal
+from ..control.controllers import pure_pursuit_steering, speed_pedal
 from ..sim.controls import DriverControls
 from ..task import DrivingTask, load_task
 from ..task.model_scene import Point

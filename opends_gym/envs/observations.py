@@ -16,7 +16,7 @@ import gymnasium as gym
 import numpy as np
 
 from ..sim.guide import RoadGuide, wrap_angle
-from ..sim.traffic_queries import nearest_slots
+from ..sim.traffic.queries import nearest_slots
 from ..sim.world import World
 
 StimulusFn = Callable[[], Sequence[float]]

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..sim.jit import kernel
+from ..jit import kernel
 
 
 @dataclass(frozen=True)

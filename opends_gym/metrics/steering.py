@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from ..sim.jit import kernel
+from ..jit import kernel
 
 
 def butter2_lowpass(cutoff_hz: float, fs_hz: float) -> tuple[np.ndarray, np.ndarray]:

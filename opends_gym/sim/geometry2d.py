@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from .jit import inline, kernel
+from ..jit import inline, kernel
 
 
 class Obb(NamedTuple):

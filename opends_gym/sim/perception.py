@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .traffic_queries import nearest_ahead
+from .traffic.queries import nearest_ahead
 from .world import World
 
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..task.model_scene import Point
 from ..task.model_task import DrivingTask, Pose
-from .opendrive import OpenDriveMap, driver_start_pose
+from .opendrive.map import OpenDriveMap, driver_start_pose
 
 LANE_MARGIN_M = 0.75  # OpenDS: inside a lane when this far inside both of its edges
 

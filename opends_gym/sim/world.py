@@ -29,7 +29,7 @@ import numpy as np
 from ..task import DrivingTask, load_task
 from ..task.model_task import Pose
 from .controls import DriverControls
-from .ego import EgoCar, make_backend
+from .ego.car import EgoCar, make_backend
 from .events import EventLog
 from .geometry2d import Obb, obb_overlap
 from .road import RoadModel
@@ -255,7 +255,7 @@ def _make_lights(world: World) -> Any:
 def _make_traffic(world: World) -> Any:
     if not world.config.traffic or not world.task.scenario.traffic:
         return None
-    from .traffic import TrafficManager
+    from .traffic.manager import TrafficManager
 
     return TrafficManager(world)
 

@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from ..sim.ego_kernels import body_step_trig, cruise_control, min_speed_gas, powertrain_core
-from ..sim.jit import inline, kernel
-from ..sim.vehicle import MAX_WHEEL_ANGLE_RAD
+from ..jit import inline, kernel
+from ..sim.ego.kernels import body_step_trig, cruise_control, min_speed_gas, powertrain_core
+from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 
 
 @dataclass(frozen=True)

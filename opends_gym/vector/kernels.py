@@ -14,9 +14,9 @@ import math
 
 import numpy as np
 
+from ..jit import inline, kernel, py_hypot
 from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..sim.geometry2d import boxes_overlap
-from ..sim.jit import inline, kernel, py_hypot
 from ..sim.road import LANE_MARGIN_M
 from ..sim.triggers.reactions import EPS
 

@@ -16,8 +16,8 @@ import math
 
 import numpy as np
 
-from ..sim.jit import inline, kernel
-from ..sim.vehicle import MAX_WHEEL_ANGLE_RAD
+from ..jit import inline, kernel
+from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from .ego import ego_step
 from .kernels import lane_measures, nearest_volume, timer_step, volume_fires
 

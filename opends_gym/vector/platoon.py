@@ -24,7 +24,7 @@ from ..envs.platoon_core import (
     PlatoonState,
     Stimulus,
 )
-from ..sim.traffic_routes import TURN_CODES
+from ..sim.traffic.routes import TURN_CODES
 from ..sim.triggers.core import CompiledAction
 from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore

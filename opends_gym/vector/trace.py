@@ -18,8 +18,8 @@ import os
 import numpy as np
 
 from ..envs.trace import COL, Trace
+from ..jit import kernel
 from ..sim.guide import RoadGuide
-from ..sim.jit import kernel
 from .kernels import lane_of
 
 

@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from ..sim.traffic_legs import KIND_OWN, LegLogic
-from ..sim.traffic_motion import ARRIVED, N_WORK, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, advance_carrots, drive, outputs
-from ..sim.traffic_queries import nearest_slots
-from ..sim.traffic_state import MotionState, Specs
+from ..sim.traffic.legs import KIND_OWN, LegLogic
+from ..sim.traffic.motion import ARRIVED, N_WORK, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, advance_carrots, drive, outputs
+from ..sim.traffic.queries import nearest_slots
+from ..sim.traffic.state import MotionState, Specs
 from .triggers import obb_overlap
 
 

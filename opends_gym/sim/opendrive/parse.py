@@ -17,9 +17,9 @@ from pathlib import Path
 
 from lxml import etree
 
-from ..task.errors import TaskError
-from ..task.xmlsafe import local_name, parse_file
-from .opendrive_geometry import Arc, Cubic, Geometry, Line, ParamPoly3, Poly3, ReferenceLine, Spiral
+from ...task.errors import TaskError
+from ...task.xmlsafe import local_name, parse_file
+from .geometry import Arc, Cubic, Geometry, Line, ParamPoly3, Poly3, ReferenceLine, Spiral
 
 log = logging.getLogger("opends_gym.opendrive")
 

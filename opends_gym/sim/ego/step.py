@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 
-from .ego_kernels import body_step, cruise_control, min_speed_gas, powertrain_core
-from .jit import kernel
+from ...jit import kernel
+from .kernels import body_step, cruise_control, min_speed_gas, powertrain_core
 
 # the powertrain state (`sim.powertrain.PowertrainState.values`)
 S_GEAR, S_AUTOMATIC, S_ENGINE_ON, S_RPM, S_PREV_V, S_FUEL_USED, S_FUEL_LEFT, S_P_ENGINE, S_P_LOAD = range(9)

@@ -10,13 +10,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..task.model_task import DrivingTask, Pose
-from .controls import DriverControls
-from .ego_fast import A_MIN_SPEED, cruise_params, drive_inputs, ego_step
-from .ego_kernels import CRUISE_GAIN, CRUISE_INTEGRAL_BAND_MPS, CRUISE_INTEGRAL_MAX, CRUISE_KI, car_constants
-from .physics_fast import FastVehicle
+from ...task.model_task import DrivingTask, Pose
+from ..controls import DriverControls
+from .fast_body import FastVehicle
+from .kernels import CRUISE_GAIN, CRUISE_INTEGRAL_BAND_MPS, CRUISE_INTEGRAL_MAX, CRUISE_KI, car_constants
 from .powertrain import Powertrain
-from .vehicle import MAX_WHEEL_ANGLE_RAD, BodyState, VehicleBackend, VehicleSpec
+from .spec import MAX_WHEEL_ANGLE_RAD, BodyState, VehicleBackend, VehicleSpec
+from .step import A_MIN_SPEED, cruise_params, drive_inputs, ego_step
 
 __all__ = ["CRUISE_GAIN", "CRUISE_INTEGRAL_BAND_MPS", "CRUISE_INTEGRAL_MAX", "CRUISE_KI", "CarInputs", "EgoCar", "make_backend"]
 _NO_LEAD = (float("nan"), float("nan"))
@@ -204,7 +204,7 @@ def make_backend(kind: str, task: DrivingTask, **options: Any) -> VehicleBackend
     if kind == "fast":
         return FastVehicle(spec, options.get("ground_height"))
     if kind == "bullet":
-        from .physics_bullet import BulletVehicle
+        from ..bullet.vehicle import BulletVehicle
 
         return BulletVehicle(spec, task, **options)
     raise ValueError(f"unknown physics backend '{kind}' (use 'fast' or 'bullet')")

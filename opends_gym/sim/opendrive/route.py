@@ -21,10 +21,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .opendrive_parse import Road, RoadLink
+from .parse import Road, RoadLink
 
 if TYPE_CHECKING:
-    from .opendrive import OpenDriveMap
+    from .map import OpenDriveMap
 
 log = logging.getLogger("opends_gym.opendrive")
 

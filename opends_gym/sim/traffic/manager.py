@@ -33,18 +33,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..task.model_traffic import ODVehicle, Pedestrian, TrafficVehicle
-from .geometry2d import Obb
-from .traffic_controls import TrafficControls
-from .traffic_legs import KIND_NET, KIND_NONE, KIND_OD, KIND_OWN
-from .traffic_motion import ARRIVED, BLOCK, N_WORK, NOTHING_LIVE, PASSED_LIGHT, WAIT_OVER, WAITS_OVER, advance_carrots, drive, step_objects
-from .traffic_paths import PathBank
-from .traffic_queries import nearest_ahead, touching
-from .traffic_routes import OwnPath, PositionResolver, RoadNetwork, build_own_path
-from .traffic_state import N_COLUMNS, MotionState, Specs
+from ...task.model_traffic import ODVehicle, Pedestrian, TrafficVehicle
+from ..geometry2d import Obb
+from .controls import TrafficControls
+from .legs import KIND_NET, KIND_NONE, KIND_OD, KIND_OWN
+from .motion import ARRIVED, BLOCK, N_WORK, NOTHING_LIVE, PASSED_LIGHT, WAIT_OVER, WAITS_OVER, advance_carrots, drive, step_objects
+from .paths import PathBank
+from .queries import nearest_ahead, touching
+from .routes import OwnPath, PositionResolver, RoadNetwork, build_own_path
+from .state import N_COLUMNS, MotionState, Specs
 
 if TYPE_CHECKING:
-    from .world import World
+    from ..world import World
 
 log = logging.getLogger(__name__)
 

@@ -15,7 +15,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from ..task.model_car import Car
+from ...task.model_car import Car
 
 # Front-wheel angle at full steering input. With the 450-degree steering wheel of
 # `controls.STEERING_WHEEL_MAX_DEG` this is a 15.7:1 steering ratio, a typical car's.

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from .jit import inline, kernel
+from ...jit import inline, kernel
 
 SAMPLE_SPACING_M = 1.0  # curved pieces are sampled about this finely (straight ones exactly)
 PATH_GAP_M = 1.0  # spacing between paths on the global arc-length axis

@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from ..task.model_traffic import ODVehicle
-from .traffic_legs import KIND_NET, KIND_OD, LANE_HOLD_S, LegLogic
-from .traffic_motion import outputs
-from .traffic_routes import TURN_CODES
+from ...task.model_traffic import ODVehicle
+from .legs import KIND_NET, KIND_OD, LANE_HOLD_S, LegLogic
+from .motion import outputs
+from .routes import TURN_CODES
 
 log = logging.getLogger(__name__)
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from ..sim.guide import wrap_angle
-from ..sim.vehicle import MAX_WHEEL_ANGLE_RAD
 
 
 @dataclass(frozen=True)

@@ -34,13 +34,13 @@ from typing import Any
 import pybullet as pb
 from pybullet_utils import bullet_client
 
-from ..task.model_task import DrivingTask
-from ..task.values import yaw_from_quat
-from .geometry2d import Obb
-from .physics_bullet_scene import G_CAR, MASK_CAR, RAY_MASK, Placement, SceneBuilder, quat_mul, yaw_quat
-from .physics_bullet_wheels import RaycastWheels
-from .scene_objects import SceneObjects
-from .vehicle import BodyState, VehicleSpec
+from ...task.model_task import DrivingTask
+from ...task.values import yaw_from_quat
+from ..ego.spec import BodyState, VehicleSpec
+from ..geometry2d import Obb
+from ..scene_objects import SceneObjects
+from .scene import G_CAR, MASK_CAR, RAY_MASK, Placement, SceneBuilder, quat_mul, yaw_quat
+from .wheels import RaycastWheels
 
 CHASSIS_CLEARANCE_M = 0.25
 MOVED_M = 1e-3  # a pushed scene model's pose is written back once it moved this far

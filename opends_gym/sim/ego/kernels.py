@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from .jit import inline, kernel
+from ...jit import inline, kernel
 
 KINEMATIC_BELOW = 1.0  # m/s: purely kinematic below this forward speed
 DYNAMIC_ABOVE = 3.0  # m/s: purely dynamic above this

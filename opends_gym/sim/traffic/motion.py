@@ -36,11 +36,11 @@ import math
 
 import numpy as np
 
-from . import traffic_state as ts
-from .jit import inline, kernel
-from .traffic_paths import sample_point
-from .traffic_state import MotionState, Specs
-from .vehicle import MAX_WHEEL_ANGLE_RAD
+from ...jit import inline, kernel
+from ..ego.spec import MAX_WHEEL_ANGLE_RAD
+from . import state as ts
+from .paths import sample_point
+from .state import MotionState, Specs
 
 __all__ = ["MotionState", "Specs", "advance_carrots", "bend_speed", "continue_on_network", "drive", "outputs"]
 

@@ -33,10 +33,10 @@ from typing import Any
 
 import numpy as np
 
-from ..task.model_task import DrivingTask, Pose
-from ..task.values import Rotation
-from .opendrive_parse import Junction, LaneSection, OpenDriveError, ParsedOpenDrive, Road, parse_opendrive
-from .opendrive_route import CAR_LANE_TYPES, RoutePlanner
+from ...task.model_task import DrivingTask, Pose
+from ...task.values import Rotation
+from .parse import Junction, LaneSection, OpenDriveError, ParsedOpenDrive, Road, parse_opendrive
+from .route import CAR_LANE_TYPES, RoutePlanner
 
 __all__ = ["CAR_LANE_TYPES", "OpenDriveError", "OpenDriveMap", "driver_start_pose"]
 

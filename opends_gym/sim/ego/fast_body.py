@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from .ego_kernels import DYNAMIC_ABOVE, KINEMATIC_BELOW, STOP_SPEED, body_params, body_step_kernel
-from .vehicle import BodyState, VehicleSpec
+from .kernels import DYNAMIC_ABOVE, KINEMATIC_BELOW, STOP_SPEED, body_params, body_step_kernel
+from .spec import BodyState, VehicleSpec
 
 __all__ = ["DYNAMIC_ABOVE", "KINEMATIC_BELOW", "STOP_SPEED", "FastVehicle"]
 G = 9.81

@@ -21,10 +21,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..task.model_car import Car
-from . import ego_fast as ef
-from . import ego_kernels as ek
-from .ego_kernels import (  # the constants the compiled powertrain uses too: one definition
+from ...task.model_car import Car
+from . import kernels as ek
+from . import step as ef
+from .kernels import (  # the constants the compiled powertrain uses too: one definition
     ACCESSORIES_KW,
     FUEL_LHV_KJ_PER_G,
     INERTIA_MASS_FACTOR,
@@ -34,8 +34,8 @@ from .ego_kernels import (  # the constants the compiled powertrain uses too: on
     WHEEL_CONSTANT,
     G,
 )
-from .ego_kernels import RPM_TABLE_STEP as _RPM_TABLE_STEP
-from .ego_kernels import TABLE_STEP as _TABLE_STEP
+from .kernels import RPM_TABLE_STEP as _RPM_TABLE_STEP
+from .kernels import TABLE_STEP as _TABLE_STEP
 
 BMEP_COEFFS = (-19950.8, 3479.90, -231.809, 8.25775, -0.169919, 0.00202259, -1.2921e-5, 3.42208e-8)  # kPa, n in 1/s
 RHO_AIR = 1.3  # kg/m^3 (ego_kernels.AIR_K = 0.5 x RHO_AIR x CW x FRONTAL_AREA_M2)

@@ -34,10 +34,10 @@ from typing import Any
 import numpy as np
 import pybullet as pb
 
-from ..task.model_scene import Box, Cylinder, Model, Point, Sphere, Terrain
-from ..task.model_task import DrivingTask
-from ..task.values import Quat
-from .scene_objects import SceneObject, SceneObjects
+from ...task.model_scene import Box, Cylinder, Model, Point, Sphere, Terrain
+from ...task.model_task import DrivingTask
+from ...task.values import Quat
+from ..scene_objects import SceneObject, SceneObjects
 
 log = logging.getLogger(__name__)
 

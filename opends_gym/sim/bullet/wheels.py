@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from .vehicle import VehicleSpec
+from ..ego.spec import VehicleSpec
 
 WHEEL_RADIUS_M = 0.32
 SUSPENSION_REST_M = 0.30

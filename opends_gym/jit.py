@@ -37,7 +37,7 @@ _SPLIT = 134217729.0  # 2**27 + 1: Veltkamp's split of a double into two 26-bit 
 _DBL_MIN = 2.2250738585072014e-308
 
 
-_PACKAGE = Path(__file__).resolve().parent.parent
+_PACKAGE = Path(__file__).resolve().parent
 _KERNEL_SOURCES = ("sim", "vector", "metrics")  # the folders whose modules define kernels
 
 
@@ -48,8 +48,8 @@ def _kernel_sources_stamp() -> str:
     key, an edit to any kernel module recompiles them all instead of running stale code."""
     digest = hashlib.sha256()
     for folder in _KERNEL_SOURCES:
-        for path in sorted((_PACKAGE / folder).glob("*.py")):
-            digest.update(path.name.encode())
+        for path in sorted((_PACKAGE / folder).rglob("*.py")):
+            digest.update(str(path.relative_to(_PACKAGE)).encode())
             digest.update(path.read_bytes())
     return digest.hexdigest()
 

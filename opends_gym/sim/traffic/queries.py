@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 
-from .geometry2d import boxes_overlap
-from .jit import kernel
+from ...jit import kernel
+from ..geometry2d import boxes_overlap
 
 
 @kernel

@@ -18,12 +18,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .traffic_paths import PathBank
-from .traffic_routes import OwnPath, RoadNetwork, WaypointInfo
-from .traffic_state import MotionState
+from .paths import PathBank
+from .routes import OwnPath, RoadNetwork, WaypointInfo
+from .state import MotionState
 
 if TYPE_CHECKING:
-    from .world import World
+    from ..world import World
 
 KIND_NONE, KIND_OWN, KIND_NET, KIND_OD = -1, 0, 1, 2
 LANE_CHANGE_AHEAD_M = 30.0  # OpenDS joins the neighbour segment 30 m further on

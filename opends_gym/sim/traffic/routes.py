@@ -23,12 +23,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..task.model_road import RoadWayPoint
-from ..task.model_scene import Point
-from ..task.model_task import DrivingTask
-from ..task.model_traffic import Pedestrian, TrafficVehicle, VehicleWayPoint
-from .traffic_paths import PathBank, catmull_rom, polyline
-from .traffic_state import N_COLUMNS, NEXT_DRAWN
+from ...task.model_road import RoadWayPoint
+from ...task.model_scene import Point
+from ...task.model_task import DrivingTask
+from ...task.model_traffic import Pedestrian, TrafficVehicle, VehicleWayPoint
+from .paths import PathBank, catmull_rom, polyline
+from .state import N_COLUMNS, NEXT_DRAWN
 
 log = logging.getLogger(__name__)
 

@@ -1,0 +1,1 @@
+"""The pybullet backend: the ego as a raycast vehicle on the task's scene (the `bullet` extra)."""
