@@ -4,8 +4,7 @@ Importing the package registers the `OpenDS/...` environment ids with Gymnasium.
 """
 
 from .envs.registration import register_envs
-
-__version__ = "0.1.0"
+from .version import __version__
 
 register_envs()
 

@@ -17,7 +17,9 @@ def registered_env_ids() -> list[str]:
     try:
         import gymnasium
 
-        import opends_gym  # noqa: F401  (registers the environments)
+        from ..envs.registration import register_envs
+
+        register_envs()
     except ImportError:
         return []
     return sorted(k for k in gymnasium.registry if k.startswith("OpenDS/"))

@@ -14,6 +14,7 @@ from typing import Any
 
 import gymnasium as gym
 
+from ..envs.registration import resolve_env_id
 from ..jsonsafe import dump_json
 from ..metrics.stats import mean_ci
 
@@ -33,17 +34,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
     p.add_argument("--record", default=None, metavar="PATH.mcap", help="record each episode to MCAP (never overwrites: name(2).mcap, ...)")
     p.add_argument("--record-rate", type=float, default=None, metavar="HZ", help="ego state rate in the recording (default: physics rate)")
-
-
-def resolve_env_id(target: str) -> tuple[str, dict[str, Any]]:
-    import opends_gym  # noqa: F401  (registers the ids)
-
-    if target in gym.registry:
-        return target, {}
-    for candidate in (f"OpenDS/{target}", f"OpenDS/{target}-v0"):
-        if candidate in gym.registry:
-            return candidate, {}
-    return "OpenDS/DrivingTask-v0", {"task": target}
 
 
 def _parse_value(text: str) -> Any:

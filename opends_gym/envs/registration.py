@@ -7,6 +7,8 @@ registration must happen on import and tolerate running twice.
 
 from __future__ import annotations
 
+from typing import Any
+
 import gymnasium
 
 ENVS: dict[str, str] = {
@@ -30,3 +32,15 @@ def register_envs() -> None:
     for env_id, entry_point in ENVS.items():
         if env_id not in gymnasium.registry:
             gymnasium.register(id=env_id, entry_point=entry_point, vector_entry_point=VECTOR_ENVS.get(env_id), disable_env_checker=False)
+
+
+def resolve_env_id(target: str) -> tuple[str, dict[str, Any]]:
+    """An env id for `target`: a registered id, a short name (`LaneChangeTest`), or else a task
+    folder or entry file for the generic `OpenDS/DrivingTask-v0` (returned as its `task` kwarg)."""
+    register_envs()
+    if target in gymnasium.registry:
+        return target, {}
+    for candidate in (f"OpenDS/{target}", f"OpenDS/{target}-v0"):
+        if candidate in gymnasium.registry:
+            return candidate, {}
+    return "OpenDS/DrivingTask-v0", {"task": target}

@@ -75,7 +75,7 @@ class DriveSession:
     def __init__(self, config: DriveConfig, *, joystick_backend: Any = None, viewer_factory: Any = None) -> None:
         import gymnasium as gym
 
-        from ..cli.run import resolve_env_id
+        from ..envs.registration import resolve_env_id
 
         self.config = config
         env_id, kwargs = resolve_env_id(config.target)

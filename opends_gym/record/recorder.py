@@ -78,7 +78,7 @@ def software_version() -> str:
     try:
         ours = version("opends_gym")
     except PackageNotFoundError:  # running from a source tree
-        from .. import __version__ as ours
+        from ..version import __version__ as ours
     try:
         mcap_v = version("mcap")
     except PackageNotFoundError:  # pragma: no cover

@@ -85,7 +85,9 @@ def _build_env(meta: dict[str, Any]) -> Any:
         return cls(**kwargs)
     import gymnasium as gym
 
-    import opends_gym  # noqa: F401  (registers the ids)
+    from ..envs.registration import register_envs
+
+    register_envs()
 
     return gym.make(str(meta["env_id"]), **kwargs).unwrapped
 

@@ -29,14 +29,24 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from ..task.model_road import TRAFFIC_LIGHT_MODES, Intersection
+from ..task.model_task import DrivingTask
+from .events import EventLog
 
-if TYPE_CHECKING:
-    from .world import World
+
+class LightsWorld(Protocol):
+    """What the lights read of their World (the World is one): the task's intersections, the
+    clock and event log, and the trigger volumes the ego touches (trigger-mode lights)."""
+
+    task: DrivingTask
+    events: EventLog
+    t_s: float
+    touching: frozenset[str]
+
 
 STATES = ("red", "yellow", "green", "yellowred", "off", "all")
 RED, YELLOW, GREEN, YELLOWRED, OFF, ALL = range(6)
@@ -65,7 +75,7 @@ class _Program:
 class TrafficLights:
     """All traffic lights of a World."""
 
-    def __init__(self, world: World) -> None:
+    def __init__(self, world: LightsWorld) -> None:
         self.world = world
         self.intersections: tuple[Intersection, ...] = world.task.scenario.road.intersections
         self.ids: tuple[str, ...] = tuple(tl.id for inter in self.intersections for tl in inter.traffic_lights)

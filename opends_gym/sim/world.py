@@ -20,7 +20,6 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -32,22 +31,14 @@ from .controls import DriverControls
 from .ego.car import EgoCar, make_backend
 from .events import EventLog
 from .geometry2d import Obb, obb_overlap
+from .lights import TrafficLights
 from .road import RoadModel
 from .scene_objects import SceneObject, SceneObjects
+from .traffic.manager import TrafficManager
+from .triggers import TriggerCore, make_trigger_core
+from .world_config import WorldConfig
 
 _NOTHING: frozenset[str] = frozenset()
-
-
-@dataclass(frozen=True)
-class WorldConfig:
-    """How a World simulates. Units in the names; frozen so it can key caches."""
-
-    physics: str = "fast"  # fast | bullet
-    dt_s: float = 1.0 / 60.0
-    traffic: bool = True
-    collision_stops_car: bool = True
-    # openInstructionsScreen: close at once (RL); False pauses until Return/Space (human mode)
-    auto_close_instructions: bool = True
 
 
 class World:
@@ -77,7 +68,8 @@ class World:
         self._free: tuple[float, float, float, int] = (0.0, 0.0, 0.0, -1)  # (x, z, room squared, objects.version)
         self.collisions = 0
         self.lights = _make_lights(self)
-        self.traffic = _make_traffic(self)
+        # typed loosely: the platoon and brake envs index its cars by id without None checks
+        self.traffic: Any = _make_traffic(self)
         self.triggers = _make_triggers(self)
         self._idle = DriverControls()
         # called as fn(world, applied_controls) after every step; kept across resets
@@ -244,26 +236,20 @@ def _light_trigger_ids(task: DrivingTask) -> set[str]:
     return ids
 
 
-def _make_lights(world: World) -> Any:
+def _make_lights(world: World) -> TrafficLights | None:
     if not world.task.scenario.road.intersections:
         return None
-    from .lights import TrafficLights
-
     return TrafficLights(world)
 
 
-def _make_traffic(world: World) -> Any:
+def _make_traffic(world: World) -> TrafficManager | None:
     if not world.config.traffic or not world.task.scenario.traffic:
         return None
-    from .traffic.manager import TrafficManager
-
     return TrafficManager(world)
 
 
-def _make_triggers(world: World) -> Any:
-    from .triggers import TriggerCore
-
-    return TriggerCore(world)
+def _make_triggers(world: World) -> TriggerCore:
+    return make_trigger_core(world)
 
 
 def obb_hits(a: Obb, boxes: list[Obb]) -> list[int]:

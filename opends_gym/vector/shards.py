@@ -174,7 +174,9 @@ def _serve(conn: Connection, env_id: str, batch_cls: type[BatchCore], n: int, re
     if tracemalloc.is_tracing():  # nor does it trace allocations because the caller did (several times slower)
         tracemalloc.stop()
     try:
-        import opends_gym  # noqa: F401  (registers the ids in a spawned interpreter)
+        from ..envs.registration import register_envs
+
+        register_envs()  # (a spawned interpreter has not registered them)
 
         template: Any = gym.make(env_id, disable_env_checker=True, **kwargs).unwrapped
         core = batch_cls(template, n, record_metrics)

@@ -83,7 +83,7 @@ class OpenDriveMap:
             raise ValueError(f"{self.path.name}: no road '{road_id}' (roads: {', '.join(sorted(self.roads))})")
         return road
 
-    def _check_s(self, road: Road, s: float) -> float:
+    def check_s(self, road: Road, s: float) -> float:
         s = float(s)
         if not (-_S_TOL_M <= s <= road.length + _S_TOL_M):
             raise ValueError(f"{self.path.name}: s={s} is outside road '{road.id}' (0..{road.length})")
@@ -146,7 +146,7 @@ class OpenDriveMap:
     def lane_center(self, road_id: str, lane_id: int, s: float) -> tuple[float, float, float]:
         """World (x, z, yaw) of a lane's centre at s; yaw faces the lane's driving direction."""
         road = self.road(road_id)
-        s = self._check_s(road, s)
+        s = self.check_s(road, s)
         lane_id = int(lane_id)
         sec = road.sections[self.section_index(road, s, lane_id)]
         x, z = self._point(road, s, self._lane_t(road, sec, lane_id, s))
@@ -161,14 +161,14 @@ class OpenDriveMap:
     def position_to_world(self, road_id: str, s: float, lateral_offset: float = 0.0) -> tuple[float, float, float]:
         """World (x, z, yaw) of a model placed by `openDrivePosition` (see module docstring)."""
         road = self.road(road_id)
-        s = self._check_s(road, s)
+        s = self.check_s(road, s)
         x, y, h, _ = road.reference.point(s)
         return x + lateral_offset * math.sin(h), -y + lateral_offset * math.cos(h), yaw_from_od_heading(h)
 
     def elevation_m(self, road_id: str, s: float) -> float:
         """Height of the road's reference line at s (world Y)."""
         road = self.road(road_id)
-        return road.elevation.at(self._check_s(road, s))
+        return road.elevation.at(self.check_s(road, s))
 
     # ------------------------------------------------------------------ world -> road
     def _build_index(self) -> None:

@@ -17,14 +17,12 @@ import logging
 import math
 from collections import deque
 from collections.abc import Iterable
-from typing import TYPE_CHECKING, Any
+from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 
-from .parse import Road, RoadLink
-
-if TYPE_CHECKING:
-    from .map import OpenDriveMap
+from .parse import Junction, LaneSection, Road, RoadLink
 
 log = logging.getLogger("opends_gym.opendrive")
 
@@ -43,8 +41,23 @@ def connection_key(p: Any) -> tuple[str, str]:
     return (str(p.junction_id), str(p.connection_id))
 
 
+class RoadGraph(Protocol):
+    """What route planning reads of a map (`map.OpenDriveMap` is one): the roads and junctions
+    by id, lane geometry, the file for messages, and the list that collects its warnings."""
+
+    path: Path
+    roads: dict[str, Road]
+    junctions: dict[str, Junction]
+    warnings: list[str]
+
+    def road(self, road_id: str) -> Road: ...
+    def check_s(self, road: Road, s: float) -> float: ...
+    def section_index(self, road: Road, s: float, lane_id: int | None = None) -> int: ...
+    def lane_points(self, road: Road, sec: LaneSection, lane_id: int, s: np.ndarray) -> np.ndarray: ...
+
+
 class RoutePlanner:
-    def __init__(self, od: OpenDriveMap) -> None:
+    def __init__(self, od: RoadGraph) -> None:
         self.od = od
         self.contact: dict[tuple[str, str], str] = {}  # (road id, predecessor|successor) -> start|end
         for road in od.roads.values():
@@ -161,7 +174,7 @@ class RoutePlanner:
         od = self.od
         types = frozenset(lane_types)
         road = od.road(start_road_id)
-        s = od._check_s(road, start_s)
+        s = od.check_s(road, start_s)
         lane_id = int(start_lane)
         si = od.section_index(road, s, lane_id)
         if lane_id == 0 or lane_id not in road.sections[si].lanes:

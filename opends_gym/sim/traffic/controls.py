@@ -12,19 +12,29 @@ from __future__ import annotations
 
 import logging
 import math
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from ...task.model_traffic import ODVehicle
-from .legs import KIND_NET, KIND_OD, LANE_HOLD_S, LegLogic
+from ..events import EventLog
+from .legs import KIND_NET, KIND_OD, LANE_HOLD_S, LegLogic, LegWorld
 from .motion import outputs
 from .routes import TURN_CODES
 
 log = logging.getLogger(__name__)
 
 
+class ControlsWorld(LegWorld, Protocol):
+    """What the trigger-facing controls read of their World: the clock and the event log
+    (warnings about requests they cannot carry out)."""
+
+    events: EventLog
+    t_s: float
+
+
 class TrafficControls(LegLogic):
+    world: ControlsWorld
     objects: list[Any]
     od_map: Any
     is_car: np.ndarray

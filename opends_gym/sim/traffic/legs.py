@@ -14,16 +14,23 @@ the next waypoint's traffic light is queued until the car has passed it.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
+from ..ego.car import EgoCar
 from .paths import PathBank
 from .routes import OwnPath, RoadNetwork, WaypointInfo
 from .state import MotionState
 
-if TYPE_CHECKING:
-    from ..world import World
+
+class LegWorld(Protocol):
+    """What the leg logic reads of its World: the seeded generator (random forks) and the ego
+    car (clearance checks before a lane change)."""
+
+    rng: np.random.Generator
+    ego: EgoCar
+
 
 KIND_NONE, KIND_OWN, KIND_NET, KIND_OD = -1, 0, 1, 2
 LANE_CHANGE_AHEAD_M = 30.0  # OpenDS joins the neighbour segment 30 m further on
@@ -32,7 +39,7 @@ CLEAR_BEHIND_M, CLEAR_AHEAD_M = 20.0, 40.0
 
 
 class LegLogic:
-    world: World
+    world: LegWorld
     st: MotionState
     paths: PathBank
     network: RoadNetwork | None

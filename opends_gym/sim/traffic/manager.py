@@ -29,13 +29,16 @@ from __future__ import annotations
 import copy
 import logging
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
+from ...task.model_task import DrivingTask
 from ...task.model_traffic import ODVehicle, Pedestrian, TrafficVehicle
 from ..geometry2d import Obb
-from .controls import TrafficControls
+from ..lights import TrafficLights
+from ..road import RoadModel
+from .controls import ControlsWorld, TrafficControls
 from .legs import KIND_NET, KIND_NONE, KIND_OD, KIND_OWN
 from .motion import ARRIVED, BLOCK, N_WORK, NOTHING_LIVE, PASSED_LIGHT, WAIT_OVER, WAITS_OVER, advance_carrots, drive, step_objects
 from .paths import PathBank
@@ -43,8 +46,16 @@ from .queries import nearest_ahead, touching
 from .routes import OwnPath, PositionResolver, RoadNetwork, build_own_path
 from .state import N_COLUMNS, MotionState, Specs
 
-if TYPE_CHECKING:
-    from ..world import World
+
+class TrafficWorld(ControlsWorld, Protocol):
+    """What traffic reads of its World (the World is one): the task, the clock and event log,
+    the road (OpenDRIVE lanes), the lights (stop lines) and, through the leg logic, the
+    seeded generator and the ego car."""
+
+    task: DrivingTask
+    road: RoadModel
+    lights: TrafficLights | None
+
 
 log = logging.getLogger(__name__)
 
@@ -59,7 +70,9 @@ OD_SPEED_MPS = 50.0 / 3.6
 class TrafficManager(TrafficControls):
     """Traffic of one World; see the module docstring for the arrays it exposes."""
 
-    def __init__(self, world: World) -> None:
+    world: TrafficWorld
+
+    def __init__(self, world: TrafficWorld) -> None:
         self.world = world
         task = world.task
         sc = task.scenario

@@ -11,15 +11,10 @@ the recorder act on.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ...task.values import euler_deg_to_quat, yaw_from_quat
-
-if TYPE_CHECKING:
-    from .core import TriggerCore
-
-Handler = Callable[["TriggerCore", dict[str, Any], str], None]
+from .core import Handler, TriggerCore
 
 
 def _emit(core: TriggerCore, kind: str, source: str, **params: Any) -> None:

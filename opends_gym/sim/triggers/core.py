@@ -30,9 +30,9 @@ import copy
 import heapq
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from ...task.actions_catalog import action_spec, typed_args
 from ...task.conditions import (
@@ -45,15 +45,43 @@ from ...task.conditions import (
     Remote,
     canonical_key,
 )
+from ...task.model_task import DrivingTask
 from ..controls import DriverControls
-from .actions import BUILTIN_HANDLERS, Handler
+from ..ego.car import EgoCar
+from ..events import EventLog
+from ..lights import TrafficLights
+from ..road import RoadModel
+from ..scene_objects import SceneObjects
+from ..traffic.manager import TrafficManager
+from ..world_config import WorldConfig
 from .camera_flight import CameraFlight
 from .hud import HudState
 from .reaction_center import ReactionCenter
 from .reactions import ReactionResult
 
-if TYPE_CHECKING:
-    from ..world import World
+
+class TriggerWorld(Protocol):
+    """What the trigger core and its actions read and change of their World (the World is
+    one): the task, clock and event log, the ego car, road lanes, scene objects, traffic,
+    lights, the world's settings, and the car reset (`resetCar`)."""
+
+    task: DrivingTask
+    config: WorldConfig
+    events: EventLog
+    t_s: float
+    dt_s: float
+    touching: frozenset[str]
+    ego: EgoCar
+    road: RoadModel
+    objects: SceneObjects
+    traffic: TrafficManager | None
+    lights: TrafficLights | None
+
+    def reset_car(self, reset_id: str) -> bool: ...
+
+
+# an action handler: (core, typed arguments, trigger id)
+Handler = Callable[["TriggerCore", dict[str, Any], str], None]
 
 log = logging.getLogger(__name__)
 
@@ -108,11 +136,13 @@ class CarState:
 class TriggerCore:
     """Runs a World's interaction.xml. See the module docstring for the semantics."""
 
-    def __init__(self, world: World) -> None:
+    def __init__(self, world: TriggerWorld, handlers: Mapping[str, Handler]) -> None:
+        """`handlers`: the actions this core carries out by action name (`make_trigger_core`
+        passes the built-in ones of `actions`)."""
         self.world = world
         task = world.task
         self._custom: dict[str, Callable[[dict[str, Any]], None]] = {}
-        self._handlers: dict[str, Handler] = dict(BUILTIN_HANDLERS)
+        self._handlers: dict[str, Handler] = dict(handlers)
         self.triggers: tuple[CompiledTrigger, ...] = self._compile(task)
         self._by_model: dict[str, list[int]] = {}
         self._by_key: dict[str, list[int]] = {}
@@ -140,7 +170,7 @@ class TriggerCore:
         self._lane_bands = {b.id: (b.x_min, b.x_max) for b in world.road.lanes}
         self.flight = CameraFlight(task)
         self.center = ReactionCenter(world.events, lambda: self.world.t_s)
-        self.auto_close_instructions = bool(getattr(world.config, "auto_close_instructions", True))
+        self.auto_close_instructions = bool(world.config.auto_close_instructions)
         self.reset()
 
     # ------------------------------------------------------------------ compile
