@@ -37,6 +37,7 @@ import numpy as np
 
 MAX_DISTANCE_M = 10.0  # IdealLine.MAX_DISTANCE: positions farther from the cross segment are ignored
 DEFAULT_ROAD_WIDTH_M = 15.0  # IdealLine.roadWidth when the idealTrack gives none
+CELL_M = 20.0  # bucket size for finding recorded positions near a cross line (speed only)
 
 F32 = np.float32
 
@@ -157,6 +158,29 @@ def point_on_line(line: tuple[float, float, float, float], px: np.ndarray, pz: n
         return F32(F32(F32(px[li]) * wl) + F32(F32(px[ri]) * wr)), F32(F32(F32(pz[li]) * wl) + F32(F32(pz[ri]) * wr))
 
 
+class RecordedCells:
+    """Recorded positions bucketed in `CELL_M` squares: a cross line scans only the positions
+    that can be within 10 m of it, still in recording order (same answer, not O(n) per point).
+    Non-finite positions are left out."""
+
+    def __init__(self, px: np.ndarray, pz: np.ndarray) -> None:
+        idx = np.flatnonzero(np.isfinite(px) & np.isfinite(pz))
+        cells = np.column_stack([np.floor(px[idx] / CELL_M), np.floor(pz[idx] / CELL_M)]).astype(np.int64)
+        self.keys, inverse = np.unique(cells, axis=0, return_inverse=True)
+        order = np.argsort(inverse.ravel(), kind="stable")
+        self.members = np.split(idx[order], np.cumsum(np.bincount(inverse.ravel(), minlength=len(self.keys)))[:-1])
+
+    def near(self, line: tuple[float, float, float, float]) -> np.ndarray:
+        """Indices (ascending) of the positions in cells reaching within MAX_DISTANCE_M of the segment's box."""
+        x1, y1, x2, y2 = line
+        lo = np.floor((np.array([min(x1, x2), min(y1, y2)]) - MAX_DISTANCE_M) / CELL_M)
+        hi = np.floor((np.array([max(x1, x2), max(y1, y2)]) + MAX_DISTANCE_M) / CELL_M)
+        hit = np.flatnonzero(np.all((self.keys >= lo) & (self.keys <= hi), axis=1))
+        if len(hit) == 0:
+            return np.zeros(0, dtype=np.int64)
+        return np.sort(np.concatenate([self.members[k] for k in hit]))
+
+
 def _tri2(ax: np.float32, ay: np.float32, bx: np.float32, by: np.float32) -> np.float32:
     return F32(F32(0.5) * abs(F32(F32(ax * by) - F32(ay * bx))))
 
@@ -222,6 +246,7 @@ def mean_deviation(
     if n < 3:
         return _unavailable(n, "not enough ideal points given (IdealLine needs 3)")
     px, pz = np.ascontiguousarray(path[:, 0]), np.ascontiguousarray(path[:, 1])
+    cells = RecordedCells(px, pz)
     area, length = F32(0.0), F32(0.0)
     status = Completeness.COMPLETE
     prev_wp: tuple[np.float32, np.float32] = (ip[0][0], ip[0][1])
@@ -232,7 +257,8 @@ def mean_deviation(
             line = halfway_line(ip[i - 1], ip[i], ip[i + 1], road_width_m)
         except ValueError as e:
             return _unavailable(n, str(e))
-        wp = point_on_line(line, px, pz) if len(path) else None
+        near = cells.near(line)
+        wp = point_on_line(line, px[near], pz[near]) if len(near) else None
         if wp is not None:
             area = F32(area + F32(quad_area(np.array(prev_wp), np.array(wp), ip[i], ip[i - 1])))
             length = F32(length + _dist(ip[i], ip[i + 1]))
