@@ -180,3 +180,16 @@ def test_deviationcomputer_drops_lines_openDS_refuses() -> None:
     assert short.status is Completeness.UNAVAILABLE and "3" in short.problem
     same = mean_deviation(along_x(-5.0, 25.0, 1.0), [(0.0, 0.0), (0.0, 0.0), (0.0, 0.0)])
     assert same.status is Completeness.UNAVAILABLE and "identical" in same.problem
+
+
+def test_bucketing_positions_does_not_change_the_answer(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the cells that speed up getPointOnLine's scan must give what scanning every position gives:
+    # a wandering drive that loops back over its own track, against a curved ideal track
+    rng = np.random.default_rng(7)
+    t = np.linspace(0.0, 4.0 * np.pi, 3000)
+    path = np.column_stack([60.0 * np.cos(t) + np.cumsum(rng.normal(0, 0.05, len(t))), 40.0 * np.sin(t)])
+    ideal = np.column_stack([60.0 * np.cos(t[::40]), 40.0 * np.sin(t[::40])])[:40]
+    fast = mean_deviation(path, ideal)
+    monkeypatch.setattr("opends_gym.metrics.deviation.CELL_M", 1e9)  # one cell: every position scanned
+    slow = mean_deviation(path, ideal)
+    assert fast == slow and fast.status is Completeness.COMPLETE
