@@ -9,12 +9,10 @@ import numpy as np
 import pytest
 
 from opends_gym.metrics import (
-    Completeness,
     LctSign,
     NormativeModel,
     lct_mdev,
     mean_ci,
-    mean_deviation,
     normative_path,
     reversal_rate,
     score_drt,
@@ -23,54 +21,11 @@ from opends_gym.metrics import (
     time_headway,
     time_to_collision,
 )
-from opends_gym.metrics.deviation import quad_area
 from opends_gym.metrics.lateral import lane_exceedances, lane_keeping_mask
 from opends_gym.metrics.lct import mean_deviation as lct_area_mean
 from opends_gym.metrics.reaction import brake_reaction_time, summarize_reactions
 from opends_gym.metrics.stats import t_quantile
 from opends_gym.metrics.steering import butter2_lowpass, filtfilt, reversal_count
-
-
-def _line(x0: float, x1: float, y: float, n: int = 400) -> np.ndarray:
-    x = np.linspace(x0, x1, n)
-    return np.stack([x, np.full_like(x, y)], axis=1)
-
-
-def test_quadrilateral_area_by_hand() -> None:
-    # trapezoid between y=1 and y=3 offsets over 10 m: (1 + 3) / 2 * 10 = 20
-    a = quad_area(np.array([0.0, 1.0]), np.array([10.0, 3.0]), np.array([10.0, 0.0]), np.array([0.0, 0.0]))
-    assert a == pytest.approx(20.0)
-    # crossing: +2 to -2 over 10 m crosses at 5 m: two triangles of 5 each
-    b = quad_area(np.array([0.0, 2.0]), np.array([10.0, -2.0]), np.array([10.0, 0.0]), np.array([0.0, 0.0]))
-    assert b == pytest.approx(10.0)
-
-
-def test_mean_deviation_constant_offset_is_the_offset() -> None:
-    res = mean_deviation(_line(-5, 105, 1.5), [(0, 0), (50, 0), (100, 0)])
-    assert res.status is Completeness.COMPLETE
-    assert res.mean_deviation_m == pytest.approx(1.5)
-    assert res.length_m == pytest.approx(100.0)
-
-
-def test_mean_deviation_on_a_corner_uses_bisector_crossings() -> None:
-    # ideal L-shape; driven path = ideal shifted 1 m inward (x+1 on the first leg, y-1 on the second)
-    ideal = [(0, 0), (0, 100), (100, 100)]
-    leg1 = np.stack([np.full(200, 1.0), np.linspace(-5, 99, 200)], axis=1)
-    leg2 = np.stack([np.linspace(1, 105, 200), np.full(200, 99.0)], axis=1)
-    res = mean_deviation(np.concatenate([leg1, leg2]), ideal)
-    # crossings: (1, 0), corner bisector meets (1, 99), (100, 99): areas 1*100 - 0.5 and 1*99 + 0.5
-    assert res.driven_points[1] == pytest.approx((1.0, 99.0))
-    assert res.area_m2 == pytest.approx(99.5 + 99.5)
-    assert res.mean_deviation_m == pytest.approx(199.0 / 200.0)
-
-
-def test_mean_deviation_completeness_status() -> None:
-    ideal = [(0, 0), (50, 0), (100, 0), (150, 0)]
-    assert mean_deviation(_line(40, 160, 1), ideal).status is Completeness.INCOMPLETE_BEGINNING
-    assert mean_deviation(_line(-5, 110, 1), ideal).status is Completeness.INCOMPLETE_END
-    assert mean_deviation(_line(40, 110, 1), ideal).status is Completeness.INCOMPLETE_BEGINNING_AND_END
-    far = mean_deviation(_line(-5, 160, 30), ideal)  # beyond roadWidth/2 and the 10 m sample rule
-    assert far.status is Completeness.UNAVAILABLE and math.isnan(far.mean_deviation_m)
 
 
 def test_sdlp_and_exceedances() -> None:

@@ -114,6 +114,7 @@ class Analysis:
                     "area_m2": t.result.area_m2,
                     "covered_length_m": t.result.length_m,
                     "road_width_m": t.road_width_m,
+                    **({"problem": t.result.problem} if t.result.problem else {}),
                 }
                 for t in self.deviations
             },

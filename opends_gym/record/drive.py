@@ -25,6 +25,7 @@ from .cardata import CarData, read_cardata
 from .mcap_io import read_recording
 from .messages import yaw_from_jme_quaternion
 from .opends_logs import read_driving_task_log, read_reaction_data
+from .reference import log_reference
 from .schemas import EGO, EVENTS, REACTIONS
 
 log = logging.getLogger(__name__)
@@ -207,8 +208,11 @@ def _from_cardata(p: Path, task: str | Path | None) -> Drive:
         drive.analysis = _task_analysis(loaded)
         drive.meta["task_name"] = loaded.name
     else:
-        drive.notes.append("driving task not found: lateral position measured from the start line, no ideal tracks or lanes")
-        drive.analysis = {"guide": _start_line_guide(cols), "lanes": [], "ideal_tracks": {}, "reaction_groups": {}}
+        drive.notes.append("driving task not found: no ideal tracks or lanes")
+        drive.analysis = {"guide": {"kind": "start_line"}, "lanes": [], "ideal_tracks": {}, "reaction_groups": {}}
+    if drive.analysis["guide"]["kind"] == "start_line":  # no lanes, no ideal track: measure from where the log starts
+        drive.analysis["guide"], why = log_reference(cols["x_m"], cols["z_m"], cols["yaw_rad"], loaded)
+        drive.notes.append(why)
     s, lat, lane, off = locate_many(drive.analysis["guide"], cols["x_m"], cols["z_m"])
     cols.update({"s_m": s, "lateral_m": lat, "lane_index": lane, "lane_offset_m": off})
     rd = p.parent / "reactionData.xml"
@@ -248,17 +252,6 @@ def _task_analysis(task: Any) -> dict[str, Any]:
         world.close()
 
 
-def _start_line_guide(cols: dict[str, np.ndarray]) -> dict[str, Any]:
-    return {
-        "kind": "start_line",
-        "start_xz": [float(cols["x_m"][0]), float(cols["z_m"][0])],
-        "start_yaw": float(cols["yaw_rad"][0]),
-        "lane_laterals_m": [0.0],
-        "lane_ids": ["0"],
-        "lane_width_m": 3.5,
-    }
-
-
 def locate_many(guide: dict[str, Any], x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(s, lateral, lane index, lane offset) of ground positions, as `RoadGuide.locate` gives them."""
     x = np.asarray(x, dtype=float)
@@ -271,7 +264,7 @@ def locate_many(guide: dict[str, Any], x: np.ndarray, z: np.ndarray) -> tuple[np
         sign = float(guide["sign"])
         lat = -sign * x
         s = -sign * (z - sz)
-    elif kind == "ideal_track" and guide.get("polyline"):
+    elif kind in ("ideal_track", "route") and guide.get("polyline"):
         poly = Polyline([tuple(p) for p in guide["polyline"]])
         proj = [poly.project(float(a), float(b)) for a, b in zip(x, z)]
         s = np.asarray([q.s_m for q in proj])

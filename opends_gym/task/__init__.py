@@ -7,6 +7,7 @@
 from .actions_catalog import ACTIONS, ActionSpec, ParamSpec, action_spec
 from .errors import TaskError, TaskWarning
 from .loader import load_task
+from .missing_assets import MissingAssetWarning
 from .model_task import DrivingTask, Pose
 from .writer import save_task
 
@@ -14,6 +15,7 @@ __all__ = [
     "ACTIONS",
     "ActionSpec",
     "DrivingTask",
+    "MissingAssetWarning",
     "ParamSpec",
     "Pose",
     "TaskError",

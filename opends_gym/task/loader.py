@@ -12,6 +12,7 @@ from .bind import ReadCtx, read_struct
 from .bundled import resolve_task_path
 from .entry import EntryFile, read_entry_file
 from .errors import Diagnostics, TaskError
+from .missing_assets import asset_exists, missing_ground, warn_missing_ground
 from .model_interaction import Interaction
 from .model_scenario import Scenario
 from .model_scene import Scene
@@ -34,10 +35,6 @@ LAYERS: dict[str, type[Any]] = {
 }
 NAMESPACE = "http://opends.eu/drivingtask/{}"
 
-# Asset prefixes OpenDS resolves against its own assets folder; a task folder copied out
-# of OpenDS carries none of them, so we only note each missing one once.
-_ASSET_ROOT_HOPS = (0, 3)
-
 
 def _layer_path(folder: Path, entry: EntryFile, key: str) -> Path | None:
     name = entry.layer_file(key)
@@ -55,22 +52,17 @@ def _read_layer(path: Path, layer: str, cls: type[T], diag: Diagnostics) -> tupl
     return read_struct(cls, root, ReadCtx(path, diag)), root
 
 
-def _asset_exists(folder: Path, key: str) -> bool:
-    if not key:
-        return True
-    for hops in _ASSET_ROOT_HOPS:
-        base = folder
-        for _ in range(hops):
-            base = base.parent
-        if (base / key).exists():
-            return True
-    return False
-
-
 def _warn_missing_assets(task: DrivingTask, files: dict[str, Path], diag: Diagnostics) -> None:
-    scene_file = files["scene"]
+    scene_file = files.get("scene", files["entry"])
+    missing = missing_ground(task.scene, task.folder)
+    for g in missing:
+        if g.kind == "height map":
+            diag.warn(
+                f"terrain height map '{g.key}' not found; the ground is flat", scene_file, g.line, "terrain", once_key=f"asset:{g.key}"
+            )
+    warn_missing_ground(scene_file, task.folder, missing)
     for m in task.scene.models:
-        if m.key and not _asset_exists(task.folder, m.key):
+        if m.key and not asset_exists(task.folder, m.key):
             diag.warn(
                 f"3D model '{m.key}' not found; a box of the declared scale stands in",
                 scene_file,
@@ -80,7 +72,7 @@ def _warn_missing_assets(task: DrivingTask, files: dict[str, Path], diag: Diagno
                 log_level=logging.INFO,
             )
     for s in task.scene.sounds:
-        if s.key and not _asset_exists(task.folder, s.key):
+        if s.key and not asset_exists(task.folder, s.key):
             diag.warn(
                 f"sound '{s.key}' not found; it is logged but not played",
                 scene_file,
@@ -90,7 +82,7 @@ def _warn_missing_assets(task: DrivingTask, files: dict[str, Path], diag: Diagno
                 log_level=logging.INFO,
             )
     for p in task.scene.pictures:
-        if p.key and not _asset_exists(task.folder, p.key):
+        if p.key and not asset_exists(task.folder, p.key):
             diag.warn(f"picture '{p.key}' not found", scene_file, p.line, "picture", once_key=f"asset:{p.key}", log_level=logging.INFO)
     od = task.open_drive_path
     if od is not None and not od.is_file():
