@@ -30,8 +30,8 @@ ROUTE_SNAP_M = 3.5  # one lane width: a route this close to the first position i
 
 def route_polylines(task: DrivingTask) -> dict[str, np.ndarray]:
     """(x, z) samples of every traffic route of a task, by vehicle id (Gen A) or segment id (Gen B)."""
-    from ..sim.traffic_paths import PathBank
-    from ..sim.traffic_routes import PositionResolver, RoadNetwork, build_own_path
+    from ..sim.traffic.paths import PathBank
+    from ..sim.traffic.routes import PositionResolver, RoadNetwork, build_own_path
 
     bank = PathBank()
     where = PositionResolver(task)
