@@ -566,3 +566,23 @@ def test_brake_timer_in_a_world_counts_from_the_first_step_below_the_target(time
     (r,) = w.triggers.reactions
     assert r.result == 1 and r.t_s == pytest.approx(w.t_s)
     assert r.reaction_time_s == pytest.approx(below - armed, abs=1e-9)
+
+
+def test_recordings_keep_the_steering_source() -> None:
+    """A human drive is recorded as `ControlsAction` vectors and /controls messages: the
+    steering source survives both, and recordings made before it read as axis steering."""
+    import gymnasium as gym
+
+    import opends_gym  # noqa: F401  (registers the ids)
+    from opends_gym.record.messages import controls_from_message, controls_message
+
+    env = gym.make("OpenDS/ReactionTest-v0", action="controls")
+    act = env.unwrapped.act_type
+    keyboard = DriverControls(steering=0.3, steering_axis=False)
+    assert act.to_controls(act.encode(keyboard)).steering_axis is False
+    assert act.to_controls(act.encode(DriverControls(steering=0.3))).steering_axis is True
+    assert act.to_controls(act.encode(keyboard)[:-1]).steering_axis is True  # a 35-value vector of an older recording
+    w = env.unwrapped.world
+    assert controls_from_message(controls_message(w, keyboard)).steering_axis is False
+    assert "steering_axis" not in controls_message(w, DriverControls(steering=0.3))  # as before the field
+    env.close()
