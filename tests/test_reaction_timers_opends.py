@@ -105,19 +105,20 @@ def car_at(t: float, d: Drive, road: RoadModel, keys: tuple[str, ...] = ()) -> C
     )
 
 
-def run_center(case: Case, road: RoadModel) -> list[ReactionResult]:
+def run_center(case: Case, road: RoadModel, with_center: bool = False) -> Any:
     """The drive through a started ReactionCenter: setups due at a step run before its poll,
-    as the trigger core runs actions before timers."""
-    center = ReactionCenter(EventLog(), lambda: 0.0)
+    as the trigger core runs actions before timers. Returns the results (or the center)."""
+    clock = [0.0]
+    center = ReactionCenter(EventLog(), lambda: clock[0])
     center.start(car_at(0.0, case.drive, road))
     for k in range(round(case.until_s / DT) + 1):
-        t = k * DT
+        clock[0] = t = k * DT
         car = car_at(t, case.drive, road)
         for ts, kind, args in case.setups:
             if abs(ts - t) < DT / 2:
                 center.setup(kind, args, car)
         center.update(car)
-    return center.results
+    return center if with_center else center.results
 
 
 def run_native(case: Case, road: RoadModel) -> list[ReactionResult]:
@@ -389,6 +390,31 @@ def test_misses_are_logged_from_the_setup_and_correct_ones_from_the_start(road: 
     case = next(c for c in BRAKE_CASES if "in the first setup's group" in c.rule)
     (ok,) = run_center(case, road)
     assert ok.start_t_s == pytest.approx(1.0) and ok.experiment_time_s == pytest.approx(1.0)
+
+
+def _sounds(case: Case, road: RoadModel) -> list[tuple[float, str]]:
+    """(step time, sound id) of the sounds the drive plays."""
+    return [(round(e.t_s, 6), e.source) for e in run_center(case, road, with_center=True).events.of_kind("sound")]
+
+
+def test_failed_setups_play_the_fail_sound_at_their_limit(road: RoadModel) -> None:
+    """BrakeReactionTimer.update's soundTimerIsActive block: a setup below startSpeed plays
+    failSound once its time limit passes, and logs nothing; a running trial that misses on
+    the same step plays it too (BrakeReactionTimer.reportMissedReaction)."""
+    alone = Case("", ((0.0, "brake", brake_args(start_speed_mps=120 * KMH, time_limit_s=1.0, fail_sound="f2")),), Drive(), 3.0, ())
+    assert _sounds(alone, road) == [(round(1.0 + DT, 6), "f2")] and not run_center(alone, road)
+    both = Case(
+        "",
+        (
+            (0.0, "brake", brake_args(fail_sound="f1", success_sound="ok")),
+            (1.0, "brake", brake_args(start_speed_mps=120 * KMH, time_limit_s=1.0, fail_sound="f2")),
+        ),
+        Drive(),
+        3.0,
+        ((-2, 10.0, 2.0 + DT),),
+    )
+    assert _sounds(both, road) == [(round(2.0 + DT, 6), "f2"), (round(2.0 + DT, 6), "f2")]
+    assert outcomes(run_center(both, road)) == expected(both)
 
 
 def test_trial_log_times_as_opends_trial_logger(road: RoadModel) -> None:
