@@ -233,12 +233,14 @@ class ControlsAction(ActionType):
     10 cruise_control, 11 cruise_speed_delta_mps, 12 turn_signal (0 off, 1 left, 2 right,
     3 both), 13 horn, 14 reset_to (index into the World's reset points),
     15-22 keys (index into `CONTROL_KEYS` + the task's pressKey keys), 23-30 buttons,
-    31-34 remote trigger ids (index into the task's sorted `remote:` ids). Presses beyond
+    31-34 remote trigger ids (index into the task's sorted `remote:` ids), 35 steering
+    source (1 an analogue axis, 0 keyboard or another non-axis source: `steering_axis`;
+    recordings made before it have 35 values and read as axis steering). Presses beyond
     the slots in one physics step are dropped (8 keys in 1/60 s is beyond a human).
     """
 
     name = "controls"
-    SIZE = 15 + KEY_SLOTS + BUTTON_SLOTS + REMOTE_SLOTS
+    SIZE = 15 + KEY_SLOTS + BUTTON_SLOTS + REMOTE_SLOTS + 1
 
     def __init__(self, world: World, guide: RoadGuide, config: Any) -> None:
         super().__init__(world, guide, config)
@@ -284,12 +286,15 @@ class ControlsAction(ActionType):
         v[23 : 23 + len(buttons)] = buttons
         remotes = [self.remote_ids.index(r) for r in c.remote_triggers if r in self.remote_ids][:REMOTE_SLOTS]
         v[31 : 31 + len(remotes)] = remotes
+        v[35] = float(bool(c.steering_axis))
         return v
 
     def to_controls(self, action: Any) -> DriverControls:
         if isinstance(action, DriverControls):
             return DriverControls(**action.__dict__)
         a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape == (self.SIZE - 1,):  # recorded before the steering source slot
+            a = np.append(a, 1.0)
         if a.shape != (self.SIZE,):
             raise ValueError(f"a controls action has {self.SIZE} values, got shape {a.shape}")
 
@@ -319,6 +324,7 @@ class ControlsAction(ActionType):
             buttons=tuple(int(x) for x in a[23:31] if not math.isnan(x)),
             remote_triggers=idx(a[31:35], self.remote_ids),
             reset_to=None if reset is None or not 0 <= int(reset) < len(self.reset_ids) else self.reset_ids[int(reset)],
+            steering_axis=bool(a[35] != 0.0),  # (NaN: an axis)
         )
 
 

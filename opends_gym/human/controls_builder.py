@@ -56,6 +56,7 @@ class ControlsBuilder:
             buttons=f.buttons,
             remote_triggers=f.remote_triggers,
             cruise_speed_delta_mps=f.cruise_speed_delta_mps,
+            steering_axis=bool(f.steering_axis),  # CAN, network and no steering at all: not an axis
         )
         if f.toggle_hand_brake:
             self.hand_brake = not self.hand_brake

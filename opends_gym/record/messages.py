@@ -178,6 +178,8 @@ def controls_message(world: World, c: DriverControls) -> dict[str, Any]:
     msg: dict[str, Any] = {"t_s": world.t_s, "step": world.step_count}
     for name in _CONTROL_FIELDS:
         msg[name] = getattr(c, name)
+    if c.steering_axis:  # written only when false: recordings made before the field replay unchanged
+        del msg["steering_axis"]
     return msg
 
 

@@ -98,6 +98,8 @@ CONTROLS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("remote_triggers", "array", "remote trigger ids sent this step"),
     ("reset_to", STR, "reset point id or null"),
 )
+# optional: written only when false (keyboard or another non-axis steering source)
+CONTROLS_OPTIONAL = (("steering_axis", BOOL, "steering from an analogue axis (absent: true)"),)
 
 
 def _nullable(kind: str) -> Any:
@@ -118,6 +120,7 @@ EGO_SCHEMA = object_schema("opends_gym.EgoState", "The ego car after a physics s
 CONTROLS_SCHEMA = object_schema(
     "opends_gym.DriverControls", "Driver inputs applied in one physics step (after range checks)", CONTROLS_FIELDS
 )
+CONTROLS_SCHEMA["properties"].update(object_schema("", "", CONTROLS_OPTIONAL)["properties"])
 ACTION_SCHEMA: dict[str, Any] = {
     "title": "opends_gym.PolicyAction",
     "description": "The action passed to env.step(), exactly (dtype and shape kept for bit-exact replay)",

@@ -10,7 +10,8 @@ from dataclasses import dataclass, field
 
 # Steering wheel lock-to-centre in degrees. OpenDS's lane-change timer records the
 # first |steer| >= 0.004444 and >= 0.006666 as "2 and 3 degrees" of steering, i.e. a
-# full input of 1.0 is 450 degrees of steering wheel.
+# full input of 1.0 is 450 degrees of steering wheel (the timer itself compares the raw
+# value: see sim/triggers/reactions.py).
 STEERING_WHEEL_MAX_DEG = 450.0
 
 
@@ -22,6 +23,12 @@ class DriverControls:
     `KEY_A`, joystick button numbers); they feed pressKey/pressButton triggers and key
     reaction timers. Gear requests: -1 reverse, 0 neutral, 1..6 forward (manual gearbox),
     None keeps the gear.
+
+    `steering_axis` says where the steering came from: True for an analogue axis (a
+    joystick or wheel; an agent's action, which is a continuous value like a wheel's),
+    False for keyboard steering (OpenDS's STEER_LEFT/STEER_RIGHT keys) and other sources
+    that are not joystick axes (CAN bus, network). OpenDS's SteeringReactionTimer hears
+    joystick-axis events only, so only axis steering can answer it.
     """
 
     steering: float = 0.0
@@ -42,6 +49,7 @@ class DriverControls:
     buttons: tuple[int, ...] = ()
     remote_triggers: tuple[str, ...] = ()
     reset_to: str | None = None  # reset point id
+    steering_axis: bool = True
 
     @staticmethod
     def pedals(steering: float, accelerator: float, brake: float) -> DriverControls:

@@ -165,7 +165,7 @@ _SPECS: tuple[ActionSpec, ...] = (
             param("congruenceClass", STR, "reaction_group", ""),
             param("startLane", STR, "start_lane", required=True),
             param("targetLane", STR, "target_lane", required=True),
-            param("minSteeringAngle", FLOAT, "min_steering_angle_deg", 0.0),
+            param("minSteeringAngle", FLOAT, "min_steering_angle", 0.0),
             param("allowBrake", BOOL, "allow_brake", True),
             param("holdLaneFor", MS, "hold_lane_for_s", 2.0),
         ),

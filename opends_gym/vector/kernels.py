@@ -15,7 +15,6 @@ import math
 import numpy as np
 
 from ..jit import inline, kernel, py_hypot
-from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..sim.geometry2d import boxes_overlap
 from ..sim.road import LANE_MARGIN_M
 from ..sim.triggers.reactions import EPS
@@ -92,73 +91,72 @@ def volume_fires(e: int, j: int, bx: float, bz: float, yaw: float, hx: float, hz
 
 
 @inline
-def lane_at(x: float, bands: np.ndarray) -> int:
-    """`RoadModel.lane_id_at` as an index into the road's lanes (-1: none)."""
+def lane_at(x: float, bands: np.ndarray, margin: float) -> int:
+    """`RoadModel.lane_id_at(x, margin)` as an index into the road's lanes (-1: none)."""
     for i in range(bands.shape[0]):
-        if bands[i, 0] + LANE_MARGIN_M <= x <= bands[i, 1] - LANE_MARGIN_M:
+        if bands[i, 0] + margin <= x <= bands[i, 1] - margin:
             return i
     return -1
 
 
 @kernel
-def update_timers(active: np.ndarray, armed: np.ndarray, spec: np.ndarray, start_t: np.ndarray, start_x: np.ndarray, start_z: np.ndarray,
-                  peak: np.ndarray, hold_since: np.ndarray, braked: np.ndarray, start_lane: np.ndarray, table: np.ndarray,
+def update_timers(active: np.ndarray, spec: np.ndarray, start_t: np.ndarray, start_x: np.ndarray, start_z: np.ndarray, tlim: np.ndarray,
+                  dlim: np.ndarray, peak: np.ndarray, hold_since: np.ndarray, braked: np.ndarray, start_lane: np.ndarray, table: np.ndarray,
                   bands: np.ndarray, rows: np.ndarray, t: np.ndarray, x: np.ndarray, z: np.ndarray, u: np.ndarray, steer: np.ndarray,
                   brake: np.ndarray, done: np.ndarray, done_t: np.ndarray) -> int:  # fmt: skip
-    """`timer_step` for the running timers of the envs `rows`. A timer that ends is flagged
+    """`timer_step` for the running trials of the envs `rows`. A trial that ends is flagged
     in `done` (FAIL, MISS, SUCCESS; 0 otherwise) at time `done_t` for Python to score;
     returns how many ended."""
     count = 0
     for e in range(len(active)):
         done[e] = 0
         if active[e] and rows[e]:
-            how, expired, peak[e], braked[e], hold_since[e] = timer_step(
-                table, bands, spec[e], armed[e], start_t[e], start_x[e], start_z[e], peak[e], hold_since[e], braked[e], start_lane[e],
-                t[e], x[e], z[e], u[e], steer[e], brake[e],
+            how, peak[e], braked[e], hold_since[e] = timer_step(
+                table, bands, spec[e], start_t[e], start_x[e], start_z[e], tlim[e], dlim[e], peak[e], hold_since[e], braked[e],
+                start_lane[e], t[e], x[e], z[e], u[e], steer[e], brake[e],
             )  # fmt: skip
-            if expired:
-                active[e] = False
             if how:
+                active[e] = False
                 done[e], done_t[e] = how, t[e]
                 count += 1
     return count
 
 
 @inline
-def timer_step(table: np.ndarray, bands: np.ndarray, k: int, armed: bool, start_t: float, start_x: float, start_z: float, peak: float,
-               hold_since: float, braked: bool, start_lane: int, t: float, x: float, z: float, u: float, steer: float,
-               brake: float) -> tuple[int, bool, float, bool, float]:  # fmt: skip
-    """`ReactionCenter.update` for one running timer of spec row k: steering peak, brake,
-    lane and speed checks, hold times and limits. Returns (how it ended: FAIL, MISS, SUCCESS
-    or 0; whether an unarmed timer expired, peak, braked, hold_since)."""
+def timer_step(table: np.ndarray, bands: np.ndarray, k: int, start_t: float, start_x: float, start_z: float, tlim: float, dlim: float,
+               peak: float, hold_since: float, braked: bool, start_lane: int, t: float, x: float, z: float, u: float, steer: float,
+               brake: float) -> tuple[int, float, bool, float]:  # fmt: skip
+    """LaneChangeReactionTimer.update / BrakeReactionTimer.update for one running trial of
+    spec row k (`LaneChangeTimer.update`, `BrakeTimer.update`): steering peak or brake
+    flag, then the limits, the forbidden action, the hold clock (NaN: not set). Returns
+    (how it ended: FAIL, MISS, SUCCESS or 0; peak, braked, hold_since)."""
     lane_kind = table[k, T_KIND] == LANE
-    tl, dl = table[k, T_TIME_LIMIT], table[k, T_DISTANCE_LIMIT]
-    limit = (tl > 0.0 and t - start_t > tl + EPS) or (dl > 0.0 and py_hypot(x - start_x, z - start_z) > dl)
-    expired = not armed and limit  # an unarmed timer only expires
     if lane_kind:
-        p = abs(steer) * STEERING_WHEEL_MAX_DEG
+        p = abs(steer)
         peak = peak if peak >= p else p
     else:
         braked = braked or brake > 0.0
-    lane = lane_at(x, bands)
+    if (tlim > 0.0 and t - start_t > tlim + EPS) or (dlim > 0.0 and py_hypot(x - start_x, z - start_z) > dlim):
+        return MISS, peak, braked, hold_since
     if lane_kind:
         fail = table[k, T_ALLOW_BRAKE] == 0.0 and brake > 0.0
-    else:
-        fail = table[k, T_ALLOW_LANE_CHANGE] == 0.0 and lane >= 0 and start_lane >= 0 and lane != start_lane
-    fail = fail and armed
-    miss = armed and not fail and limit
-    rest = armed and not fail and not miss
+    else:  # hasChangedLanes on the raw band: "in no lane" (-1) is another lane too
+        fail = table[k, T_ALLOW_LANE_CHANGE] == 0.0 and lane_at(x, bands, 0.0) != start_lane
+    if fail:
+        return FAIL, peak, braked, hold_since
     if lane_kind:
-        ok = lane == table[k, T_TARGET_LANE] and peak >= table[k, T_MIN_STEERING] - EPS
+        held = lane_at(x, bands, LANE_MARGIN_M) == table[k, T_TARGET_LANE]
     else:
-        ok = u <= table[k, T_TARGET_SPEED] + EPS and (braked or table[k, T_MUST_PRESS] == 0.0)
-    if rest and ok and math.isnan(hold_since):
+        held = u <= table[k, T_TARGET_SPEED] + EPS
+    if not held:
+        return 0, peak, braked, math.nan
+    if math.isnan(hold_since):
         hold_since = t
-    if rest and not ok:
-        hold_since = math.nan
-    success = rest and ok and t - hold_since >= table[k, T_HOLD] - EPS
-    how = FAIL if fail else MISS if miss else SUCCESS if success else 0
-    return how, expired, peak, braked, hold_since
+    if t - hold_since >= table[k, T_HOLD] - EPS:
+        ok = peak >= table[k, T_MIN_STEERING] - EPS if lane_kind else braked or table[k, T_MUST_PRESS] == 0.0
+        if ok:
+            return SUCCESS, peak, braked, hold_since
+    return 0, peak, braked, hold_since
 
 
 @inline

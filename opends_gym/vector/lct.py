@@ -113,7 +113,7 @@ class LctBatch(BatchCore):
         s, trig, timers, ring, g = self.s, self.trig, self.timers, self.ring, self.guide
         ego_f = (s.x, s.z, s.yaw, s.u, s.v, s.r, s.rpm, s.prev_v, s.fuel_used, s.fuel_left, s.steer_in, s.gas_in, s.brake_in,
                  s.cruise_target, s.cruise_int)  # fmt: skip
-        timer_f = (timers.start_t, timers.start_x, timers.start_z, timers.peak, timers.hold_since)
+        timer_f = (timers.start_t, timers.start_x, timers.start_z, timers.peak, timers.hold_since, timers.tlim, timers.dlim)
         k_from = 0
         while k_from < self.repeat:
             k_to = min(self.repeat, k_from + TraceRing.BLOCK)
@@ -125,7 +125,7 @@ class LctBatch(BatchCore):
                     resume, k_from, k_to, self.dt, live, self._park, self.step_count, self.t, trig.paused, self.p.car, self.p.engine_on,
                     self.p.suppress_cruise_off, self.p.min_speed, ego_f, s.gear, s.cruise_on, c.steer, c.gas, c.brake, self.car_shift,
                     self.car_half[0], self.car_half[1], trig.vols, trig.vol_triggers, trig.locks, trig.near, trig.contact,
-                    bool(timers.specs), timers.active, timers.armed, timers.spec, timer_f, timers.braked, timers.start_lane,
+                    bool(timers.specs), timers.active, timers.spec, timer_f, timers.braked, timers.start_lane,
                     timers.table, timers.band_table, timers.done, timers.done_t, g.sign, self.centres, g.lane_width_m / 2.0,
                     LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, (self.rl["n"], self.rl["mean"], self.rl["m2"]),
                     ring is not None, block_a, block_b, row0, ring.steps if ring is not None else self._no_steps, self.start_z,

@@ -27,7 +27,7 @@ def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarr
                  paused: np.ndarray, car: np.ndarray, engine_on: bool, suppress_cruise_off: bool, min_speed: float, ego: tuple,
                  gear: np.ndarray, cruise_on: np.ndarray, steer: np.ndarray, gas: np.ndarray, brake: np.ndarray, shift: float, hx: float,
                  hz: float, vols: np.ndarray, vol_triggers: np.ndarray, locks: np.ndarray, near: np.ndarray, contact: np.ndarray,
-                 timers: bool, active: np.ndarray, armed: np.ndarray, spec: np.ndarray, timer_f: tuple, braked: np.ndarray,
+                 timers: bool, active: np.ndarray, spec: np.ndarray, timer_f: tuple, braked: np.ndarray,
                  start_lane: np.ndarray, timer_table: np.ndarray, bands: np.ndarray, done: np.ndarray, done_t: np.ndarray, sign: float,
                  centres: np.ndarray, half_width: float, keep_m: float, lat: np.ndarray, lane: np.ndarray, offset: np.ndarray,
                  sdlp: tuple, ring: bool, block_a: np.ndarray, block_b: np.ndarray, row0: int, ring_steps: np.ndarray, start_z: float,
@@ -42,13 +42,13 @@ def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarr
     parked, the most physics steps a finished car ran, counted from the policy step's first;
     trace row k goes to row `row0 + k` of the two blocks). The tuples hold float arrays: `ego`
     (x, z, yaw, u, v, r, rpm, prev_v, fuel_used, fuel_left, steer_in, gas_in, brake_in,
-    cruise_target, cruise_int), `timer_f` (start_t, start_x, start_z, peak, hold_since),
+    cruise_target, cruise_int), `timer_f` (start_t, start_x, start_z, peak, hold_since, tlim, dlim),
     `sdlp` (n, mean, m2), `path` (prev_d, prev_dev, area, reward), `steering` (each car's
     steering angle, its cosine and sine: the steering is held for the policy step); trace
     rows are (x, z, u, steer_in).
     """
     x, z, yaw, u, v, r, rpm, prev_v, fuel_used, fuel_left, steer_in, gas_in, brake_in, cruise_target, cruise_int = ego
-    timer_t, timer_x, timer_z, peak, hold_since = timer_f  # (not start_z: the LCT's start)
+    timer_t, timer_x, timer_z, peak, hold_since, tlim, dlim = timer_f  # (not start_z: the LCT's start)
     sd_n, sd_mean, sd_m2 = sdlp
     prev_d, prev_dev, area, reward = path
     angle, cos_a, sin_a = steering
@@ -88,12 +88,10 @@ def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarr
                         break
             moved = False
             if timers and active[e] and not paused[e]:
-                how, expired, peak[e], braked[e], hold_since[e] = timer_step(
-                    timer_table, bands, spec[e], armed[e], timer_t[e], timer_x[e], timer_z[e], peak[e], hold_since[e], braked[e],
+                how, peak[e], braked[e], hold_since[e] = timer_step(
+                    timer_table, bands, spec[e], timer_t[e], timer_x[e], timer_z[e], tlim[e], dlim[e], peak[e], hold_since[e], braked[e],
                     start_lane[e], te, xe, ze, ue, si, bi,
                 )  # fmt: skip
-                if expired:
-                    active[e] = False
                 if how:
                     active[e], done[e], done_t[e] = False, how, te
             la, ln, off, sn, sm, sm2, _, _ = lane_measures(

@@ -1,12 +1,15 @@
 """Lane-change and brake reaction timers of a native batch (one timer id per task).
 
 Why: `sim.triggers.reactions` (LaneChangeTimer, BrakeTimer) and `ReactionCenter` for N
-envs: the per-step checks (steering peak, lane held, speed held, limits) are array
-operations over the envs whose timer runs; arming and scoring are rare and run per env,
-building the same `ReactionResult` records (times rounded to the nanosecond, as there).
-The optional extra timestamps of a result (`extra`: first steering, lane entry, ...) are
-not kept: no env output reads them. The distance limit uses numpy's `hypot` and, where
-that lies within a few ulps of the limit, CPython's, so the verdict is the single env's.
+envs, with the same OpenDS semantics (docs/reaction-timers.md): the per-step checks
+(steering peak, limits, forbidden action, held lane or speed) run in a compiled loop over
+the envs whose trial runs; setups and scoring are rare and run per env, building the same
+`ReactionResult` records (times rounded to the nanosecond, as there). Each env keeps its
+timer object's state as OpenDS does: the hold clock survives from one trial to the next
+unless a setup of the other kind replaces the timer. A failed setup's sound timer makes no
+result, so it is not kept. The optional extra timestamps of a result (`extra`: first
+steering, lane entry, ...) are not kept: no env output reads them. The native batch runs
+on flat ground only, so the 3-D distance limit is the distance in the ground plane.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..sim.road import LANE_MARGIN_M
-from ..sim.triggers.reactions import CORRECT, FAILURE, MISSED, MISSED_RT_S, ReactionResult
+from ..sim.triggers.reactions import CORRECT, EPS, FAILURE, MISSED, MISSED_RT_S, ReactionResult
 from .kernels import FAIL as FAIL_
 from .kernels import MISS as MISS_
 from .kernels import N_TABLE, update_timers
@@ -38,7 +41,7 @@ class TimerSpec:
     distance_limit_m: float
     start_lane: int  # lane index (-2: not a lane of the road)
     target_lane: int
-    min_steering_deg: float
+    min_steering: float  # raw steering wheel state
     allow_brake: bool
     hold_s: float
     target_speed_mps: float
@@ -63,7 +66,7 @@ class TimerSpec:
             distance_limit_m=float(a.get("distance_limit_m") or 0.0),
             start_lane=lane("start_lane"),
             target_lane=lane("target_lane"),
-            min_steering_deg=float(a.get("min_steering_angle_deg") or 0.0),
+            min_steering=float(a.get("min_steering_angle") or 0.0),
             allow_brake=bool(a.get("allow_brake", True)),
             hold_s=float(a.get("hold_lane_for_s", 2.0)) if kind == LANE else float(a.get("hold_speed_for_s", 2.0)),
             target_speed_mps=float(a.get("target_speed_mps", 60.0 / 3.6)),
@@ -73,11 +76,11 @@ class TimerSpec:
         )
 
 
-def lane_index_at(x: np.ndarray, bands: tuple[tuple[float, float], ...]) -> np.ndarray:
+def lane_index_at(x: np.ndarray, bands: tuple[tuple[float, float], ...], margin_m: float = LANE_MARGIN_M) -> np.ndarray:
     """`RoadModel.lane_id_at` as an index into the road's lanes (-1: none)."""
     out = np.full(x.shape, -1, dtype=np.int64)
     for i, (lo, hi) in enumerate(bands):
-        out = np.where((out < 0) & (lo + LANE_MARGIN_M <= x) & (x <= hi - LANE_MARGIN_M), i, out)
+        out = np.where((out < 0) & (lo + margin_m <= x) & (x <= hi - margin_m), i, out)
     return out
 
 
@@ -89,14 +92,17 @@ class TimerBatch:
         self.specs: list[TimerSpec] = []
         self._spec_index: dict[int, int] = {}
         self.timer_ids: set[str] = set()
-        self.active = np.zeros(n, dtype=bool)
-        self.armed = np.zeros(n, dtype=bool)
-        self.spec = np.zeros(n, dtype=np.int64)
-        self.start_t = np.zeros(n)
-        self.start_x = np.zeros(n)
+        self.active = np.zeros(n, dtype=bool)  # a trial runs (timerIsActive)
+        self.kind = np.full(n, -1, dtype=np.int64)  # the kind of the env's timer object (-1: none yet)
+        self.spec = np.zeros(n, dtype=np.int64)  # the spec of the running (or last) trial
+        self.armed_t = np.zeros(n)  # when the trial was set up (misses are logged from it)
+        self.start_t = np.zeros(n)  # startTime, startPosition and the limits: a failed setup
+        self.start_x = np.zeros(n)  # overwrites them
         self.start_z = np.zeros(n)
+        self.tlim = np.zeros(n)
+        self.dlim = np.zeros(n)
         self.peak = np.zeros(n)
-        self.hold_since = np.full(n, np.nan)
+        self.hold_since = np.full(n, np.nan)  # the hold clock (NaN: not set)
         self.braked = np.zeros(n, dtype=bool)
         self.start_lane = np.full(n, -1, dtype=np.int64)
         self.results: list[list[tuple[int, int, float, float, float, float]]] = [[] for _ in range(n)]  # see `_score`
@@ -115,13 +121,14 @@ class TimerBatch:
             raise ValueError(f"the native batch supports one reaction timer id per task, not {sorted(self.timer_ids)}")
         self._spec_index[key] = len(self.specs)
         self.specs.append(spec)
-        fields: tuple[str, ...] = ("kind", "time_limit_s", "distance_limit_m", "target_lane", "min_steering_deg", "allow_brake")
+        fields: tuple[str, ...] = ("kind", "time_limit_s", "distance_limit_m", "target_lane", "min_steering", "allow_brake")
         fields += ("hold_s", "target_speed_mps", "must_press_brake", "allow_lane_change")  # (in the order of `kernels.T_*`)
         self.table = np.array([[float(getattr(s, f)) for f in fields] for s in self.specs]).reshape(-1, N_TABLE)
 
     def reset_rows(self, idx: np.ndarray) -> None:
+        """A new episode: a new ReactionCenter, no timer objects."""
         self.active[idx] = False
-        self.armed[idx] = False
+        self.kind[idx] = -1
         for i in np.atleast_1d(idx).tolist():
             self.results[i] = []
         self.n_results[idx] = 0
@@ -132,33 +139,47 @@ class TimerBatch:
         started); t, x, z, u and started_at are theirs."""
         k = self._spec_index[key]
         spec = self.specs[k]
-        rerun = self.active[es] & self.armed[es]
-        for i in np.flatnonzero(rerun).tolist():  # re-arming a running timer logs a miss first
-            self._score(int(es[i]), MISSED, MISSED_RT_S, float(t[i]), float(started_at[i]))
-        lane = lane_index_at(x, self.bands)
-        self.active[es] = True
-        self.spec[es] = k
-        self.start_t[es], self.start_x[es], self.start_z[es] = t, x, z
-        self.peak[es] = 0.0
-        self.hold_since[es] = np.nan
-        self.braked[es] = False
-        self.start_lane[es] = lane
+        other = self.kind[es] != spec.kind  # no timer object of this kind: close the old one, make a new one
+        for i in np.flatnonzero(other & self.active[es]).tolist():
+            self._miss(int(es[i]), float(t[i]), float(started_at[i]))
+        fresh = es[other]
+        self.kind[fresh] = spec.kind
+        self.active[fresh] = False
+        self.hold_since[fresh] = np.nan
+        self.peak[fresh] = 0.0
+        self.braked[fresh] = False
         if spec.kind == LANE:
-            self.armed[es] = lane == spec.start_lane
+            ok = lane_index_at(x, self.bands) == spec.start_lane
         else:
-            self.armed[es] = u >= spec.start_speed_mps - 1e-9
+            ok = u >= spec.start_speed_mps - EPS
+        for i in np.flatnonzero(ok & self.active[es]).tolist():  # ReactionTimer.setup: the running trial is a miss
+            self._miss(int(es[i]), float(t[i]), float(started_at[i]))
+        # both branches: start, position and limits (a failed setup keeps the running trial)
+        self.start_t[es], self.start_x[es], self.start_z[es] = t, x, z
+        self.tlim[es], self.dlim[es] = spec.time_limit_s, spec.distance_limit_m
+        armed = es[ok]
+        self.active[armed] = True
+        self.spec[armed] = k
+        self.armed_t[armed] = t[ok]
+        self.peak[armed] = 0.0
+        self.braked[armed] = False
+        self.start_lane[armed] = lane_index_at(x[ok], self.bands, 0.0)  # (the brake timer's raw band)
 
-    def _score(self, e: int, result: int, rt_s: float, t: float, started_at: float) -> None:
+    def _miss(self, e: int, t: float, started_at: float) -> None:
+        self.active[e] = False
+        self._score(e, MISSED, MISSED_RT_S, float(self.armed_t[e]), t, started_at)
+
+    def _score(self, e: int, result: int, rt_s: float, start: float, t: float, started_at: float) -> None:
         """Log a result: as a plain tuple (the `ReactionResult` is built when asked for, by
         `results_of`: most are never read) and as env e's latest result and reaction time."""
-        self.results[e].append((int(self.spec[e]), result, rt_s, float(self.start_t[e]), t, started_at))
+        self.results[e].append((int(self.spec[e]), result, rt_s, start, t, started_at))
         self.n_results[e] += 1
         self.last_result[e], self.last_rt[e] = result, round(rt_s, 9)
 
     def results_of(self, e: int) -> list[ReactionResult]:
         """Env e's results this episode, as `ReactionCenter.results` holds them."""
         out = []
-        for k, result, rt_s, start_t, t, started_at in self.results[e]:
+        for k, result, rt_s, start, t, started_at in self.results[e]:
             spec = self.specs[k]
             out.append(
                 ReactionResult(
@@ -167,9 +188,9 @@ class TimerBatch:
                     group=spec.group,
                     result=result,
                     reaction_time_s=round(rt_s, 9),
-                    start_t_s=round(start_t, 9),
+                    start_t_s=round(start, 9),
                     t_s=round(t, 9),
-                    experiment_time_s=round(t - started_at, 9),
+                    experiment_time_s=round(start - started_at, 9),
                     comment=spec.comment,
                 )
             )
@@ -182,9 +203,9 @@ class TimerBatch:
         that end are scored here."""
         if not self.specs:
             return
-        ended = update_timers(self.active, self.armed, self.spec, self.start_t, self.start_x, self.start_z, self.peak, self.hold_since,
-                              self.braked, self.start_lane, self.table, self.band_table, rows, t, x, z, u, steer, brake, self.done,
-                              self.done_t)  # fmt: skip
+        ended = update_timers(self.active, self.spec, self.start_t, self.start_x, self.start_z, self.tlim, self.dlim, self.peak,
+                              self.hold_since, self.braked, self.start_lane, self.table, self.band_table, rows, t, x, z, u, steer, brake,
+                              self.done, self.done_t)  # fmt: skip
         if ended:
             self.score_ended(started_at)
 
@@ -193,12 +214,12 @@ class TimerBatch:
         for e in np.flatnonzero(self.done).tolist():
             how = int(self.done[e])
             now = float(self.done_t[e])
-            if how == FAIL_:
-                result, rt = FAILURE, now - float(self.start_t[e])
-            elif how == MISS_:
-                result, rt = MISSED, MISSED_RT_S
-            else:
-                result, rt = CORRECT, now - float(self.start_t[e]) - self.specs[int(self.spec[e])].hold_s
+            if how == MISS_:
+                self._miss(e, now, float(started_at[e]))
+            else:  # the reaction time leaves out the hold clock's run so far
+                hold = float(self.hold_since[e])
+                offset = now - hold if hold == hold else 0.0
+                rt = now - float(self.start_t[e]) - offset
+                self._score(e, FAILURE if how == FAIL_ else CORRECT, rt, float(self.start_t[e]), now, float(started_at[e]))
             self.active[e] = False
             self.done[e] = 0
-            self._score(e, result, rt, now, float(started_at[e]))

@@ -49,10 +49,13 @@ class InputFrame:
     changed; tuples and `True` flags are one-shot events of this poll. `commands` are
     OpenDS function ids the runner handles itself (toggle_pause, shutdown,
     close_instruction_screen, toggle_cam, ...). `messages` are (text, seconds) pairs to
-    show on screen (the CAN gateway's `display`).
+    show on screen (the CAN gateway's `display`). A source that sets `steering` says
+    with `steering_axis` whether it is a joystick axis (the only steering OpenDS's
+    SteeringReactionTimer hears); left None, it is not.
     """
 
     steering: float | None = None
+    steering_axis: bool | None = None
     accelerator: float | None = None
     brake: float | None = None
     clutch: float | None = None
@@ -84,6 +87,7 @@ class InputFrame:
 
 _LEVELS = (
     "steering",
+    "steering_axis",
     "accelerator",
     "brake",
     "clutch",
@@ -110,6 +114,8 @@ def merge_frames(frames: Iterable[InputFrame]) -> InputFrame:
             v = getattr(f, name)
             if v is not None:
                 updates[name] = v
+        if f.steering is not None:  # the steering's source comes with it
+            updates["steering_axis"] = f.steering_axis
         for name in _FLAGS:
             if getattr(f, name):
                 updates[name] = True

@@ -242,6 +242,7 @@ class JoystickSource:
         if raw is not None:
             # a wheel turned right reads positive; OpenDS steering is + to the left
             f.steering = _clamp(-self._cal("steering").centred(raw) * self.axes["steering"].sensitivity, -1.0, 1.0)
+            f.steering_axis = True
         acc, brk = self._axis("accelerator"), self._axis("brake")
         if acc is not None:
             f.accelerator = _clamp(self._cal("accelerator").pedal(acc) * self.axes["accelerator"].sensitivity, 0.0, 1.0)

@@ -75,6 +75,7 @@ class KeyboardSource:
         left, right = self._held("steer_left"), self._held("steer_right")
         if left or right:
             f.steering = self.steer_step * (float(left) - float(right))
+            f.steering_axis = False  # keys are no joystick axis (SteeringReactionTimer ignores them)
         if self._held("accelerate") or self._held("accelerate_back"):
             f.accelerator = 1.0
             f.reverse = self._held("accelerate_back") and not self._held("accelerate")

@@ -57,7 +57,7 @@ from ..world_config import WorldConfig
 from .camera_flight import CameraFlight
 from .hud import HudState
 from .reaction_center import ReactionCenter
-from .reactions import ReactionResult
+from .reactions import ReactionResult, axis_event
 
 
 class TriggerWorld(Protocol):
@@ -117,12 +117,14 @@ class CarState:
 
     t_s: float
     x_m: float
+    y_m: float
     z_m: float
     speed_mps: float
     steering: float
     accelerator: float
     brake: float
     keys: tuple[str, ...]
+    axis_event: bool = False
     lanes: dict[str, tuple[float, float]] = field(default_factory=dict)
     lane_fn: Callable[[float, float], str | None] | None = None
 
@@ -170,6 +172,8 @@ class TriggerCore:
         self._lane_bands = {b.id: (b.x_min, b.x_max) for b in world.road.lanes}
         self.flight = CameraFlight(task)
         self.center = ReactionCenter(world.events, lambda: self.world.t_s)
+        # only a steering reaction timer listens to the steering axis (SteeringReactionTimer)
+        self._listens_to_axis = any(a.name == "setupSteeringReactionTimer" for t in self.triggers for a in t.actions)
         self.auto_close_instructions = bool(world.config.auto_close_instructions)
         self.reset()
 
@@ -224,10 +228,9 @@ class TriggerCore:
         self._prev_pedals = {"accelerator": 0.0, "brake": 0.0, "clutch": 0.0, "combinedPedals": 0.0}
         self._od_inside: set[int] = set()
         self._warned: set[str] = set()
-        self.center.timers.clear()
-        self.center.results.clear()
-        self.center.started = False
-        self.center.started_at_s = 0.0
+        self.center.clear()
+        self._axis_prev = 0.0  # the steering axis value of the last step steered by an axis
+        self._axis_event = False
         self.flight.reset()
 
     # ------------------------------------------------------------------ public API
@@ -342,6 +345,10 @@ class TriggerCore:
             self._fire_all(fired, "condition")
         if self.measurements:
             self._update_measurements(c)
+        if self._listens_to_axis:
+            self._axis_event = c.steering_axis and axis_event(c.steering, self._axis_prev)
+            if c.steering_axis:
+                self._axis_prev = c.steering
         if not self.paused and self.center.timers:  # (the car view is built only for running timers)
             self.center.update(self.car_view(keys))
 
@@ -352,12 +359,14 @@ class TriggerCore:
         return CarState(
             t_s=w.t_s,
             x_m=s.x,
+            y_m=s.y,
             z_m=s.z,
             speed_mps=s.u,
             steering=inp.steering,
             accelerator=inp.accelerator,
             brake=inp.brake,
             keys=keys,
+            axis_event=self._axis_event,
             lanes=self._lane_bands,
             lane_fn=w.road.lane_id_at,
         )
@@ -467,12 +476,14 @@ class TriggerCore:
         "_od_inside",
         "_warned",
         "_pause_reason",
+        "_axis_prev",
+        "_axis_event",
     )
 
     def get_state(self) -> dict[str, Any]:
         state = {k: copy.deepcopy(getattr(self, k, None)) for k in self._STATE}
         c = self.center
-        state["center"] = copy.deepcopy((c.timers, c.results, c.started, c.started_at_s))
+        state["center"] = copy.deepcopy((c.known, c.timers, c.results, c.started, c.started_at_s))
         state["flight"] = copy.deepcopy(self.flight.state)
         return state
 
@@ -481,7 +492,7 @@ class TriggerCore:
         for k in self._STATE:
             setattr(self, k, state[k])
         c = self.center
-        c.timers, c.results, c.started, c.started_at_s = state["center"]
+        c.known, c.timers, c.results, c.started, c.started_at_s = state["center"]
         self.flight.state = state["flight"]
 
 
