@@ -11,10 +11,12 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 from typing import Any
 
+from ..errors import UserError
 from ..jsonsafe import dump_json
-from .run import _parse_value
+from .targets import parse_env_args, resolve_env_id
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -56,15 +58,16 @@ def config_from_args(args: argparse.Namespace) -> Any:
         w, _, h = str(args.size).lower().partition("x")
         width, height = int(w), int(h)
     except ValueError:
-        raise SystemExit(f"--size must be WIDTHxHEIGHT, not {args.size!r}") from None
+        raise UserError(f"--size must be WIDTHxHEIGHT, not {args.size!r}") from None
     try:
         inputs = tuple(parse_input_spec(s) for s in (args.input or ["keyboard"]))
     except ValueError as e:
-        raise SystemExit(str(e)) from None
-    env_kwargs = {}
-    for item in args.env_arg:
-        key, _, value = item.partition("=")
-        env_kwargs[key] = _parse_value(value)
+        raise UserError(f"--input: {e}") from None
+    for option, path in (("--calibration", args.calibration), ("--dbc", args.dbc)):
+        if path is not None and not Path(path).is_file():
+            raise UserError(f"{option} {path}: no such file")
+    env_id, _ = resolve_env_id(args.target)  # a misspelt id or task fails here, in one line
+    env_kwargs = parse_env_args(args.env_arg, env_id)
     return DriveConfig(
         target=args.target,
         inputs=inputs,
@@ -119,14 +122,12 @@ def _fmt(v: Any) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from ..human.runner import DriveSession
-    from ..task.errors import TaskError
 
     config = config_from_args(args)
     try:
         session = DriveSession(config)
-    except (TaskError, ValueError, OSError, RuntimeError) as e:  # a bad task, file, port or display: say so, no traceback
-        print(f"drive: {e}", file=sys.stderr)
-        return 2
+    except (ValueError, RuntimeError) as e:  # a bad option value, port or display (tasks and files: main's one line)
+        raise UserError(str(e)) from e
     with session:
         result = session.run()
     out = summary(result)
