@@ -23,3 +23,9 @@ def did_you_mean(word: str, choices: Iterable[str]) -> str:
     """`"; did you mean X?"` for the closest choice, or `""` when none is close."""
     match = closest(word, choices)
     return f"; did you mean {match}?" if match is not None else ""
+
+
+def meant(word: str, choices: Iterable[str]) -> str:
+    """`" (did you mean X?)"` for the middle of a sentence, or `""`."""
+    match = closest(word, choices)
+    return f" (did you mean {match}?)" if match is not None else ""

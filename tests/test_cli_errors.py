@@ -29,6 +29,8 @@ MISTAKES = [
     (["run", "--env-arg", "policy_hz"], ["expected KEY=VALUE"]),
     (["run", "--env-arg", "physics=bogus"], ["physics must be 'fast' or 'bullet'"]),
     (["run", "--episodes", "0"], ["--episodes must be at least 1"]),
+    (["run", "--max-seconds", "-1"], ["--max-seconds: must be a number above 0"]),
+    (["run", "--record-rate", "0", "--record", "never.mcap"], ["--record-rate: must be a number above 0"]),
     (["run", "--csv", "no/such/folder/out.csv"], ["--csv", "does not exist"]),
     (["run", "--physics", "bulet"], ["invalid choice", "did you mean bullet?"]),
     (["run", "--agnet", "rule"], ["unrecognized arguments: --agnet", "did you mean --agent?"]),

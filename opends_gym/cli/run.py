@@ -36,7 +36,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--episodes", type=int, default=1)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--physics", choices=("fast", "bullet"), default="fast")
-    p.add_argument("--max-seconds", type=float, default=None, help="simulated seconds per episode (truncates)")
+    p.add_argument("--max-seconds", type=positive_float, default=None, help="simulated seconds per episode (truncates)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
     p.add_argument("--csv", default=None, metavar="OUT.csv", help="write one row per episode (env, task, agent, seed, episode, metrics)")
     p.add_argument(
@@ -47,7 +47,31 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
     p.add_argument("--record", default=None, metavar="PATH.mcap", help="record each episode to MCAP (never overwrites: name(2).mcap, ...)")
-    p.add_argument("--record-rate", type=float, default=None, metavar="HZ", help="ego state rate in the recording (default: physics rate)")
+    p.add_argument("--record-rate", type=positive_float, default=None, metavar="HZ", help="ego state rate in recordings (default: physics)")
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a number above zero (argparse turns the ValueError into one line)."""
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be a number above 0, not {text}")
+    return value
+
+
+class CheckedAgent:
+    """An agent whose `reset` refusal (a policy trained on another observation shape) is a UserError."""
+
+    def __init__(self, agent: Any, spec: str) -> None:
+        self.agent = agent
+        self.spec = spec
+        self.name = getattr(agent, "name", spec)
+        self.act = agent.act
+
+    def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
+        try:
+            self.agent.reset(env, seed)
+        except ValueError as e:
+            raise UserError(f"--agent {self.spec}: {e}") from None
 
 
 def make_cli_agent(spec: str) -> Any:
@@ -57,7 +81,7 @@ def make_cli_agent(spec: str) -> Any:
     from ..drivers.agents import make_agent
 
     try:
-        return make_agent(spec)
+        return CheckedAgent(make_agent(spec), spec)
     except FileNotFoundError as e:
         raise UserError(f"--agent {spec}: {e.strerror or e}") from None
     except (ValueError, TypeError, OSError, zipfile.BadZipFile) as e:

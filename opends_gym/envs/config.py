@@ -11,7 +11,7 @@ import functools
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
-from ..hints import did_you_mean
+from ..hints import meant
 
 T = TypeVar("T")
 
@@ -48,7 +48,7 @@ def build_config(cls: type[T], kwargs: dict[str, Any]) -> T:
     names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     unknown = sorted(set(kwargs) - names)
     if unknown:
-        hints = "".join(did_you_mean(k, names) for k in unknown)
+        hints = "".join(meant(k, names) for k in unknown)
         raise TypeError(f"unknown option(s) {', '.join(unknown)} for {cls.__name__}{hints}; valid: {', '.join(sorted(names))}")
     cfg = cls(**kwargs)
     _validate(cfg)
