@@ -21,6 +21,7 @@ MISTAKES = [
     (["run", "--agent", "distracted:hevy"], ["unknown distraction level 'hevy'"]),
     (["run", "--agent", "constant:a,b"], ["--agent constant:a,b"]),
     (["run", "--agent", "ppo:no/such/model.zip"], ["no saved policy at no/such/model.zip"]),
+    (["run", "--agent", "ppo"], ["give the saved model: ppo:PATH"]),
     (["run", "--agent", f"ppo:{ROOT / 'README.md'}"], ["README.md", "zip"]),
     (["run", "--env-arg", "polcy_hz=20"], ["polcy_hz", "did you mean policy_hz?"]),
     (["run", "--env-arg", "policy_hz=fast"], ["policy_hz=fast", "expected a number"]),
@@ -98,3 +99,9 @@ def test_a_real_task_path_still_runs(capsys: pytest.CaptureFixture[str], tmp_pat
     monkeypatch.chdir(tmp_path)
     assert main(["run", "Lab/Brake-v1", "--max-seconds", "0.5", "--json"]) == 0
     assert '"task": "brakeReaction"' in capsys.readouterr().out
+
+
+def test_broken_task_is_one_line_naming_file_line_and_element(task_copy, capsys: pytest.CaptureFixture[str]) -> None:
+    folder = task_copy("opends-cts/ReactionTest", "scenario.xml", "<xMin>-5.55</xMin>", "<xMin>left</xMin>")
+    err = _one_line_error(capsys, ["run", str(folder)])
+    assert "scenario.xml:" in err and "<xMin>" in err and "'left'" in err

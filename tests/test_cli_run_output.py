@@ -25,6 +25,7 @@ def test_table_has_a_row_per_episode_and_fits_the_terminal(capsys: pytest.Captur
     assert sum(line.startswith("mean ") for line in lines) == len(starts) // 100
     assert sum(line.startswith("sd ") for line in lines) == len(starts) // 100
     assert "same in every episode:" in lines  # steps (5) and the LCT's sign counts do not vary
+    assert not any("wall_s" in line for line in lines) and lines[-1].startswith("wall time ")  # host speed: one line
 
 
 def test_mean_and_sd_rows_match_the_episodes(capsys: pytest.CaptureFixture[str]) -> None:

@@ -57,7 +57,7 @@ def table_lines(result: dict[str, Any], line_width: int | None = None) -> list[s
     """The text tables of a `run` result (see the module docstring)."""
     eps = result["episodes"]
     summary = result["summary"]
-    keys = list(summary)
+    keys = [k for k in summary if k != "wall_s"]  # the host's speed, not the drive's: one line at the end
     width = line_width or max(60, shutil.get_terminal_size((100, 24)).columns)
     lines = [f"{result['env_id']}  agent={result['agent']}  episodes={len(eps)}"]
     varying = [k for k in keys if len({fmt(e.get(k, "")) for e in eps}) > 1]
@@ -89,6 +89,10 @@ def table_lines(result: dict[str, Any], line_width: int | None = None) -> list[s
         lines.append("same in every episode:" if len(eps) > 1 else "metrics:")
         kw = max(len(k) for k in same) + 2
         lines.extend("  " + k.ljust(kw) + fmt(eps[0].get(k, "")) for k in same)
+    wall = [float(e["wall_s"]) for e in eps if "wall_s" in e]
+    if wall:
+        lines.append("")
+        lines.append(f"wall time {sum(wall):.3g} s ({sum(wall) / len(wall):.3g} s per episode)")
     return lines
 
 
