@@ -24,6 +24,7 @@ MISTAKES = [
     (["run", "--agent", "ppo"], ["give the saved model: ppo:PATH"]),
     (["run", "--agent", f"ppo:{ROOT / 'README.md'}"], ["README.md", "zip"]),
     (["run", "--env-arg", "polcy_hz=20"], ["polcy_hz", "did you mean policy_hz?"]),
+    (["run", "OpenDS/DrivingTask-v0", "--env-arg", "task=ReactonTest"], ["ReactonTest", "did you mean ReactionTest?"]),
     (["run", "--env-arg", "policy_hz=fast"], ["policy_hz=fast", "expected a number"]),
     (["run", "--env-arg", "lanes=2.5"], ["lanes=2.5", "expected an integer"]),
     (["run", "--env-arg", "terminate_on_collision=maybe"], ["expected true or false"]),

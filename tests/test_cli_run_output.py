@@ -75,3 +75,32 @@ def test_progress_bar_only_when_asked_or_on_a_terminal(capsys: pytest.CaptureFix
     assert main([*FAST, "--episodes", "3", "--progress", "--json"]) == 0
     captured = capsys.readouterr()
     assert captured.err == "" and json.loads(captured.out)["episodes"][2]["seed"] == 2
+
+
+def test_progress_bar_draws_on_a_terminal() -> None:
+    """stderr a pseudo-terminal, as in an interactive shell: the bar appears without --progress."""
+    import os
+    import pty
+    import subprocess
+    import sys
+
+    from .conftest import ROOT
+
+    master, slave = pty.openpty()
+    try:
+        cmd = [sys.executable, "-m", "opends_gym.cli.main", *FAST, "--episodes", "2"]
+        proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=slave, cwd=ROOT, timeout=300, check=True)
+    finally:
+        os.close(slave)
+    err = b""
+    while True:
+        try:
+            chunk = os.read(master, 4096)
+        except OSError:  # EIO: the terminal's other end is closed and everything was read
+            break
+        if not chunk:
+            break
+        err += chunk
+    os.close(master)
+    assert b"episode 2/2" in err and b"\r" in err
+    assert b"episode 2/2" not in proc.stdout  # the tables stay on stdout, the bar on stderr
