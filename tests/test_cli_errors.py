@@ -34,6 +34,7 @@ MISTAKES = [
     (["run", "--max-seconds", "-1"], ["--max-seconds: must be a number above 0"]),
     (["run", "--record-rate", "0", "--record", "never.mcap"], ["--record-rate: must be a number above 0"]),
     (["run", "--csv", "no/such/folder/out.csv"], ["--csv", "does not exist"]),
+    (["run", "--csv", str(ROOT / "tests")], ["is a folder"]),
     (["run", "--physics", "bulet"], ["invalid choice", "did you mean bullet?"]),
     (["run", "--agnet", "rule"], ["unrecognized arguments: --agnet", "did you mean --agent?"]),
     (["rnu"], ["invalid choice", "did you mean run?"]),

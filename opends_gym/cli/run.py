@@ -151,6 +151,8 @@ def print_tables(result: dict[str, Any]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.csv and Path(args.csv).is_dir():
+        raise UserError(f"--csv {args.csv}: is a folder; give a file name such as {Path(args.csv) / 'runs.csv'}")
     if args.csv and not Path(args.csv).resolve().parent.is_dir():
         raise UserError(f"--csv {args.csv}: the folder {Path(args.csv).resolve().parent} does not exist")
     show = False if args.json else args.progress
