@@ -45,6 +45,8 @@ MISTAKES = [
     (["drive", "--no-window", "--input", "joystik"], ["unknown input 'joystik'"]),
     (["drive", "--no-window", "--calibration", "no/such/wheel.yaml"], ["--calibration no/such/wheel.yaml"]),
     (["drive", "--no-window", "--env-arg", "polcy_hz=20"], ["did you mean policy_hz?"]),
+    (["drive", "--no-window", "--duration", "-1"], ["--duration: must be a number above 0"]),
+    (["drive", "--no-window", "--server-port", "99999"], ["--server-port: must be a port number"]),
     (["replay", "no/such/drive.mcap"], ["no/such/drive.mcap"]),
     (["analyze", "no/such/carData.txt"], ["no/such/carData.txt"]),
     (["train", "no/such/config.yaml"], ["no/such/config.yaml"]),

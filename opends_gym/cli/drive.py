@@ -16,7 +16,16 @@ from typing import Any
 
 from ..errors import UserError
 from ..jsonsafe import dump_json
+from .run import positive_float
 from .targets import parse_env_args, resolve_env_id
+
+
+def port(text: str) -> int:
+    """argparse type: a TCP port number (0 lets the system choose)."""
+    value = int(text)
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"must be a port number 0..65535, not {text}")
+    return value
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -30,7 +39,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--record", metavar="OUT.mcap", help="record the drive (flushed every simulated second)")
     p.add_argument("--driver", metavar="NAME", help="driver name for the recording (default: settings.xml driverName)")
-    p.add_argument("--duration", type=float, metavar="SECONDS", help="end after this much simulated time")
+    p.add_argument("--duration", type=positive_float, metavar="SECONDS", help="end after this much simulated time")
     p.add_argument("--no-window", action="store_true", help="run the same loop without a window (scripted sessions, tests)")
     p.add_argument("--fast", action="store_true", help="do not pace to the wall clock")
     p.add_argument("--seed", type=int, default=0)
@@ -44,7 +53,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     server.add_argument("--no-settings-server", dest="settings_server", action="store_false", help="never start it")
     p.add_argument("--server-host", default="127.0.0.1", help="settings-controller bind address (default 127.0.0.1)")
-    p.add_argument("--server-port", type=int, help="settings-controller port (default: settings.xml)")
+    p.add_argument("--server-port", type=port, help="settings-controller port (default: settings.xml)")
     p.add_argument("--no-audio", action="store_true", help="log sounds without playing them")
     p.add_argument("--screenshot", metavar="OUT.png", help="save the last frame of the window as PNG")
     p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
