@@ -109,3 +109,15 @@ def test_broken_task_is_one_line_naming_file_line_and_element(task_copy, capsys:
     folder = task_copy("opends-cts/ReactionTest", "scenario.xml", "<xMin>-5.55</xMin>", "<xMin>left</xMin>")
     err = _one_line_error(capsys, ["run", str(folder)])
     assert "scenario.xml:" in err and "<xMin>" in err and "'left'" in err
+
+
+def test_ctrl_c_is_one_line_and_exit_130(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    import opends_gym.drivers.episodes as episodes
+
+    def interrupted(*args: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(episodes, "run_episode", interrupted)
+    assert main(["run", "--episodes", "3", "--progress"]) == 130
+    err = capsys.readouterr().err
+    assert err.endswith("opends-gym run: interrupted\n") and "Traceback" not in err

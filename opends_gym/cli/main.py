@@ -113,6 +113,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     try:
         code = importlib.import_module(args._module).run(args)
+    except KeyboardInterrupt:  # Ctrl-C: the user stopped it, no traceback (130 = 128 + SIGINT, as shells report it)
+        if args.debug:
+            raise
+        print(f"opends-gym {args.command}: interrupted", file=sys.stderr)
+        return 130
     except Exception as e:
         message = None if args.debug else user_message(e)
         if message is None:
