@@ -14,6 +14,7 @@ LAYERS = [
     "version",
     "jsonsafe",
     "errors",
+    "hints",
     "extras",
     "jit",
     "task",

@@ -152,7 +152,7 @@ def test_registration_is_idempotent() -> None:
 
 
 def test_unknown_option_is_an_error() -> None:
-    with pytest.raises(TypeError, match="polcy_hz"):
+    with pytest.raises(TypeError, match=r"polcy_hz for LaneChangeTestConfig \(did you mean policy_hz\?\)"):
         gym.make("OpenDS/LaneChangeTest-v0", polcy_hz=20)
 
 

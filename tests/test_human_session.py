@@ -217,7 +217,7 @@ def test_external_visualization_receives_the_camera(task_copy) -> None:  # type:
     assert re.fullmatch(r'ltupdate \.remotemotionsensor -posoriIn "1\.0000 1\.2000 -2\.0000;0\.000 28\.648 0\.000"\n', one)
 
 
-def test_drive_command(tmp_path: Path) -> None:
+def test_drive_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rec = tmp_path / "cli.mcap"
     out = io.StringIO()
     with redirect_stdout(out):
@@ -226,8 +226,10 @@ def test_drive_command(tmp_path: Path) -> None:
     summary = json.loads(out.getvalue())
     assert summary["end_reason"] == "time limit" and summary["sim_time_s"] == pytest.approx(3.0)
     assert summary["recordings"] == [str(rec)] and "mean_speed_kmh" in summary["metrics"]
-    with pytest.raises(SystemExit, match="unknown input"):
-        main(["drive", "ReactionTest", "--no-window", "--input", "telepathy"])
+    capsys.readouterr()
+    assert main(["drive", "ReactionTest", "--no-window", "--input", "telepathy"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown input 'telepathy'" in err and err.count("\n") == 1
     assert parse_input_spec("can-bus:udp_multicast:239.74.163.2") == InputSpec("can-bus", interface="udp_multicast", channel="239.74.163.2")
     with pytest.raises(ValueError, match="HOST:PORT"):
         parse_input_spec("can-tcp:localhost:99999")

@@ -75,7 +75,7 @@ def test_policy_rejects_an_env_with_other_observations(quick_run: Path) -> None:
 def test_config_typos_are_errors_naming_the_file(tmp_path: Path) -> None:
     bad = tmp_path / "bad.yaml"
     bad.write_text("env: OpenDS/LaneChangeTest-v0\ntotal_stepz: 10\n", encoding="utf-8")
-    with pytest.raises(ValueError, match=r"bad\.yaml: unknown key\(s\) total_stepz"):
+    with pytest.raises(ValueError, match=r"bad\.yaml: unknown key\(s\) total_stepz \(did you mean total_steps\?\)"):
         load_train_config(bad)
     bad.write_text("env: OpenDS/LaneChangeTest-v0\nalgorithm: dqn\n", encoding="utf-8")
     with pytest.raises(ValueError, match="algorithm must be one of"):

@@ -11,10 +11,21 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 from typing import Any
 
+from ..errors import UserError
 from ..jsonsafe import dump_json
-from .run import _parse_value
+from .run import positive_float
+from .targets import parse_env_args, resolve_env_id
+
+
+def port(text: str) -> int:
+    """argparse type: a TCP port number (0 lets the system choose)."""
+    value = int(text)
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"must be a port number 0..65535, not {text}")
+    return value
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -28,7 +39,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--record", metavar="OUT.mcap", help="record the drive (flushed every simulated second)")
     p.add_argument("--driver", metavar="NAME", help="driver name for the recording (default: settings.xml driverName)")
-    p.add_argument("--duration", type=float, metavar="SECONDS", help="end after this much simulated time")
+    p.add_argument("--duration", type=positive_float, metavar="SECONDS", help="end after this much simulated time")
     p.add_argument("--no-window", action="store_true", help="run the same loop without a window (scripted sessions, tests)")
     p.add_argument("--fast", action="store_true", help="do not pace to the wall clock")
     p.add_argument("--seed", type=int, default=0)
@@ -42,7 +53,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     server.add_argument("--no-settings-server", dest="settings_server", action="store_false", help="never start it")
     p.add_argument("--server-host", default="127.0.0.1", help="settings-controller bind address (default 127.0.0.1)")
-    p.add_argument("--server-port", type=int, help="settings-controller port (default: settings.xml)")
+    p.add_argument("--server-port", type=port, help="settings-controller port (default: settings.xml)")
     p.add_argument("--no-audio", action="store_true", help="log sounds without playing them")
     p.add_argument("--screenshot", metavar="OUT.png", help="save the last frame of the window as PNG")
     p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
@@ -56,15 +67,16 @@ def config_from_args(args: argparse.Namespace) -> Any:
         w, _, h = str(args.size).lower().partition("x")
         width, height = int(w), int(h)
     except ValueError:
-        raise SystemExit(f"--size must be WIDTHxHEIGHT, not {args.size!r}") from None
+        raise UserError(f"--size must be WIDTHxHEIGHT, not {args.size!r}") from None
     try:
         inputs = tuple(parse_input_spec(s) for s in (args.input or ["keyboard"]))
     except ValueError as e:
-        raise SystemExit(str(e)) from None
-    env_kwargs = {}
-    for item in args.env_arg:
-        key, _, value = item.partition("=")
-        env_kwargs[key] = _parse_value(value)
+        raise UserError(f"--input: {e}") from None
+    for option, path in (("--calibration", args.calibration), ("--dbc", args.dbc)):
+        if path is not None and not Path(path).is_file():
+            raise UserError(f"{option} {path}: no such file")
+    env_id, _ = resolve_env_id(args.target)  # a misspelt id or task fails here, in one line
+    env_kwargs = parse_env_args(args.env_arg, env_id)
     return DriveConfig(
         target=args.target,
         inputs=inputs,
@@ -119,14 +131,12 @@ def _fmt(v: Any) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from ..human.runner import DriveSession
-    from ..task.errors import TaskError
 
     config = config_from_args(args)
     try:
         session = DriveSession(config)
-    except (TaskError, ValueError, OSError, RuntimeError) as e:  # a bad task, file, port or display: say so, no traceback
-        print(f"drive: {e}", file=sys.stderr)
-        return 2
+    except (ValueError, RuntimeError) as e:  # a bad option value, port or display (tasks and files: main's one line)
+        raise UserError(str(e)) from e
     with session:
         result = session.run()
     out = summary(result)

@@ -6,6 +6,8 @@ import argparse
 import logging
 from pathlib import Path
 
+from ..errors import UserError
+from ..hints import did_you_mean
 from ..task import TaskError, load_task
 from ..task.bundled import BUNDLED_DIR, bundled_task_names
 from ..task.summary import summarize
@@ -19,9 +21,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--recursive", action="store_true", help="treat each path as a folder of task folders")
 
 
+def _check_exists(paths: list[str]) -> None:
+    """A path that is neither a file, a folder nor a bundled name is a typo, not a bad task."""
+    names = bundled_task_names()
+    for p in paths:
+        if not Path(p).exists() and p.lower() not in (n.lower() for n in names):
+            raise UserError(f"{p}: no such file or folder, and no bundled task of that name{did_you_mean(Path(p).name, names)}")
+
+
 def _expand(paths: list[str], recursive: bool) -> list[str]:
     if not paths:
         return [str(BUNDLED_DIR / n) for n in bundled_task_names()]
+    _check_exists(paths)
     if not recursive:
         return paths
     out: list[str] = []
@@ -36,8 +47,9 @@ def run(args: argparse.Namespace) -> int:
     logging.getLogger("opends_gym.task").setLevel(logging.ERROR)  # warnings are printed below
     targets = _expand(list(args.paths), args.recursive)
     if not targets:
-        print("no tasks to validate")
-        return 2
+        raise UserError(f"no task entry files (XML with <properties>) under {', '.join(args.paths)}")
+    if args.schema_dir is not None and not args.schema_dir.is_dir():
+        raise UserError(f"--schema-dir {args.schema_dir}: no such folder")
     failed = 0
     for target in targets:
         try:

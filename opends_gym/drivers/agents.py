@@ -13,6 +13,8 @@ from typing import Any, Protocol
 import gymnasium as gym
 import numpy as np
 
+from ..hints import did_you_mean
+
 
 class Agent(Protocol):
     name: str
@@ -96,5 +98,6 @@ def make_agent(spec: str) -> Agent:
     name, _, arg = spec.partition(":")
     factory = AGENT_FACTORIES.get(name)
     if factory is None:
-        raise ValueError(f"unknown agent {name!r}; choose from {', '.join(sorted(AGENT_FACTORIES))}")
+        hint = did_you_mean(name, AGENT_FACTORIES)
+        raise ValueError(f"unknown agent {name!r}{hint} (known: {', '.join(sorted(AGENT_FACTORIES))})")
     return factory(arg)

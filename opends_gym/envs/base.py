@@ -57,6 +57,8 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, not {render_mode!r}")
         self.config = build_config(self.config_class, kwargs)
+        # one rendered frame per policy step: RecordVideo and the window play in real time
+        self.metadata = {**type(self).metadata, "render_fps": self.config.policy_hz}
         self.render_mode = render_mode
         self.task: DrivingTask = self._make_task()
         self.world = World(self.task, WorldConfig(physics=self.config.physics, dt_s=1.0 / self.config.physics_hz))

@@ -11,6 +11,8 @@ import functools
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
+from ..hints import meant
+
 T = TypeVar("T")
 
 
@@ -46,7 +48,8 @@ def build_config(cls: type[T], kwargs: dict[str, Any]) -> T:
     names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     unknown = sorted(set(kwargs) - names)
     if unknown:
-        raise TypeError(f"unknown option(s) {', '.join(unknown)} for {cls.__name__}; valid: {', '.join(sorted(names))}")
+        hints = "".join(meant(k, names) for k in unknown)
+        raise TypeError(f"unknown option(s) {', '.join(unknown)} for {cls.__name__}{hints}; valid: {', '.join(sorted(names))}")
     cfg = cls(**kwargs)
     _validate(cfg)
     return cfg

@@ -34,13 +34,17 @@ def register_envs() -> None:
             gymnasium.register(id=env_id, entry_point=entry_point, vector_entry_point=VECTOR_ENVS.get(env_id), disable_env_checker=False)
 
 
+def lookup_env_id(target: str) -> str | None:
+    """The registered id `target` names: the id itself or a short name (`LaneChangeTest`)."""
+    register_envs()
+    for candidate in (target, f"OpenDS/{target}", f"OpenDS/{target}-v0"):
+        if candidate in gymnasium.registry:
+            return candidate
+    return None
+
+
 def resolve_env_id(target: str) -> tuple[str, dict[str, Any]]:
     """An env id for `target`: a registered id, a short name (`LaneChangeTest`), or else a task
     folder or entry file for the generic `OpenDS/DrivingTask-v0` (returned as its `task` kwarg)."""
-    register_envs()
-    if target in gymnasium.registry:
-        return target, {}
-    for candidate in (f"OpenDS/{target}", f"OpenDS/{target}-v0"):
-        if candidate in gymnasium.registry:
-            return candidate, {}
-    return "OpenDS/DrivingTask-v0", {"task": target}
+    env_id = lookup_env_id(target)
+    return (env_id, {}) if env_id is not None else ("OpenDS/DrivingTask-v0", {"task": target})

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..hints import did_you_mean
 from .entry import find_entry_file
 from .errors import TaskError
 
@@ -29,6 +30,7 @@ def resolve_task_path(name_or_path: str | Path) -> Path:
         if name.lower() == str(name_or_path).lower():
             return find_entry_file(BUNDLED_DIR / name)
     raise TaskError(
-        f"no task folder or bundled task named '{name_or_path}' (bundled: {', '.join(bundled_task_names()) or 'none'})",
+        f"no task folder or bundled task named '{name_or_path}'{did_you_mean(p.name, bundled_task_names())}"
+        f" (bundled: {', '.join(bundled_task_names()) or 'none'})",
         file=str(name_or_path),
     )

@@ -76,11 +76,21 @@ class Diagnostics:
         """Record a warning; with `once_key`, only the first of its kind is kept.
 
         Every warning lands in `DrivingTask.warnings`; `log_level` says how loudly it is
-        also logged (missing 3D models and sounds are routine, so they log at INFO)."""
+        also logged (missing 3D models and sounds are routine, so they log at INFO), the
+        first time this process meets it (later loads of the same file log it at DEBUG)."""
         if once_key is not None:
             if once_key in self._seen:
                 return
             self._seen.add(once_key)
         w = TaskWarning(message, str(file) if file is not None else None, line, element)
         self.warnings.append(w)
+        if w in _LOGGED:  # the same file is loaded again (every make): once per process is enough
+            log.debug("%s", w)
+            return
+        _LOGGED.add(w)
         log.log(log_level, "%s", w)
+
+
+# warnings already logged in this process (file, line, element, message): each goes to the
+# log once however often its task is loaded; every load still lists it in `DrivingTask.warnings`
+_LOGGED: set[TaskWarning] = set()

@@ -13,6 +13,8 @@ from typing import Any
 
 import yaml
 
+from ..hints import meant
+
 ALGORITHMS = ("ppo", "sac", "a2c", "td3")
 FRAMEWORKS = ("sb3", "rllib")
 
@@ -71,7 +73,8 @@ def load_train_config(path: str | Path, overrides: dict[str, Any] | None = None)
     names = {f.name for f in dataclasses.fields(TrainConfig)}
     unknown = sorted(set(raw) - names)
     if unknown:
-        raise ValueError(f"{path}: unknown key(s) {', '.join(unknown)}; valid keys: {', '.join(sorted(names))}")
+        hints = "".join(meant(k, names) for k in unknown)
+        raise ValueError(f"{path}: unknown key(s) {', '.join(unknown)}{hints}; valid keys: {', '.join(sorted(names))}")
     if "env" not in raw:
         raise ValueError(f"{path}: missing required key 'env'")
     try:
