@@ -214,6 +214,31 @@ def cli_commands() -> list[str]:
     return [name for name, _, _ in COMMANDS]
 
 
+def extras_markdown() -> str:
+    """The optional dependency groups of pyproject.toml, as `pip install` sees them."""
+    import tomllib  # Python 3.11+; only this generator needs it
+
+    project = tomllib.loads((DOCS.parent / "pyproject.toml").read_text())["project"]
+    out = ["| extra | installs |", "|---|---|"]
+    out += [f"| `{name}` | {', '.join(f'`{r}`' for r in reqs)} |" for name, reqs in project["optional-dependencies"].items()]
+    core = ", ".join(f"`{r}`" for r in project["dependencies"])
+    return f"Core dependencies: {core}.\n\n" + "\n".join(out) + "\n"
+
+
+def agents_markdown() -> str:
+    """The `--agent` names and the distracted driver's levels, from the driver modules."""
+    from opends_gym.drivers.agents import AGENT_FACTORIES
+    from opends_gym.drivers.distracted import LEVEL_ORDER, LEVELS, DistractionParams
+
+    fields = [f.name for f in dataclasses.fields(DistractionParams)]
+    out = ["`--agent` names: " + ", ".join(f"`{n}`" for n in AGENT_FACTORIES) + ".", ""]
+    out += ["| level | " + " | ".join(f"`{f}`" for f in fields) + " |", "|---|" + "---:|" * len(fields)]
+    for level in LEVEL_ORDER:
+        p = LEVELS[level]
+        out.append(f"| `{level}` | " + " | ".join(f"{getattr(p, f):g}" for f in fields) + " |")
+    return "\n".join(out) + "\n"
+
+
 def _write(path: Path, text: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     if not path.exists() or path.read_text() != text:
@@ -231,6 +256,8 @@ def main() -> int:
         IMAGES.mkdir(parents=True, exist_ok=True)
         for view, rgb in pictures.items():
             write_png(IMAGES / f"{slug}-{view}.png", rgb)
+    _write(GENERATED / "extras.md", extras_markdown())
+    _write(GENERATED / "agents.md", agents_markdown())
     _write(GENERATED / "cli" / "opends-gym.txt", cli_help(None))
     for command in cli_commands():
         _write(GENERATED / "cli" / f"{command}.txt", cli_help(command))
