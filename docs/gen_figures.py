@@ -176,7 +176,7 @@ def pictures_markdown(env_id: str) -> str:
     return (
         f"![{env_id}: driver view](../images/envs/{slug}-driver_view.png)\n"
         f"![{env_id}: top-down view](../images/envs/{slug}-topdown.png)\n\n"
-        f"*Driver view (`render_view=\"driver_view\"`) and top-down view (the default `rgb_array` render) "
+        f'*Driver view (`render_view="driver_view"`) and top-down view (the default `rgb_array` render) '
         f"{at_s:g} simulated seconds into a seeded episode with the rule driver.*\n"
     )
 
