@@ -118,7 +118,8 @@ def _fmt(value: Any) -> str:
     if isinstance(value, int | np.integer):
         return str(int(value))
     if isinstance(value, float | np.floating):
-        return f"{float(value):.4g}"
+        v = float(value)
+        return "0" if abs(v) < 1e-12 else f"{v:.4g}"  # rounding noise (1e-16) is not information
     return type(value).__name__
 
 
@@ -154,9 +155,11 @@ def run_episode(env_id: str) -> tuple[str, dict[str, np.ndarray]]:
     metrics = info["episode_metrics"]
     how = "terminated" if terminated else "truncated"
     env.close()
-    out = ["### Info keys", "", "Keys of `info` on every step (measured on the first step of the episode below):", ""]
-    out += ["| key | type |", "|---|---|"]
-    out += [f"| `{k}` | {_fmt(v) if k != 'events' else 'tuple of event dicts'} |" for k, v in sorted(first_info.items())]
+    out = ["### Info keys", "", "Keys of `info` on every step, with their values on the first step of the episode below:", ""]
+    out += ["| key | type | first step |", "|---|---|---:|"]
+    for k, v in sorted(first_info.items()):
+        kind = "tuple of event dicts" if k == "events" else type(v).__name__
+        out.append(f"| `{k}` | {kind} | {'' if k == 'events' else _fmt(v)} |")
     out += ["", "`episode_metrics` (a dict) is added on the last step.", ""]
     out += ["### Episode metrics", ""]
     out += [
