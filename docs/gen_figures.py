@@ -184,6 +184,37 @@ def pictures_markdown(env_id: str) -> str:
     )
 
 
+ANALYZER_ENV, ANALYZER_AGENT = "OpenDS/LaneChangeTest-v0", "distracted:moderate"
+
+
+def analyzer_figures() -> dict[str, Path]:
+    """Record one seeded LCT episode of the moderately distracted driver, run the analyzer's
+    report on it and copy its reaction, path and time-series pages to docs/images/analyzer-*.png."""
+    import shutil
+    import tempfile
+
+    from opends_gym.drivers.agents import make_agent
+    from opends_gym.record import RecordDrive, analyze, write_report
+
+    with tempfile.TemporaryDirectory() as tmp:
+        env = RecordDrive(gym.make(ANALYZER_ENV), Path(tmp) / "drive.mcap")
+        agent = make_agent(ANALYZER_AGENT)
+        obs, info = env.reset(seed=SEED)
+        agent.reset(env.unwrapped, SEED)
+        while True:
+            obs, _, terminated, truncated, info = env.step(agent.act(obs, info))
+            if terminated or truncated:
+                break
+        env.close()
+        pages = write_report(analyze(Path(tmp) / "drive.mcap"), Path(tmp) / "report.pdf")
+        out: dict[str, Path] = {}
+        for k, name in enumerate(pages, start=1):
+            if name in ("reactions", "path", "timeseries"):
+                out[name] = DOCS / "images" / f"analyzer-{name}.png"
+                shutil.copyfile(Path(tmp) / f"report_{k}_{name}.png", out[name])
+        return out
+
+
 def write_png(path: Path, rgb: np.ndarray) -> None:
     """A plain RGB PNG with no timestamp or other metadata, so equal pixels give equal bytes."""
     h, w, _ = rgb.shape
@@ -259,6 +290,8 @@ def main() -> int:
         IMAGES.mkdir(parents=True, exist_ok=True)
         for view, rgb in pictures.items():
             write_png(IMAGES / f"{slug}-{view}.png", rgb)
+    for name, path in analyzer_figures().items():
+        print(f"wrote {path.relative_to(DOCS.parent)} (analyzer {name} page)")
     _write(GENERATED / "extras.md", extras_markdown())
     _write(GENERATED / "agents.md", agents_markdown())
     _write(GENERATED / "cli" / "opends-gym.txt", cli_help(None))
