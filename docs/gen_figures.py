@@ -232,14 +232,21 @@ def cli_help(command: str | None) -> str:
     """`opends-gym [COMMAND] --help` as the user sees it at a 100-column terminal."""
     from opends_gym.cli.main import build_parser
 
+    saved = os.environ.get("COLUMNS")
     os.environ["COLUMNS"] = HELP_COLUMNS
-    parser = build_parser()
-    if command is not None:
-        sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-        parser = sub.choices[command]
-    buf = io.StringIO()
-    parser.print_help(buf)
-    return buf.getvalue()
+    try:
+        parser = build_parser()
+        if command is not None:
+            sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+            parser = sub.choices[command]
+        buf = io.StringIO()
+        parser.print_help(buf)
+        return buf.getvalue()
+    finally:
+        if saved is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = saved
 
 
 def cli_commands() -> list[str]:
