@@ -2,7 +2,7 @@
 # The whole test suite: set up .venv with every extra, lint, type-check, run pytest.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-source "$ROOT/scripts/_env.sh" "dev,rl,cluster"
+source "$ROOT/scripts/_env.sh" "dev,rl,cluster,docs"
 cd "$ROOT"
 # The drive-window test (tests/test_human_window.py) runs a real window under Xvfb.
 # Install it once if missing (root, or sudo without a password); quiet, never fatal here.
@@ -17,6 +17,7 @@ fi
 echo "== ruff"; ruff check .
 ruff format --check .
 echo "== mypy"; mypy
+echo "== docs"; NO_MKDOCS_2_WARNING=1 mkdocs build --strict --quiet -d "$(mktemp -d)"
 echo "== pytest"
 set +e
 python -m pytest -n "${PYTEST_WORKERS:-auto}" "$@"
