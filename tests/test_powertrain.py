@@ -1,4 +1,4 @@
-"""OpenDS's powertrain formulas (OPENDS.md section 5) against hand-computed values."""
+"""OpenDS's powertrain formulas (OpenDS `PowerTrain`, `Transmission`) against hand-computed values."""
 
 from __future__ import annotations
 

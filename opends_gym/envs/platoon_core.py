@@ -2,7 +2,7 @@
 
 Why: OpenDS's Three-Vehicle Platoon Task is closed source; its XML (`task.xml`
 `threeVehiclePlatoon`) and the `setTVPTStimulus` action are public. We re-specify it
-from them (OPENDS.md section 3, ECOSYSTEM.md's 3VPT row):
+from them (OpenDS `ThreeVehiclePlatoonTask`; docs/opends-compatibility.md#task-layers):
 
 * the leading and follower cars keep the ego inside their distance bands
   (`leadingCar@minDistance..maxDistance`, `followerCar@...`) by adjusting their speed;

@@ -1,6 +1,6 @@
 """Wall-clock pacing of fixed physics steps: real time, catch-up limits, holds, `--fast`.
 
-Why: the simulation advances in fixed steps of simulation time (DESIGN.md convention 9);
+Why: the simulation advances in fixed steps of simulation time (docs/architecture.md#simulation-time);
 a human needs those steps to happen at the rate of the wall clock. Step k is due at
 `origin + k * dt`. When drawing a frame takes longer than a step, the next loop runs
 several steps to catch up, but never more than `max_catch_up_steps` at once: beyond

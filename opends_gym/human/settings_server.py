@@ -3,8 +3,9 @@
 Why: experimenters' tools (OpenDS's `tools/settingscontroller_client`, dashboards,
 Wizard-of-Oz consoles) connect to the simulator, subscribe to car values, take over the
 ego or a traffic car (`SetVehicleControl`), and fire `remote:` triggers. This server
-speaks that protocol (OPENDS.md section 4): each request is `<Message><Event Name="...">
-value</Event>...</Message>`, answered by one `<Message>` with an `<Event>` per request;
+speaks that protocol (OpenDS `SettingsControllerServer`;
+docs/opends-compatibility.md#settings-controller): each request is
+`<Message><Event Name="...">value</Event>...</Message>`, answered by one `<Message>` with an `<Event>` per request;
 after `EstablishConnection` the subscribed values are pushed every update interval.
 
 It is off unless enabled and binds to 127.0.0.1 unless told otherwise. Each client has

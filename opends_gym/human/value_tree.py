@@ -1,8 +1,9 @@
 """The settings-controller value tree: `/root/thisVehicle/...` paths read from a snapshot.
 
 Why: OpenDS's settings-controller clients (the Java test client, lab dashboards) ask for
-values by path (`assets/Interface/SettingsControllerAPI.xml`, OPENDS.md section 4) and
-get them back as an XML tree. This is the subset our simulation can answer truthfully;
+values by path (`assets/Interface/SettingsControllerAPI.xml`, OpenDS
+`SettingsControllerServer`; docs/opends-compatibility.md#settings-controller) and get them back as an XML
+tree. This is the subset our simulation can answer truthfully;
 paths are matched by substring as OpenDS does, and the older `.../Properties/...` form
 is accepted too.
 """

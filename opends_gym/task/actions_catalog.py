@@ -3,7 +3,7 @@
 Why: actions are resolved by name at run time in OpenDS, so a typo or a wrong value only
 shows when the trigger fires. Declaring each action's parameters here lets the loader
 check them up front (file, line, element) and hands the trigger core SI-typed values.
-The table follows OPENDS.md section 2 (OpenDS `InteractionMethods`).
+The table follows OpenDS's `InteractionMethods` (docs/opends-compatibility.md#trigger-actions).
 """
 
 from __future__ import annotations

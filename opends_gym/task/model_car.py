@@ -1,7 +1,7 @@
 """scenario.xml `driver/car`: the ego car's engine, gearbox, brakes, suspension, fuel.
 
 Why: the powertrain and both physics backends read their parameters from here. Defaults
-are OpenDS's own (OPENDS.md section 1b), so a task that omits a block drives like OpenDS.
+are OpenDS's own (OpenDS `Car`, `SteeringCar`; docs/opends-compatibility.md#vehicle-model), so a task that omits a block drives like OpenDS.
 """
 
 from __future__ import annotations

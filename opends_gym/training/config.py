@@ -1,7 +1,7 @@
 """Training configs: YAML files in `configs/` loaded into a frozen dataclass.
 
 Why: a training run must be repeatable from one file, and a typo in a key must stop the
-run instead of silently training with a default (DESIGN.md convention 8).
+run instead of silently training with a default (docs/architecture.md#configs).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """OpenDS's CAN-gateway text protocol: framing, safe parsing and the meaning of each action.
 
 Why: the gateway streams `<message><action name="steering">-92</action></message>` over
-TCP (OPENDS.md section 4). OpenDS wraps each read in `<CAN>...</CAN>` and parses it; a
+TCP (OpenDS `CANClient`; docs/opends-compatibility.md#can). OpenDS wraps each read in `<CAN>...</CAN>` and parses it; a
 broken read is silently lost. We keep OpenDS's meaning of every action but frame the
 stream on `</message>` (a message split over two reads is put back together), bound
 everything (10000 characters, as OpenDS's read buffer), parse with entity expansion and

@@ -1,7 +1,8 @@
 """OpenDS's powertrain: engine power, load terms, gears, rpm, brakes and fuel.
 
 Why: human-factors users compare fuel use and engine behaviour with OpenDS, so the
-formulas are OpenDS's (OPENDS.md section 5), in SI units, per physics step. Where OpenDS
+formulas are OpenDS's (OpenDS `PowerTrain`, `Transmission`;
+docs/opends-compatibility.md#vehicle-model), in SI units, per physics step. Where OpenDS
 turned the surplus power P_accel = P_engine - P_load into a game-engine force with a tuning
 constant (`30 x P_accel x powerShare`), we apply it physically (F = P_accel / v, capped by
 the engine block's `acceleration`), with the road loads (tyre, air, grade) as forces on the

@@ -7,7 +7,7 @@ OpenDS's `FollowBox` and `TrafficCar` is a loop over the objects here, compiled 
 is passed), between the two kernels of a step. The native batch calls the same kernels on
 the cars of all its envs (`group` objects per world), so its traffic is the single env's.
 
-The rules (OPENDS.md section 1b):
+The rules (OpenDS `TrafficCar`, `FollowBox`; docs/opends-compatibility.md#traffic):
 * the follow box ("carrot") runs along the path at (path speed + 10 km/h) scaled by
   1 - (d - minDist)/(maxDist - minDist), d = car-carrot distance clamped to the range, so
   it waits for its car (it also runs at least as fast as the car, so a car told to go
