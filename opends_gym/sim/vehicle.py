@@ -17,9 +17,11 @@ from typing import Any, Protocol
 
 from ..task.model_car import Car
 
-# Front-wheel angle at full steering input. With the 450-degree steering wheel of
-# `controls.STEERING_WHEEL_MAX_DEG` this is a 15.7:1 steering ratio, a typical car's.
-MAX_WHEEL_ANGLE_RAD = 0.5
+# Front-wheel angle at full steering input: OpenDS passes its steering value (-1..1) to jME's
+# `VehicleControl.steer()`, which takes the wheels' angle in radians (`Car.steer`), so full
+# steering is 1 rad. (Its keyboard steers asin(wheelbase / (turningCircle / 2)) = 0.443 rad
+# with the defaults 3.0 m and 14 m: `SimulatorActionListener.onAction`.)
+MAX_WHEEL_ANGLE_RAD = 1.0
 
 
 @dataclass(frozen=True)

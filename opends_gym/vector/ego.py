@@ -31,11 +31,8 @@ class EgoParams:
     lr: float
     wheelbase: float
     yaw_inertia: float
-    max_long: float
-    c_front: float
-    c_rear: float
-    max_front: float
-    max_rear: float
+    half_track: float
+    friction_slip: float
     min_speed: float
     max_speed: float
     max_rpm: float
@@ -76,11 +73,8 @@ class EgoParams:
             lr=spec.wheelbase_m - spec.cog_to_front_m,
             wheelbase=spec.wheelbase_m,
             yaw_inertia=spec.yaw_inertia,
-            max_long=body._max_long,
-            c_front=body._c_front,
-            c_rear=body._c_rear,
-            max_front=body._max_front,
-            max_rear=body._max_rear,
+            half_track=0.5 * spec.track_m,
+            friction_slip=spec.friction_slip,
             min_speed=ego.min_speed_mps,
             max_speed=pt.engine.max_speed_mps,
             max_rpm=pt.engine.max_rpm,
