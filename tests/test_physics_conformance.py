@@ -88,7 +88,9 @@ def runs() -> dict[str, dict[str, tuple[float, ...]]]:
 def test_straight_acceleration_agrees(runs) -> None:
     fast_v, fast_d, _ = runs["fast"]["accelerate"]
     bullet_v, bullet_d, bullet_drift = runs["bullet"]["accelerate"]
-    assert 80.0 < fast_v < 120.0  # a 1.8 l OpenDS car reaches about 97 km/h in 10 s
+    # OpenDS's powertrain (30 x P_accel x powerPercentage) on this 1300 kg car; the 800 kg car of
+    # the real drives reaches 60 km/h in 8 s (tests/test_conform.py checks those drives)
+    assert 45.0 < fast_v < 90.0
     # Same drive force, same explicit integration; only the bullet car's small pitch and
     # suspension travel differ: 3 % on speed and distance.
     assert bullet_v == pytest.approx(fast_v, rel=0.03)
