@@ -6,9 +6,11 @@ the inputs to our car from the recorded state and comparing the states shows how
 two models are, on any task's drives, without OpenDS.
 
 Two replays, both on the task's own car parameters (never tuned per log):
-* multiple shooting: restart from the recorded state (pose and speed) at the first sample of
-  every `window_s` seconds and compare at the window's last sample, so that an early
-  difference does not accumulate; the medians over windows are the figures;
+* multiple shooting: restart from the recorded state (pose and speed) every `window_s`
+  seconds, at the first sample from there on whose state the log holds completely (steering
+  centred on it and the sample before: no yaw rate or slip under way), and compare at the
+  next window's start, so that an early difference does not accumulate; the medians over
+  windows are the figures;
 * one open loop over the whole run, compared at every sample (RMS speed error), written as a
   trace for plots and rechecks.
 Inputs are held from their sample to the next (the log has no finer timing); the physics
@@ -89,6 +91,14 @@ class Recorded:
                 sign[i:j] = -1.0
             i = j
         return sign
+
+    def settled_row(self, i: int) -> int:
+        """The first row from i on whose state the log holds completely: steering centred there
+        and on the row before, so that no yaw rate or sideways slip (which the log lacks, and
+        which die out within ~0.1 s in OpenDS's car) is under way."""
+        while i < self.n - 1 and (self.steering[i] != 0.0 or (i > 0 and self.steering[i - 1] != 0.0)):
+            i += 1
+        return i
 
     @property
     def duration_s(self) -> float:
@@ -189,7 +199,7 @@ def conform(
     sim = _Replay(the_task, rec, physics, ground)
     try:
         # multiple shooting: one window per window_s seconds, from its first row to the next window's first row
-        starts = [int(np.searchsorted(rec.t, k * window_s - 1e-9)) for k in range(int(math.floor(rec.duration_s / window_s)) + 1)]
+        starts = [rec.settled_row(int(np.searchsorted(rec.t, k * window_s - 1e-9))) for k in range(int(rec.duration_s // window_s) + 1)]
         starts = sorted({i for i in starts if i < rec.n - 1})
         bounds = [(a, b) for a, b in zip(starts, starts[1:] + [rec.n - 1]) if rec.t[b] - rec.t[a] >= 0.5 * window_s]
         speed_err, heading_err, pos_err = [], [], []
