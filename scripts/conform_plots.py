@@ -17,11 +17,11 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from opends_gym.record.cardata import read_cardata  # noqa: E402
-from opends_gym.record.conform import MIN_DURATION_S, Recorded, conform  # noqa: E402
+from opends_gym.record.cardata import read_cardata
+from opends_gym.record.conform import MIN_DURATION_S, Recorded, conform
 
 ROOT = Path(__file__).resolve().parent.parent
 DRIVES = ROOT / "tests" / "data" / "opends-drives"
