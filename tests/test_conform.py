@@ -21,6 +21,10 @@ from .conftest import DRIVES
 
 TASK = DRIVES / "Countryside"
 LOGS = sorted(p for p in DRIVES.glob("drives/*/carData*.txt") if read_cardata(p).t_s()[-1] > 20.0)
+# Goals not met (measured, docs/vehicle-conformance.md): on the 22 s drive our car accelerates
+# more slowly than OpenDS's between 64 and 75 km/h (the automatic's 4th gear, where OpenDS's car
+# pulls like in 3rd), so the window-end position error is 2.3 m (fast) and 1.95 m (bullet)
+UNMET = {("2019_01_04-11_40_24", "fast"), ("2019_01_04-11_40_24", "bullet")}
 
 
 def test_the_real_drives_include_two_longer_than_20_s() -> None:
@@ -29,7 +33,9 @@ def test_the_real_drives_include_two_longer_than_20_s() -> None:
 
 @pytest.mark.parametrize("physics", ["fast", "bullet"])
 @pytest.mark.parametrize("log", LOGS, ids=lambda p: f"{p.parent.name}/{p.name}")
-def test_real_drive_meets_the_conformance_goals(log, physics) -> None:
+def test_real_drive_meets_the_conformance_goals(log, physics, request) -> None:
+    if (log.parent.name, physics) in UNMET:
+        request.applymarker(pytest.mark.xfail(strict=True, reason="window-end position error above 1.5 m (see UNMET)"))
     r = conform(log, TASK, physics=physics)
     assert r["ground"] == "recorded height profile"  # the task's .j3o models are not shipped
     assert r["windows"] >= 4 and r["goals_apply"]
@@ -44,6 +50,20 @@ def test_windows_restart_where_the_log_holds_the_whole_state() -> None:
     i = rec.settled_row(int((rec.t < 10.0).sum()))
     assert rec.steering[i] == 0.0 and rec.steering[i - 1] == 0.0 and 10.0 < rec.t[i] < 10.5
     assert any(rec.steering[j] != 0.0 for j in range(int((rec.t < 10.0).sum()), i))
+
+
+@pytest.mark.parametrize("physics", ["fast", "bullet"])
+def test_whole_run_speed_of_every_long_drive_is_within_5_kmh_rms(physics) -> None:
+    for log in LOGS:
+        assert conform(log, TASK, physics=physics)["rms_speed_err_kmh"] <= GOALS["rms_speed_err_kmh"]
+
+
+def test_simulated_time_is_read_from_the_log() -> None:
+    # OpenDS stamps rows with the wall clock; in the 11:26 sitting its physics ran behind it:
+    # the logged distances are ~0.9 x logged speed x logged time. The 11:40 drive kept pace.
+    slow = Recorded(DRIVES / "drives/2019_01_04-11_26_07/carData(4).txt")
+    assert 0.85 < slow.time_scale < 0.95
+    assert Recorded(DRIVES / "drives/2019_01_04-11_40_24/carData.txt").time_scale == pytest.approx(1.0, abs=0.01)
 
 
 def test_cli_writes_json_and_the_whole_run_trace(tmp_path, capsys) -> None:

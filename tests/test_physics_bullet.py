@@ -287,7 +287,8 @@ def test_every_corpus_task_drives_60_s(folder: Path, physics: str) -> None:
     w = World(load_task(folder), WorldConfig(physics=physics, traffic=True))
     s = w.ego.state
     x0, z0 = s.x, s.z
-    w.run(60.0, DriverControls(accelerator=0.4, steering=0.01))
+    # (below ~40 % gas OpenDS's P_engine does not exceed P_load at idle: the car would not start)
+    w.run(60.0, DriverControls(accelerator=0.6, steering=0.01))
     values = (s.x, s.y, s.z, s.yaw, s.pitch, s.roll, s.u, s.v, s.r)
     assert all(math.isfinite(v) for v in values)
     assert math.hypot(s.x - x0, s.z - z0) > 100.0

@@ -145,11 +145,11 @@ def test_neutral_revs_with_the_gas_and_gives_no_drive() -> None:
 def test_brake_force_is_opends_brake_impulse_per_wheel() -> None:
     # SteeringCar: maxBrakeForce = 0.004375 x decelerationBrake x mass, a Bullet impulse per wheel
     # per 1/60 s; off the gas the free-wheel drag adds 0.2 (the least coefficient) x 0.004375 x
-    # decelerationFreeWheel x mass. As a force on the four wheels: 4 x 60 x (their sum).
+    # decelerationFreeWheel x mass. As a force on the four wheels: 4 x 100 x (their sum).
     pt = Powertrain(Car(ref="car"), 1300.0)
     pt.state.prev_v_mps = 20.0  # no inertia term: P_load = 2.04 + 3.12 + 0.75 + P_inner(83 rpm) < 10 kW + 10
     out = pt.step(1 / 60, 20.0, 0.0, 1.0)
-    assert out.brake_force_n == pytest.approx(240.0 * (0.004375 * 8.7 * 1300.0 + 0.2 * 0.004375 * 0.4 * 1300.0))
+    assert out.brake_force_n == pytest.approx(400.0 * (0.004375 * 8.7 * 1300.0 + 0.2 * 0.004375 * 0.4 * 1300.0))
     assert pt.max_brake_impulse == pytest.approx(0.004375 * 8.7 * 1300.0)
 
 

@@ -14,9 +14,13 @@ Two replays, both on the task's own car parameters (never tuned per log):
 * one open loop over the whole run, compared at every sample (RMS speed error), written as a
   trace for plots and rechecks.
 Inputs are held from their sample to the next (the log has no finer timing); the physics
-runs at 60 Hz, OpenDS's Bullet rate. Speeds compared are |velocity|, as OpenDS logs them.
+runs at OpenDS's Bullet step, 0.01 s, in simulated time: OpenDS stamps rows with wall-clock
+time, and where its physics fell behind the clock (a slow machine) the log's own distances
+and speeds give the rate (`time_scale`). Speeds compared are |velocity|, as OpenDS logs them.
 Where the task's ground is unknown (its `.j3o` models and no readable terrain height map),
-the ground is the recorded height profile and the result says so; the scene's other models
+the ground is the recorded height profile and the result says so (`ground`, and how each
+backend uses it, `ground_model`: `bullet` takes a plane at the first sample's height, so a
+log with much relief, `ground_relief_m`, is compared on flat ground there); the scene's other models
 are left out (their shapes are unknown, and open-loop drift must not hit stand-in boxes).
 """
 
@@ -37,11 +41,12 @@ from ..task.model_scene import Terrain
 from .cardata import read_cardata
 from .messages import yaw_from_jme_quaternion
 
-PHYSICS_DT_S = 1.0 / 60.0
+PHYSICS_DT_S = 0.01  # OpenDS's Bullet step (Simulator: setAccuracy(0.01f))
 WINDOW_S = 5.0
 MIN_DURATION_S = 20.0  # the goals apply to drives at least this long
 GOALS = {"median_speed_err_kmh": 2.0, "median_heading_err_deg": 3.0, "median_pos_err_m": 1.5, "rms_speed_err_kmh": 5.0}
 TRACE_COLUMNS = ("t_s", "x_m", "z_m", "yaw_rad", "speed_kmh")
+GROUND_MODELS = {"fast": "height of the nearest recorded sample", "bullet": "plane at the first recorded height"}
 
 
 class Recorded:
@@ -64,6 +69,8 @@ class Recorded:
         self.brake = c["brake"]
         self.engine_on = c["engine_on"]
         self.n = cd.n
+        self.time_scale = self._time_scale()
+        self.sim_t = self.t * self.time_scale
         self.gas = np.abs(c["gas"]) * self._gas_direction(np.abs(c["gas"]))
 
     def _gas_direction(self, gas: np.ndarray) -> np.ndarray:
@@ -91,6 +98,23 @@ class Recorded:
                 sign[i:j] = -1.0
             i = j
         return sign
+
+    def _time_scale(self) -> float:
+        """Simulated seconds per logged (wall-clock) second.
+
+        OpenDS stamps rows with wall-clock time, but its physics advances at most a few
+        0.01 s steps per frame, so on a slow machine simulated time runs behind. The logged
+        speed is the simulated one: where the car moves (above 1 m/s), distance over logged
+        speed x logged time gives the rate; the median over the log is taken (1 when the car
+        hardly moves).
+        """
+        ds = np.hypot(np.diff(self.x), np.diff(self.z))
+        dt = np.diff(self.t)
+        v = 0.5 * (self.speed_kmh[1:] + self.speed_kmh[:-1]) / 3.6
+        moving = (v > 1.0) & (dt > 0.0)
+        if moving.sum() < 5:
+            return 1.0
+        return float(np.median(ds[moving] / (v[moving] * dt[moving])))
 
     def settled_row(self, i: int) -> int:
         """The first row from i on whose state the log holds completely: steering centred there
@@ -122,15 +146,25 @@ def _replay_task(task: DrivingTask) -> DrivingTask:
 
 
 class _Profile:
-    """Ground height under (x, z): the recorded height at the nearest recorded position."""
+    """Ground height under (x, z): the recorded height at the nearest recorded position
+    (looked up in 5 m cells, so a long log costs no more per step than a short one)."""
+
+    CELL_M = 5.0
 
     def __init__(self, rec: Recorded) -> None:
         self._xz = np.column_stack([rec.x, rec.z])
         self._y = np.asarray(rec.y, float)
+        cells: dict[tuple[int, int], list[int]] = {}
+        for i, (x, z) in enumerate(self._xz):
+            cells.setdefault((int(x // self.CELL_M), int(z // self.CELL_M)), []).append(i)
+        self._cells = {k: np.asarray(v) for k, v in cells.items()}
 
     def __call__(self, x: float, z: float) -> float:
-        d = (self._xz[:, 0] - x) ** 2 + (self._xz[:, 1] - z) ** 2
-        return float(self._y[int(np.argmin(d))])
+        cx, cz = int(x // self.CELL_M), int(z // self.CELL_M)
+        near = [self._cells[k] for k in ((cx + i, cz + j) for i in (-1, 0, 1) for j in (-1, 0, 1)) if k in self._cells]
+        idx = np.concatenate(near) if near else np.arange(len(self._y))
+        d = (self._xz[idx, 0] - x) ** 2 + (self._xz[idx, 1] - z) ** 2
+        return float(self._y[idx[int(np.argmin(d))]])
 
 
 class _Replay:
@@ -139,8 +173,10 @@ class _Replay:
     def __init__(self, task: DrivingTask, rec: Recorded, physics: str, ground: str) -> None:
         self.rec = rec
         replay_task = _replay_task(task) if ground != "task terrain" else task
-        profile = _Profile(rec)
-        options: dict[str, Any] = {"ground_height": profile} if ground != "task terrain" else {}
+        options: dict[str, Any] = {}
+        if ground != "task terrain":
+            # fast: the height at the nearest recorded sample; bullet: a plane at the first sample's height
+            options["ground_height"] = _Profile(rec) if physics == "fast" else float(rec.y[0])
         self.backend = make_backend(physics, replay_task, **options)
         self.car = EgoCar(replay_task, self.backend)
 
@@ -153,14 +189,14 @@ class _Replay:
     def run(self, i0: int, i1: int) -> np.ndarray:
         """Step from row i0's time to row i1's with the recorded inputs; the states (t, x, z, yaw, speed km/h) per step."""
         r = self.rec
-        t, t_end = float(r.t[i0]), float(r.t[i1])
+        t, t_end = float(r.sim_t[i0]), float(r.sim_t[i1])
         car = self.car
         s = car.state
         out = [(t, s.x, s.z, s.yaw, s.speed_mps * 3.6)]
         k = i0
         engine = bool(r.engine_on[i0])
         while t < t_end - 1e-9:
-            while k + 1 <= i1 and r.t[k + 1] <= t + 1e-9:
+            while k + 1 <= i1 and r.sim_t[k + 1] <= t + 1e-9:
                 k += 1
             on = bool(r.engine_on[k])
             c = DriverControls(
@@ -205,13 +241,13 @@ def conform(
         speed_err, heading_err, pos_err = [], [], []
         for a, b in bounds:
             sim.restart(a)
-            x, z, yaw, v = _at(sim.run(a, b), float(rec.t[b]))
+            x, z, yaw, v = _at(sim.run(a, b), float(rec.sim_t[b]))
             speed_err.append(abs(v - rec.speed_kmh[b]))
             heading_err.append(abs(math.degrees(math.remainder(yaw - rec.yaw[b], 2.0 * math.pi))))
             pos_err.append(math.hypot(x - rec.x[b], z - rec.z[b]))
         # the whole run, open loop
         sim.restart(0)
-        whole = _at(sim.run(0, rec.n - 1), rec.t)
+        whole = _at(sim.run(0, rec.n - 1), rec.sim_t)
     finally:
         sim.close()
     err = whole[3] - rec.speed_kmh
@@ -220,8 +256,10 @@ def conform(
         "task": the_task.name,
         "physics": physics,
         "ground": ground,
+        "ground_model": GROUND_MODELS[physics] if ground != "task terrain" else "task terrain",
         "ground_relief_m": round(float(np.max(rec.y) - np.min(rec.y)), 3),
         "duration_s": round(rec.duration_s, 3),
+        "time_scale": round(rec.time_scale, 4),
         "samples": rec.n,
         "window_s": window_s,
         "windows": len(bounds),

@@ -18,13 +18,16 @@ import numpy as np
 
 from .jit import inline, kernel
 
-SIDE_DAMPING = 0.2  # Bullet's resolveSingleBilateral: share of a wheel's sideways sliding removed per step
+SIDE_DAMPING = 0.2  # Bullet's resolveSingleBilateral: share of a wheel's sideways sliding removed per OpenDS tick
 FORWARD_SLIP_FACTOR = 0.5  # btRaycastVehicle::updateFriction's fwdFactor in the friction circle
 REST_SPEED = 0.01  # m/s: a braked, undriven car slower than this is at rest
-OPENDS_TICK_S = 1.0 / 60.0  # jME's Bullet step: OpenDS's brake values are impulses per wheel per tick
+# OpenDS's Bullet step: `Simulator.simpleInitDrivingTask` sets the physics space's accuracy to
+# 0.01 s. Its brake values are impulses per wheel per tick, and its tyres remove SIDE_DAMPING of
+# the sliding per tick; at another step the same share per 0.01 s is removed (side_share).
+OPENDS_TICK_S = 0.01
 
 # body parameters (`body_params`)
-B_MASS, B_LF, B_LR, B_WHEELBASE, B_YAW_INERTIA, B_HALF_TRACK, B_FRICTION_SLIP, B_LOAD_FRONT, B_LOAD_REAR, B_SPARE = range(10)
+B_MASS, B_LF, B_LR, B_WHEELBASE, B_YAW_INERTIA, B_HALF_TRACK, B_FRICTION_SLIP, B_LOAD_FRONT, B_LOAD_REAR, B_ROLL_TERM = range(10)
 
 # powertrain parameters (offsets in the powertrain block of `car_constants`)
 P_MASS, P_MAX_RPM, P_MIN_RPM, P_MAX_SPEED_KMH, P_MAX_BRAKE, P_MAX_FREE_WHEEL, P_SPARE, P_REVERSE_RATIO = range(8)
@@ -54,13 +57,16 @@ CRUISE_INTEGRAL_MAX = 0.8
 
 
 def body_params(mass: float, lf: float, wheelbase: float, yaw_inertia: float, half_track: float, friction_slip: float,
-                gravity: float = G) -> np.ndarray:  # fmt: skip
-    """The planar raycast vehicle's constants; a wheel's load is its static share of the weight."""
+                gravity: float = G, cog_height: float = 0.0, roll_inertia: float = math.inf) -> np.ndarray:  # fmt: skip
+    """The planar raycast vehicle's constants; a wheel's load is its static share of the weight.
+    `cog_height` and `roll_inertia` give the sideways impulse's denominator its roll term
+    (the contact lies below the centre of gravity, as in Bullet's 3-D jacobian)."""
     p = np.zeros(10)
     lr = wheelbase - lf
     p[B_MASS], p[B_LF], p[B_LR], p[B_WHEELBASE], p[B_YAW_INERTIA] = mass, lf, lr, wheelbase, yaw_inertia
     p[B_HALF_TRACK], p[B_FRICTION_SLIP] = half_track, friction_slip
     p[B_LOAD_FRONT], p[B_LOAD_REAR] = 0.5 * mass * gravity * lr / wheelbase, 0.5 * mass * gravity * lf / wheelbase
+    p[B_ROLL_TERM] = cog_height * cog_height / roll_inertia
     return p
 
 
@@ -101,6 +107,15 @@ def body_step(
 
 
 @inline
+def side_share(dt: float) -> float:
+    """The share of a wheel's sideways sliding its impulse removes in a step of dt: OpenDS's
+    SIDE_DAMPING per 0.01 s tick, compounded (exactly SIDE_DAMPING at dt = 0.01 s)."""
+    if dt == OPENDS_TICK_S:
+        return SIDE_DAMPING
+    return 1.0 - (1.0 - SIDE_DAMPING) ** (dt / OPENDS_TICK_S)
+
+
+@inline
 def body_step_trig(p: np.ndarray, x: float, z: float, yaw: float, u: float, v: float, r: float, dt: float, steer_rad: float, cos_d: float,
                    sin_d: float, drive_n: float, brake_n: float,
                    side_n: float) -> tuple[float, float, float, float, float, float, float, float]:  # fmt: skip
@@ -117,6 +132,8 @@ def body_step_trig(p: np.ndarray, x: float, z: float, yaw: float, u: float, v: f
     m, lf, lr, ht, inertia = p[B_MASS], p[B_LF], p[B_LR], p[B_HALF_TRACK], p[B_YAW_INERTIA]
     inv_m, inv_i = 1.0 / m, 1.0 / inertia
     slip = p[B_FRICTION_SLIP]
+    side = side_share(dt)
+    roll_term = p[B_ROLL_TERM]
     # OpenDS's CarControl.accelerate: twice the engine force on each front wheel, none behind
     front_force = 0.5 * drive_n
     brake_imp = 0.25 * brake_n * dt  # per wheel (brake_n: the four wheels' force over a step)
@@ -135,7 +152,7 @@ def body_step_trig(p: np.ndarray, x: float, z: float, yaw: float, u: float, v: f
         pv = v + r * a
         # sideways: the axle (-fs, fc)
         arm = a * fc + b * fs  # p x axle
-        j_side = -SIDE_DAMPING * (-fs * pu + fc * pv) / (inv_m + arm * arm * inv_i)
+        j_side = -side * (-fs * pu + fc * pv) / (inv_m + arm * arm * inv_i + roll_term)
         # forward: engine force on the front wheels, else rolling friction up to the brake
         if w < 2 and front_force != 0.0:
             j_fwd = front_force * dt
@@ -377,3 +394,9 @@ def power_percentage_py(gear: int, speed_share: float) -> float:
 def best_power_gear_py(n_gears: int, speed_share: float) -> int:
     """`best_power_gear` for callers in Python."""
     return best_power_gear(n_gears, speed_share)
+
+
+@kernel
+def side_share_py(dt: float) -> float:
+    """`side_share` for callers in Python."""
+    return side_share(dt)

@@ -24,13 +24,13 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from .ego_kernels import side_share_py
 from .vehicle import VehicleSpec
 
 WHEEL_RADIUS_M = 0.32
 SUSPENSION_REST_M = 0.30
 MAX_SUSPENSION_FORCE_N = 10000.0
 MIN_STIFFNESS = 20.0  # softer springs would sink through the 0.3 m suspension at rest
-SIDE_DAMPING = 0.2  # resolveSingleBilateral's contactDamping
 FORWARD_SLIP_FACTOR = 0.5  # updateFriction's fwdFactor
 # btWheelInfo's rollInfluence: the share of the sideways impulse's height above the ground
 # that rolls the car. OpenDS's car asset (and its loader's setting) is not available; 0.1 is
@@ -159,6 +159,7 @@ class RaycastWheels:
             slip = spec.friction_slip
             front_force = 0.5 * drive_force_n  # CarControl.accelerate: twice the engine force per front wheel
             brake_imp = 0.25 * brake_force_n * dt
+            side = side_share_py(dt)  # resolveSingleBilateral's 0.2 per OpenDS tick
             s_d, c_d = math.sin(steer_rad), math.cos(steer_rad)
             for i in range(4):
                 ct = contacts[i]
@@ -180,7 +181,7 @@ class RaycastWheels:
                 hx, hy, hz = hx / norm, hy / norm, hz / norm
                 sx, sy, sz = ny * hz - nz * hy, nz * hx - nx * hz, nx * hy - ny * hx  # the axle (left)
                 # resolveSingleBilateral: 0.2 x the sideways speed over the contact's impulse denominator
-                j_side = -SIDE_DAMPING * (sx * vx + sy * vy + sz * vz) / self._denominator(rx, ry, rz, sx, sy, sz, rot, inv_m)
+                j_side = -side * (sx * vx + sy * vy + sz * vz) / self._denominator(rx, ry, rz, sx, sy, sz, rot, inv_m)
                 if self._steered[i] and front_force != 0.0:
                     j_fwd = front_force * dt
                 else:

@@ -27,8 +27,18 @@ class FastVehicle:
         self.spec = spec
         self.state = BodyState()
         self.ground_height = ground_height  # callable (x, z) -> y, or None for flat
+        m, w, h = spec.mass_kg, spec.width_m, spec.height_m
+        roll_inertia = m * (h * h + w * w) / 12.0  # the bullet chassis box's (physics_bullet)
         self._params = body_params(
-            spec.mass_kg, spec.cog_to_front_m, spec.wheelbase_m, spec.yaw_inertia, 0.5 * spec.track_m, spec.friction_slip, G
+            m,
+            spec.cog_to_front_m,
+            spec.wheelbase_m,
+            spec.yaw_inertia,
+            0.5 * spec.track_m,
+            spec.friction_slip,
+            G,
+            spec.cog_height_m,
+            roll_inertia,
         )
 
     def reset(self, x: float, y: float, z: float, yaw: float, speed_mps: float) -> None:

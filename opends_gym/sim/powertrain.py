@@ -246,7 +246,7 @@ class Powertrain:
     @property
     def max_brake_impulse(self) -> float:
         """OpenDS's maxBrakeForce = 0.004375 x decelerationBrake x mass: Bullet's brake
-        value, an impulse (N s) per wheel per 1/60 s step (SteeringCar's constructor)."""
+        value, an impulse (N s) per wheel per 0.01 s Bullet step (SteeringCar's constructor)."""
         return BRAKE_FORCE_PER_DECEL_KG * self._dec_brake * self.mass_kg
 
     @property
