@@ -52,7 +52,9 @@ def test_rule_driver_passes_the_platoon_test() -> None:
     assert all(st.result == 1 for st in env.unwrapped.platoon.state.stimuli)
     assert sum(m[f"{k}_n"] for k in kinds) == 10
     assert m["collisions"] == 0 and m["lateral_outside_fraction"] == 0
-    assert m["longitudinal_outside_fraction"] < 0.35  # outside 20-35 m mostly while the lead brakes or slows
+    # outside 20-35 m mostly while the lead brakes or slows, and while catching up after an emergency
+    # stop: OpenDS's powertrain needs ~9 s from standstill back to 95 km/h
+    assert m["longitudinal_outside_fraction"] < 0.42
 
 
 def test_rule_driver_passes_the_brake_reaction_test() -> None:

@@ -88,7 +88,9 @@ def runs() -> dict[str, dict[str, tuple[float, ...]]]:
 def test_straight_acceleration_agrees(runs) -> None:
     fast_v, fast_d, _ = runs["fast"]["accelerate"]
     bullet_v, bullet_d, bullet_drift = runs["bullet"]["accelerate"]
-    assert 80.0 < fast_v < 120.0  # a 1.8 l OpenDS car reaches about 97 km/h in 10 s
+    # OpenDS's powertrain (30 x P_accel x powerPercentage) on this 1300 kg car; the 800 kg car of
+    # the real drives reaches 60 km/h in 8 s (tests/test_conform.py checks those drives)
+    assert 45.0 < fast_v < 90.0
     # Same drive force, same explicit integration; only the bullet car's small pitch and
     # suspension travel differ: 3 % on speed and distance.
     assert bullet_v == pytest.approx(fast_v, rel=0.03)
@@ -99,8 +101,9 @@ def test_straight_acceleration_agrees(runs) -> None:
 def test_braking_from_100_kmh_agrees(runs) -> None:
     fast_t, fast_d = runs["fast"]["brake"]
     bullet_t, bullet_d = runs["bullet"]["brake"]
-    # OpenDS's decelerationBrake 8.7 m/s2 plus drag: v^2 / (2 a) = 44.3 m is an upper bound
-    assert 35.0 < fast_d < 44.5
+    # OpenDS's brake: 0.004375 x 8.7 x mass per wheel per 0.01 s step, 15.2 m/s2, plus the
+    # free-wheel drag (up to 0.7 m/s2): between 24.3 m and v^2 / (2 x 15.2) = 25.3 m
+    assert 24.3 < fast_d < 25.4
     # Load transfer moves grip forward, and the brake force is split by wheel load, so the
     # bullet car brakes as hard as the single-track model while mu x load is not exceeded:
     # 5 % on distance and time.

@@ -83,17 +83,45 @@ def test_fuel_while_driving_matches_engine_power() -> None:
     assert pt.state.l_per_100km == pytest.approx(litres / 40.0 * 100_000, rel=0.02)
 
 
-def test_automatic_gearbox_picks_the_gear_of_highest_power_share() -> None:
+def test_power_percentage_is_opends_fitted_polynomial() -> None:
+    # Transmission.getPowerPercentage at x = v / 140 km/h = 0.5 (70 km/h), term by term:
+    # gear 3: -3.17/8 + 1.44/4 + 0.12/2 + 0.27 = 0.29375; gear 4: -1.27/8 + 0.64/4 + 0.24/2 + 0.20 = 0.32125
+    # gear 5: -0.47/8 + 0.12/4 + 0.35/2 + 0.11 = 0.25625; gear 6: -0.27/8 + 0.24/4 + 0.18/2 + 0.01 = 0.12625
+    # gears 1 and 2 are negative there (-22.9, -0.65), clamped to 0
     pt = Powertrain(Car(ref="car"), 1300.0)
-    gears = []
-    for kmh in range(5, 200, 5):
-        v = kmh / 3.6
-        best = pt.best_gear(v)
-        shares = [pt.power_share(g, v) for g in range(1, 7)]
-        assert shares[best - 1] == pytest.approx(max(shares), abs=0.02)  # table at 0.1 m/s resolution
-        gears.append(best)
-    assert gears[0] == 1 and gears[-1] >= 5  # above ~5100 rpm the power curve is flat (clamped), so 5th and 6th tie
-    assert gears == sorted(gears)  # upshifts only as speed rises (no hysteresis needed)
+    v = 70 / 3.6
+    assert [pt.power_share(g, v) for g in range(1, 7)] == pytest.approx([0.0, 0.0, 0.29375, 0.32125, 0.25625, 0.12625], abs=1e-9)
+    assert pt.power_share(1, 0.0) == pytest.approx(0.58) and pt.power_share(2, 0.0) == pytest.approx(0.43)
+    assert pt.power_share(-1, 0.0) == pytest.approx(0.57)
+
+
+def test_automatic_gearbox_picks_the_gear_of_highest_power_percentage() -> None:
+    pt = Powertrain(Car(ref="car"), 1300.0)
+    assert pt.best_gear(0.0) == 1  # 0.58 against 0.43
+    assert pt.best_gear(70 / 3.6) == 4  # 0.32125 (above)
+    gears = [pt.best_gear(kmh / 3.6) for kmh in range(5, 190, 5)]
+    assert gears == sorted(gears) and gears[-1] == 6  # upshifts only as speed rises
+    # Transmission.findBestPowerGear keeps gear 1 when every polynomial is <= 0 (above ~195 km/h)
+    assert pt.best_gear(200 / 3.6) == 1
+
+
+def test_engine_force_is_30_x_p_accel_x_power_percentage_per_jme_call() -> None:
+    # 40 km/h in 2nd at full gas, rpm settled, steady speed: P_accel = P_engine - P_load (kW),
+    # CarControl.accelerate puts 2 x 30 x P_accel x pp on each front wheel: 120 x P_accel x pp in all
+    pt = Powertrain(Car(ref="car", transmission=Transmission(automatic=False)), 1300.0)
+    v = 40 / 3.6
+    pt.shift(2)
+    rpm = gear_rpm(v, 1.955)  # 3429.8
+    pt.state.rpm, pt.state.prev_v_mps = rpm, v
+    out = pt.step(1 / 60, v, 1.0, 0.0)
+    p_load = load_terms(1300.0, v, 0.0, 1 / 60, 0.0, rpm).total_kw
+    x = 40 / 140
+    pp = -4206.38 * x**6 + 4837.65 * x**5 - 1897.61 * x**4 + 310.7 * x**3 - 34.7 * x**2 + 3.82 * x + 0.43
+    assert out.drive_force_n == pytest.approx(120.0 * (engine_power_kw(rpm, 1.0, 1800e-6) - p_load) * pp, rel=1e-3)
+    back = Powertrain(Car(ref="car", transmission=Transmission(automatic=False)), 1300.0)
+    back.shift(2)
+    back.state.rpm, back.state.prev_v_mps = rpm, v
+    assert back.step(1 / 60, v, -1.0, 0.0).drive_force_n == pytest.approx(-out.drive_force_n)  # the "accelerate back" key
 
 
 def test_rpm_is_rate_limited_and_floored_at_min_rpm() -> None:
@@ -114,17 +142,27 @@ def test_neutral_revs_with_the_gas_and_gives_no_drive() -> None:
     assert pt.state.rpm == pytest.approx(0.5 * 7500.0)  # rpm = gas x maxRPM
 
 
-def test_brake_force_is_the_pedal_times_deceleration_times_mass() -> None:
+def test_brake_force_is_opends_brake_impulse_per_wheel() -> None:
+    # SteeringCar: maxBrakeForce = 0.004375 x decelerationBrake x mass, a Bullet impulse per wheel
+    # per 1/60 s; off the gas the free-wheel drag adds 0.2 (the least coefficient) x 0.004375 x
+    # decelerationFreeWheel x mass. As a force on the four wheels: 4 x 100 x (their sum).
     pt = Powertrain(Car(ref="car"), 1300.0)
+    pt.state.prev_v_mps = 20.0  # no inertia term: P_load = 2.04 + 3.12 + 0.75 + P_inner(83 rpm) < 10 kW + 10
     out = pt.step(1 / 60, 20.0, 0.0, 1.0)
-    free_wheel = 1300.0 * 0.4 * 0.2  # decelerationFreeWheel x mass x the minimum drag coefficient
-    assert out.brake_force_n == pytest.approx(1300.0 * 8.7 + free_wheel, rel=0.05)
+    assert out.brake_force_n == pytest.approx(400.0 * (0.004375 * 8.7 * 1300.0 + 0.2 * 0.004375 * 0.4 * 1300.0))
+    assert pt.max_brake_impulse == pytest.approx(0.004375 * 8.7 * 1300.0)
 
 
 def test_max_speed_cap_cuts_power_in_the_last_kmh() -> None:
     car = Car(ref="car", engine=Engine(max_speed_mps=100 / 3.6))
-    pt = Powertrain(car, 1300.0)
-    below = pt.step(1 / 60, 98.0 / 3.6, 1.0, 0.0).drive_force_n
-    half = pt.step(1 / 60, 99.5 / 3.6, 1.0, 0.0).drive_force_n
-    above = pt.step(1 / 60, 100.5 / 3.6, 1.0, 0.0).drive_force_n
-    assert below > 0.0 and 0.0 < half < below and above == 0.0
+
+    def drive_at(kmh: float) -> float:
+        pt = Powertrain(car, 1300.0)
+        pt.state.gear, pt.state.prev_v_mps = 4, kmh / 3.6  # steady speed in 4th
+        pt.state.rpm = gear_rpm(kmh / 3.6, 0.973)
+        return pt.step(1 / 60, kmh / 3.6, 1.0, 0.0).drive_force_n
+
+    below, half, above = drive_at(98.0), drive_at(99.5), drive_at(100.5)
+    # Transmission.performAcceleration: from maxSpeed - 1 the share is multiplied by (maxSpeed - v)
+    # km/h, so it is halved at 99.5 and turns negative (a push back) above maxSpeed
+    assert below > 0.0 and 0.0 < half < below and above < 0.0

@@ -27,6 +27,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("drive", "opends_gym.cli.drive", "drive a task yourself in real time (keyboard, wheel, CAN) and print the metrics"),
     ("replay", "opends_gym.cli.replay", "re-simulate a recorded drive and check it is exact"),
     ("analyze", "opends_gym.cli.analyze", "drive measures, CSV and PDF report of a recording or OpenDS carData.txt"),
+    ("conform", "opends_gym.cli.conform", "replay a real OpenDS carData.txt open loop through the vehicle model and compare"),
     ("train", "opends_gym.cli.train", "train a baseline policy from a config in configs/"),
 )
 

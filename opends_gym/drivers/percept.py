@@ -92,6 +92,11 @@ def _read_reaction_test(env: Any, p: Percept) -> Percept:
     home = env.guide.lane_laterals_m[env.guide.nearest_lane(env.guide.locate(start[0], start[2]).lateral_m)]
     p = replace(p, cruise_mps=engine.max_speed_mps, target_lateral_m=home)  # trials start in the centre lane
     sign = env._active_sign()
+    if sign is None and any(t.kind == "laneChange" and t.armed for t in env.world.triggers.center.timers.values()):
+        # a lane change is scored after 2 s in the lane: hold the last passed sign's lane until then
+        z = env.world.ego.state.z
+        passed = [s for s in env.signs if s.kind == 2.0 and s.z_m >= z]
+        sign = min(passed, key=lambda s: s.z_m) if passed else None
     if sign is None:
         return p
     if sign.kind == 2.0:

@@ -18,6 +18,8 @@ STEERING_WHEEL_MAX_DEG = 450.0
 @dataclass
 class DriverControls:
     """Inputs for one step. Steering: -1..1, positive turns left (OpenDS convention).
+    Accelerator: 0..1; negative is OpenDS's "accelerate back" key (its intensity +1 in
+    `SimulatorActionListener`), engine force against the gear's direction.
 
     `keys` and `buttons` are pressed *this step* (edge events, jME key names such as
     `KEY_A`, joystick button numbers); they feed pressKey/pressButton triggers and key
@@ -67,7 +69,7 @@ class DriverControls:
         v = float(self.steering)
         c.steering = 0.0 if v != v else -1.0 if v < -1.0 else 1.0 if v > 1.0 else v  # (v != v: NaN)
         v = float(self.accelerator)
-        c.accelerator = 0.0 if v != v else 0.0 if v < 0.0 else 1.0 if v > 1.0 else v
+        c.accelerator = 0.0 if v != v else -1.0 if v < -1.0 else 1.0 if v > 1.0 else v
         v = float(self.brake)
         c.brake = 0.0 if v != v else 0.0 if v < 0.0 else 1.0 if v > 1.0 else v
         v = float(self.clutch)

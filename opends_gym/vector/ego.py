@@ -1,8 +1,8 @@
 """The ego cars of a native batch: controls -> cruise/minSpeed -> powertrain -> single-track body.
 
 Why: this is `sim.ego.EgoCar.step` + `sim.powertrain.Powertrain.step` +
-`sim.physics_fast.FastVehicle.step` for N cars, one numpy array per state variable. A
-compiled loop over the cars calls the single env's own kernels (`sim.ego_kernels`), so the
+`sim.ego.fast_body.FastVehicle.step` for N cars, one numpy array per state variable. A
+compiled loop over the cars calls the single env's own kernels (`sim.ego.kernels`), so the
 results are the same floats by construction. Only what the three batched tasks use is modelled: automatic gearbox, cruise control without
 ACC, the engine's minSpeed, no crosswind, clutch, hand brake, slope or manual shifting
 (`EgoParams.from_world` refuses a car that needs more).
@@ -25,17 +25,14 @@ from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 class EgoParams:
     """Constants of the car, read from a single env's World so they are the same floats."""
 
-    car: np.ndarray  # the single env's car constants (`ego_kernels.car_constants`)
+    car: np.ndarray  # the single env's car constants (`ego.kernels.car_constants`)
     mass: float
     lf: float
     lr: float
     wheelbase: float
     yaw_inertia: float
-    max_long: float
-    c_front: float
-    c_rear: float
-    max_front: float
-    max_rear: float
+    half_track: float
+    friction_slip: float
     min_speed: float
     max_speed: float
     max_rpm: float
@@ -76,11 +73,8 @@ class EgoParams:
             lr=spec.wheelbase_m - spec.cog_to_front_m,
             wheelbase=spec.wheelbase_m,
             yaw_inertia=spec.yaw_inertia,
-            max_long=body._max_long,
-            c_front=body._c_front,
-            c_rear=body._c_rear,
-            max_front=body._max_front,
-            max_rear=body._max_rear,
+            half_track=0.5 * spec.track_m,
+            friction_slip=spec.friction_slip,
             min_speed=ego.min_speed_mps,
             max_speed=pt.engine.max_speed_mps,
             max_rpm=pt.engine.max_rpm,

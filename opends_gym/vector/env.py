@@ -9,7 +9,7 @@ Same results as the single env: for seeds s_i and the same actions, env i's obse
 rewards, terminated/truncated flags, info numbers and `episode_metrics` equal those of
 `gymnasium.make(id, **kwargs)` reset with seed s_i and stepped with those actions, bit for
 bit (tested): the per-step maths are compiled loops over the envs that call the single env's
-own kernels (`sim.ego_kernels`, `sim.traffic_motion`) or repeat its arithmetic (`kernels`).
+own kernels (`sim.ego.kernels`, `sim.traffic.motion`) or repeat its arithmetic (`kernels`).
 
 Vector API: autoreset mode NEXT_STEP (Gymnasium's default; the step after an episode ends
 resets that env, with reward 0 and both flags False), seeding as `SyncVectorEnv`

@@ -3,7 +3,7 @@
 Why: these run every physics step for every env; as numpy they were dozens of array
 operations each (and a numpy call costs microseconds whatever its size). Each function here
 is one loop over the envs with the single env's arithmetic (`sim.geometry2d.boxes_overlap`,
-`sim.jit.py_hypot` where the single env calls `math.hypot`), so the results stay the single
+`jit.py_hypot` where the single env calls `math.hypot`), so the results stay the single
 env's. The kernels release the GIL, so shards stepped in threads run them in parallel.
 Units: metres, seconds, m/s; `t` is each env's simulation time.
 """

@@ -1,6 +1,6 @@
 """Traffic cars of a native batch: N envs x C cars in one flat `MotionState` (row = env * C + car).
 
-Why: `sim.traffic.TrafficManager.step` runs two compiled kernels (`traffic_motion`) over
+Why: `sim.traffic.TrafficManager.step` runs two compiled kernels (`traffic.motion`) over
 its objects; here the same kernels run over all envs' cars at once, with `group = C` so
 that each car meets only the objects and the ego car of *its* world. Leg ends are rare
 and run the single env's own `LegLogic` on the flat state. What the batched tasks use is

@@ -3,7 +3,7 @@
 Why: with the bullet backend obstacles are solid bodies (Bullet resolves the contacts), the
 ground is what the wheels' suspension rays hit, and a model with mass can be pushed. This
 module turns a task's scene (and the run-time `SceneObjects`) into bodies of one private
-pybullet client; `physics_bullet.BulletVehicle` owns the client and the car.
+pybullet client; `bullet.vehicle.BulletVehicle` owns the client and the car.
 
 - Ground: an infinite plane at the start pose's height (or the backend's `ground_height`),
   or an image height-map for a `terrain` geometry whose image is found (jME's

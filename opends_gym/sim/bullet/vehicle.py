@@ -6,7 +6,7 @@ rebuilds that model on pybullet, so the car pitches, rolls, climbs terrain and p
 stops at solid scene objects, while taking the same steer angle and powertrain forces as
 `physics="fast"` (the `VehicleBackend` protocol).
 
-The wheels (`physics_bullet_wheels.py`) map OpenDS's suspension and tyre parameters; the
+The wheels (`bullet/wheels.py`) map OpenDS's suspension and tyre parameters; the
 chassis is a box from 0.25 m above the road to the car's height, with the yaw inertia of
 `VehicleSpec` (as the fast backend). `BodyState.y` is the ground level under the centre of
 gravity (its height minus `cog_height_m`), like the fast backend's. Euler angles are jME's

@@ -8,12 +8,12 @@ meant there, while the tyres share the fast backend's grip model:
 - damping = c x suspension speed x chassis mass, with c = `compression` x 2 sqrt(stiffness)
   while compressing and `damping` x 2 sqrt(stiffness) while extending, as OpenDS's
   `CarModelLoader` feeds jME;
-- tyres: Bullet's `frictionSlip` is a raw impulse limit (50 would mean mu = 50, a car that
-  never slides), so the friction circle is `VehicleSpec.mu` x load (frictionSlip / 50), with
-  the fast backend's saturating cornering stiffness per unit load above walking pace and
-  Bullet's no-sideways-slip constraint below it (so a parked car holds on a slope);
-- drive force on all four wheels (OpenDS accelerates both axles), brakes against each
-  wheel's motion and never past a stop; both split by wheel load.
+- tyres as `btRaycastVehicle::updateFriction`: per wheel a sideways impulse of 0.2 x the
+  contact's sideways speed over its impulse denominator (`resolveSingleBilateral`), a
+  forward impulse of the engine force x dt on the driven front wheels (OpenDS's
+  `CarControl.accelerate` puts twice its force on each) or rolling friction up to the brake
+  impulse on the others (`calcRollingFriction`), both scaled down when they exceed
+  load x dt x `frictionSlip` (Bullet's raw impulse limit: 50 means a car that rarely slides).
 Assumed geometry (the car's `.properties` asset is not available): wheel radius 0.32 m,
 suspension rest length 0.3 m, hard points set so the car rests level with its centre of
 gravity at `cog_height_m`. Plain floats: this runs four times per physics step.
@@ -24,14 +24,19 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from ..ego.kernels import side_share_py
 from ..ego.spec import VehicleSpec
 
 WHEEL_RADIUS_M = 0.32
 SUSPENSION_REST_M = 0.30
 MAX_SUSPENSION_FORCE_N = 10000.0
 MIN_STIFFNESS = 20.0  # softer springs would sink through the 0.3 m suspension at rest
-KINEMATIC_BELOW = 1.0  # m/s: below this the tyres hold sideways like Bullet's constraint (as physics_fast)
-DYNAMIC_ABOVE = 3.0  # m/s: above this the slip-angle tyre model alone
+FORWARD_SLIP_FACTOR = 0.5  # updateFriction's fwdFactor
+# btWheelInfo's rollInfluence: the share of the sideways impulse's height above the ground
+# that rolls the car. OpenDS's car asset (and its loader's setting) is not available; 0.1 is
+# Bullet's own VehicleDemo value, and keeps the car upright in the keyboard swerves of real
+# OpenDS drives as OpenDS's did (1.0 rolls it over at 60 km/h).
+ROLL_INFLUENCE = 0.1
 TWO_PI = 2.0 * math.pi
 
 Vec = tuple[float, float, float]
@@ -60,9 +65,21 @@ class RaycastWheels:
         # body frame: origin at the centre of gravity, forward -Z, left -X, up +Y
         self._hardpoints = ((-half_track, y_f, -lf), (half_track, y_f, -lf), (-half_track, y_r, lr), (half_track, y_r, lr))
         self._steered = (True, True, False, False)
+        L, W, H = spec.length_m, spec.width_m, spec.height_m  # the chassis box's inertia (bullet.vehicle)
+        self._inv_inertia = (12.0 / (m * (H * H + L * L)), 1.0 / spec.yaw_inertia, 12.0 / (m * (H * H + W * W)))
         self.suspension_m = [SUSPENSION_REST_M] * 4
         self.load_n = [0.0] * 4
         self.spin_rad = [0.0] * 4
+
+    def _denominator(self, rx: float, ry: float, rz: float, nx: float, ny: float, nz: float, rot: Rot, inv_m: float) -> float:
+        """Bullet's computeImpulseDenominator: 1/m + (r x n) . I^-1 (r x n), I in the body frame."""
+        cx, cy, cz = ry * nz - rz * ny, rz * nx - rx * nz, rx * ny - ry * nx
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = rot
+        bx = r00 * cx + r10 * cy + r20 * cz  # R^T (r x n)
+        by = r01 * cx + r11 * cy + r21 * cz
+        bz = r02 * cx + r12 * cy + r22 * cz
+        ii0, ii1, ii2 = self._inv_inertia
+        return inv_m + bx * bx * ii0 + by * by * ii1 + bz * bz * ii2
 
     def reset(self) -> None:
         for i in range(4):
@@ -133,21 +150,22 @@ class RaycastWheels:
             self.suspension_m[i] = length
             total_load += force
             contacts[i] = (rx, ry, rz, nx, ny, nz, vx, vy, vz)
-        # pass 2: tyre forces, friction circle mu x load, then one force and torque at the CoG
+        # pass 2: btRaycastVehicle::updateFriction, impulses per wheel from this step's velocities
         fx_t = fy_t = fz_t = tx_t = ty_t = tz_t = 0.0
-        if total_load > 0.0:
+        on_ground = sum(1 for ct in contacts if ct is not None)
+        if on_ground:
             dt = dt_s
-            g = self.gravity
-            mu = spec.mu
-            mu = mu if mu > 1e-3 else 1e-3
-            corner = spec.cornering_stiffness_per_rad / mu
+            inv_m = 1.0 / m
+            slip = spec.friction_slip
+            front_force = 0.5 * drive_force_n  # CarControl.accelerate: twice the engine force per front wheel
+            brake_imp = 0.25 * brake_force_n * dt
+            side = side_share_py(dt)  # resolveSingleBilateral's 0.2 per OpenDS tick
             s_d, c_d = math.sin(steer_rad), math.cos(steer_rad)
             for i in range(4):
                 ct = contacts[i]
                 if ct is None:
                     continue
                 rx, ry, rz, nx, ny, nz, vx, vy, vz = ct
-                load = loads[i]
                 if self._steered[i]:
                     hx, hy, hz = -r00 * s_d - r02 * c_d, -r10 * s_d - r12 * c_d, -r20 * s_d - r22 * c_d
                 else:
@@ -155,49 +173,46 @@ class RaycastWheels:
                 dot = hx * nx + hy * ny + hz * nz
                 hx, hy, hz = hx - nx * dot, hy - ny * dot, hz - nz * dot
                 norm = math.sqrt(hx * hx + hy * hy + hz * hz)
-                fx_w = fy_w = 0.0
-                if norm > 1e-6:
-                    hx, hy, hz = hx / norm, hy / norm, hz / norm
-                    sx, sy, sz = ny * hz - nz * hy, nz * hx - nx * hz, nx * hy - ny * hx  # left
-                    v_long = hx * vx + hy * vy + hz * vz
-                    v_lat = sx * vx + sy * vy + sz * vz
-                    share = load / total_load
-                    m_w = m * share
-                    drive = drive_force_n * share
-                    brake = brake_force_n * share
-                    # brakes: up to `brake` against the motion (and gravity's pull), never past a stop
-                    b = -m_w * (v_long / dt - g * hy) - drive
-                    fx_w = drive + (brake if b > brake else -brake if b < -brake else b)
-                    f_max = mu * load
-                    speed = v_long if v_long >= 0.0 else -v_long
-                    # sideways: the force that stops sliding this step (a parked car holds on a slope)
-                    hold = -m_w * (v_lat / dt - g * sy)
-                    if speed > KINEMATIC_BELOW:
-                        # slip-angle tyre, never pushing past zero slip
-                        grip = abs(f_max * math.tanh(corner * math.atan2(v_lat, speed)))
-                        stop = m_w * abs(v_lat) / dt
-                        if grip > stop:
-                            grip = stop
-                        fy_w = -grip if v_lat > 0.0 else grip
-                        if speed < DYNAMIC_ABOVE:
-                            blend = (speed - KINEMATIC_BELOW) / (DYNAMIC_ABOVE - KINEMATIC_BELOW)
-                            fy_w = blend * fy_w + (1.0 - blend) * hold
-                    else:
-                        fy_w = hold
-                    total = math.sqrt(fx_w * fx_w + fy_w * fy_w)
-                    if total > f_max:
-                        fx_w *= f_max / total
-                        fy_w *= f_max / total
-                    self.spin_rad[i] = (self.spin_rad[i] + v_long / WHEEL_RADIUS_M * dt) % TWO_PI
+                if norm <= 1e-6:
+                    fx_t += nx * loads[i]
+                    fy_t += ny * loads[i]
+                    fz_t += nz * loads[i]
+                    continue
+                hx, hy, hz = hx / norm, hy / norm, hz / norm
+                sx, sy, sz = ny * hz - nz * hy, nz * hx - nx * hz, nx * hy - ny * hx  # the axle (left)
+                # resolveSingleBilateral: 0.2 x the sideways speed over the contact's impulse denominator
+                j_side = -side * (sx * vx + sy * vy + sz * vz) / self._denominator(rx, ry, rz, sx, sy, sz, rot, inv_m)
+                if self._steered[i] and front_force != 0.0:
+                    j_fwd = front_force * dt
                 else:
-                    sx = sy = sz = 0.0
-                gx = nx * load + hx * fx_w + sx * fy_w
-                gy = ny * load + hy * fx_w + sy * fy_w
-                gz = nz * load + hz * fx_w + sz * fy_w
-                fx_t += gx
-                fy_t += gy
-                fz_t += gz
+                    # calcRollingFriction: stop the contact's forward motion, at most the brake impulse
+                    j_fwd = -(hx * vx + hy * vy + hz * vz) / self._denominator(rx, ry, rz, hx, hy, hz, rot, inv_m) / on_ground
+                    j_fwd = brake_imp if j_fwd > brake_imp else -brake_imp if j_fwd < -brake_imp else j_fwd
+                max_imp = loads[i] * dt * slip
+                xf = j_fwd * FORWARD_SLIP_FACTOR
+                sq = xf * xf + j_side * j_side
+                if sq > max_imp * max_imp:
+                    k_slide = max_imp / math.sqrt(sq)
+                    j_fwd *= k_slide
+                    j_side *= k_slide
+                f_fwd, f_side = j_fwd / dt, j_side / dt
+                v_long = hx * vx + hy * vy + hz * vz
+                self.spin_rad[i] = (self.spin_rad[i] + v_long / WHEEL_RADIUS_M * dt) % TWO_PI
+                load = loads[i]
+                gx = nx * load + hx * f_fwd
+                gy = ny * load + hy * f_fwd
+                gz = nz * load + hz * f_fwd
+                ex, ey, ez = sx * f_side, sy * f_side, sz * f_side
+                fx_t += gx + ex
+                fy_t += gy + ey
+                fz_t += gz + ez
                 tx_t += ry * gz - rz * gy
                 ty_t += rz * gx - rx * gz
                 tz_t += rx * gy - ry * gx
+                # the sideways impulse acts with its lever arm along the body's up axis scaled by rollInfluence
+                up = (rx * r01 + ry * r11 + rz * r21) * (1.0 - ROLL_INFLUENCE)
+                qx, qy, qz = rx - r01 * up, ry - r11 * up, rz - r21 * up
+                tx_t += qy * ez - qz * ey
+                ty_t += qz * ex - qx * ez
+                tz_t += qx * ey - qy * ex
         return (fx_t, fy_t, fz_t), (tx_t, ty_t, tz_t)

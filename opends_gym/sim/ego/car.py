@@ -14,7 +14,7 @@ from ...task.model_task import DrivingTask, Pose
 from ..controls import DriverControls
 from .fast_body import FastVehicle
 from .kernels import CRUISE_GAIN, CRUISE_INTEGRAL_BAND_MPS, CRUISE_INTEGRAL_MAX, CRUISE_KI, car_constants
-from .powertrain import Powertrain
+from .powertrain import Powertrain, gear_rpm
 from .spec import MAX_WHEEL_ANGLE_RAD, BodyState, VehicleBackend, VehicleSpec
 from .step import A_MIN_SPEED, cruise_params, drive_inputs, ego_step
 
@@ -89,6 +89,24 @@ class EgoCar:
         self.cruise_integral = 0.0
         self.crosswind = (0.0, 0.0)
 
+    def reset_to(self, x: float, y: float, z: float, yaw: float, speed_mps: float, engine_on: bool = True) -> None:
+        """Put the car in a given moving state (a recorded one): pose, forward speed, and the
+        gear the automatic would hold at that speed with its rpm; cruise control off."""
+        self.body.reset(x, y, z, yaw, speed_mps)
+        pt = self.powertrain
+        st = pt.state
+        st.engine_on = engine_on
+        if st.automatic and st.gear > 0:
+            st.gear = pt.best_gear(speed_mps)
+        ratio = pt.reverse_ratio if st.gear < 0 else pt.ratios[st.gear - 1] if st.gear > 0 else 0.0
+        rpm = min(gear_rpm(speed_mps, ratio), self.car.engine.max_rpm)
+        st.rpm = max(rpm, self.car.engine.min_rpm) if engine_on else rpm
+        st.prev_v_mps = speed_mps
+        self.inputs = CarInputs()
+        self.cruise_active = False
+        self.cruise_integral = 0.0
+        self.crosswind = (0.0, 0.0)
+
     def teleport(self, pose: Pose) -> None:
         """Reset to a reset point: new pose, at rest (OpenDS's resetCar)."""
         x, y, z = pose.position_m
@@ -160,7 +178,7 @@ class EgoCar:
 
     def _cruise_command(self, c: DriverControls) -> None:
         """Cruise control on (at the current speed) or off, and set-speed changes. The
-        controller itself (PI on the speed, ACC) is `ego_kernels.cruise_control`."""
+        controller itself (PI on the speed, ACC) is `ego.kernels.cruise_control`."""
         if c.cruise_control is True:
             self.cruise_active, self.cruise_target_mps = True, max(self.body.state.u, 0.0)
             self.cruise_integral = 0.0

@@ -1,44 +1,44 @@
-"""`physics="fast"`: a dynamic single-track (bicycle) model with saturating tyres.
+"""`physics="fast"`: OpenDS's Bullet raycast vehicle in the ground plane.
 
-Why: RL training needs thousands of steps per second; a single-track model captures what
-driver-distraction metrics measure (lateral position, yaw, speed) at a fraction of a
-rigid-body engine's cost. Below walking pace it blends into the kinematic bicycle model,
-where the dynamic one is singular. The step is a compiled kernel (`ego_kernels.body_step`),
-shared with the native batch.
+Why: RL training needs thousands of steps per second, and the car must still drive like
+OpenDS's, which is jME's `VehicleControl` (Bullet's `btRaycastVehicle`): a rigid chassis
+held by four wheel contacts whose sideways impulses remove a fixed share of the sliding
+each step, with engine impulses on the front wheels and brake-capped rolling friction on
+the others. This backend keeps that tyre model and drops what a flat road does not need
+(suspension travel, pitch and roll). The step is a compiled kernel
+(`ego.kernels.body_step`), shared with the native batch.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from .kernels import DYNAMIC_ABOVE, KINEMATIC_BELOW, STOP_SPEED, body_params, body_step_kernel
+from .kernels import body_params, body_step_kernel
 from .spec import BodyState, VehicleSpec
 
-__all__ = ["DYNAMIC_ABOVE", "KINEMATIC_BELOW", "STOP_SPEED", "FastVehicle"]
+__all__ = ["FastVehicle"]
 G = 9.81
 
 
 class FastVehicle:
-    """Single-track vehicle in the ground plane; height follows `ground_height`."""
+    """Planar raycast vehicle; height follows `ground_height`."""
 
     def __init__(self, spec: VehicleSpec, ground_height: Any = None) -> None:
         self.spec = spec
         self.state = BodyState()
         self.ground_height = ground_height  # callable (x, z) -> y, or None for flat
-        lf, lr, L = spec.cog_to_front_m, spec.cog_to_rear_m, spec.wheelbase_m
-        m = spec.mass_kg
-        self._fz_front = m * G * lr / L
-        self._fz_rear = m * G * lf / L
-        k = spec.cornering_stiffness_per_rad
-        self._c_front = k * self._fz_front
-        self._c_rear = k * self._fz_rear
-        self._max_front = spec.mu * self._fz_front
-        self._max_rear = spec.mu * self._fz_rear
-        self._max_long = spec.mu * m * G
-        self._m, self._lf, self._lr = m, lf, spec.wheelbase_m - lf
-        self._wheelbase, self._yaw_inertia = spec.wheelbase_m, spec.yaw_inertia
+        m, w, h = spec.mass_kg, spec.width_m, spec.height_m
+        roll_inertia = m * (h * h + w * w) / 12.0  # the bullet chassis box's (bullet.vehicle)
         self._params = body_params(
-            m, lf, spec.wheelbase_m, spec.yaw_inertia, self._max_long, self._c_front, self._c_rear, self._max_front, self._max_rear
+            m,
+            spec.cog_to_front_m,
+            spec.wheelbase_m,
+            spec.yaw_inertia,
+            0.5 * spec.track_m,
+            spec.friction_slip,
+            G,
+            spec.cog_height_m,
+            roll_inertia,
         )
 
     def reset(self, x: float, y: float, z: float, yaw: float, speed_mps: float) -> None:

@@ -4,7 +4,7 @@ Why: these run every physics step of every env. Each is one scalar function of o
 called by the single env (`FastVehicle.step`, `Powertrain.step`) and, in a loop over
 envs, by the native batch (`opends_gym.vector.ego`), so both compute the same floats by
 construction. The expressions keep the operand order of the Python they replaced, and the
-kernels use C-library `math` like CPython (`sim.jit`), so results did not change.
+kernels use C-library `math` like CPython (`jit`), so results did not change.
 
 Units: SI (m, s, kg, N, rad); powers in kW and rpm as in OpenDS's formulas
 (`sim.powertrain`). Parameter and state slots are the constants below.
@@ -18,15 +18,19 @@ import numpy as np
 
 from ...jit import inline, kernel
 
-KINEMATIC_BELOW = 1.0  # m/s: purely kinematic below this forward speed
-DYNAMIC_ABOVE = 3.0  # m/s: purely dynamic above this
-STOP_SPEED = 0.05  # m/s: at rest below this when no drive force
+SIDE_DAMPING = 0.2  # Bullet's resolveSingleBilateral: share of a wheel's sideways sliding removed per OpenDS tick
+FORWARD_SLIP_FACTOR = 0.5  # btRaycastVehicle::updateFriction's fwdFactor in the friction circle
+REST_SPEED = 0.01  # m/s: a braked, undriven car slower than this is at rest
+# OpenDS's Bullet step: `Simulator.simpleInitDrivingTask` sets the physics space's accuracy to
+# 0.01 s. Its brake values are impulses per wheel per tick, and its tyres remove SIDE_DAMPING of
+# the sliding per tick; at another step the same share per 0.01 s is removed (side_share).
+OPENDS_TICK_S = 0.01
 
 # body parameters (`body_params`)
-B_MASS, B_LF, B_LR, B_WHEELBASE, B_YAW_INERTIA, B_MAX_LONG, B_C_FRONT, B_C_REAR, B_MAX_FRONT, B_MAX_REAR = range(10)
+B_MASS, B_LF, B_LR, B_WHEELBASE, B_YAW_INERTIA, B_HALF_TRACK, B_FRICTION_SLIP, B_LOAD_FRONT, B_LOAD_REAR, B_ROLL_TERM = range(10)
 
 # powertrain parameters (offsets in the powertrain block of `car_constants`)
-P_MASS, P_MAX_RPM, P_MIN_RPM, P_ACCEL, P_DEC_BRAKE, P_DEC_FREE, P_CAP_FROM_KMH, P_REVERSE_RATIO = range(8)
+P_MASS, P_MAX_RPM, P_MIN_RPM, P_MAX_SPEED_KMH, P_MAX_BRAKE, P_MAX_FREE_WHEEL, P_SPARE, P_REVERSE_RATIO = range(8)
 # `car_constants`: the body parameters, the powertrain parameters, then the tables' lengths and the tables
 C_BODY, C_PT, C_N_RATIOS, C_N_POWER, C_N_GEARS, C_TABLES = 0, 10, 18, 19, 20, 21
 
@@ -41,7 +45,9 @@ IDLE_FUEL_L_PER_S = 0.0003
 WHEEL_CONSTANT = 380.0 * 0.00006  # rpm = v_kmh * ratio / WHEEL_CONSTANT
 RPM_RATE_LIMIT = 5000.0  # rpm per second
 POWER_RPM_MIN, POWER_RPM_MAX = 1500.0, 5100.0
-MIN_DRIVE_SPEED = 2.0  # m/s: below this, drive force is the engine-block acceleration cap
+ENGINE_FORCE_PER_KW = 30.0  # SteeringCar.update: accelerate(30 x P_accel x powerPercentage)
+SPEED_AT_FULL_SHARE_KMH = 140.0  # Transmission.speedAt100PercentMarker
+BRAKE_FORCE_PER_DECEL_KG = 0.004375  # SteeringCar: maxBrakeForce = 0.004375 x decelerationBrake x mass
 TABLE_STEP = 0.1  # m/s resolution of the automatic gearbox table
 RPM_TABLE_STEP = 10.0
 CRUISE_GAIN = 0.5  # throttle (or brake) per m/s of speed error
@@ -50,20 +56,17 @@ CRUISE_INTEGRAL_BAND_MPS = 2.0  # integrate only this close to the set speed (no
 CRUISE_INTEGRAL_MAX = 0.8
 
 
-def body_params(
-    mass: float,
-    lf: float,
-    wheelbase: float,
-    yaw_inertia: float,
-    max_long: float,
-    c_front: float,
-    c_rear: float,
-    max_front: float,
-    max_rear: float,
-) -> np.ndarray:
+def body_params(mass: float, lf: float, wheelbase: float, yaw_inertia: float, half_track: float, friction_slip: float,
+                gravity: float = G, cog_height: float = 0.0, roll_inertia: float = math.inf) -> np.ndarray:  # fmt: skip
+    """The planar raycast vehicle's constants; a wheel's load is its static share of the weight.
+    `cog_height` and `roll_inertia` give the sideways impulse's denominator its roll term
+    (the contact lies below the centre of gravity, as in Bullet's 3-D jacobian)."""
     p = np.zeros(10)
-    p[B_MASS], p[B_LF], p[B_LR], p[B_WHEELBASE], p[B_YAW_INERTIA] = mass, lf, wheelbase - lf, wheelbase, yaw_inertia
-    p[B_MAX_LONG], p[B_C_FRONT], p[B_C_REAR], p[B_MAX_FRONT], p[B_MAX_REAR] = max_long, c_front, c_rear, max_front, max_rear
+    lr = wheelbase - lf
+    p[B_MASS], p[B_LF], p[B_LR], p[B_WHEELBASE], p[B_YAW_INERTIA] = mass, lf, lr, wheelbase, yaw_inertia
+    p[B_HALF_TRACK], p[B_FRICTION_SLIP] = half_track, friction_slip
+    p[B_LOAD_FRONT], p[B_LOAD_REAR] = 0.5 * mass * gravity * lr / wheelbase, 0.5 * mass * gravity * lf / wheelbase
+    p[B_ROLL_TERM] = cog_height * cog_height / roll_inertia
     return p
 
 
@@ -104,65 +107,79 @@ def body_step(
 
 
 @inline
+def side_share(dt: float) -> float:
+    """The share of a wheel's sideways sliding its impulse removes in a step of dt: OpenDS's
+    SIDE_DAMPING per 0.01 s tick, compounded (exactly SIDE_DAMPING at dt = 0.01 s)."""
+    if dt == OPENDS_TICK_S:
+        return SIDE_DAMPING
+    return 1.0 - (1.0 - SIDE_DAMPING) ** (dt / OPENDS_TICK_S)
+
+
+@inline
 def body_step_trig(p: np.ndarray, x: float, z: float, yaw: float, u: float, v: float, r: float, dt: float, steer_rad: float, cos_d: float,
                    sin_d: float, drive_n: float, brake_n: float,
                    side_n: float) -> tuple[float, float, float, float, float, float, float, float]:  # fmt: skip
     """`body_step` given the cosine and sine of the steering angle, also returning the sine and
     cosine of the new heading: a caller that holds the steering for several steps computes
-    them once, and one that needs the heading's (a box's centre) reuses them."""
-    m, lf, lr = p[B_MASS], p[B_LF], p[B_LR]
-    max_long = p[B_MAX_LONG]
-    # longitudinal force: drive minus brakes (brakes oppose motion, never reverse it)
-    fx = drive_n
-    if fx > max_long:
-        fx = max_long
-    elif fx < -max_long:
-        fx = -max_long
-    brake = brake_n if brake_n < max_long else max_long
-    if u > 0.0:
-        fx -= brake
-    elif u < 0.0:
-        fx += brake
-    elif -brake <= fx <= brake:
-        fx = 0.0
-    else:
-        fx -= math.copysign(brake, fx)
-    au = abs(u)
-    if au < DYNAMIC_ABOVE:
-        w_dyn = 0.0 if au <= KINEMATIC_BELOW else (au - KINEMATIC_BELOW) / (DYNAMIC_ABOVE - KINEMATIC_BELOW)
-    else:
-        w_dyn = 1.0
-    u_new = u + fx / m * dt
-    v_dyn = r_dyn = 0.0
-    if w_dyn > 0.0:
-        # dynamic bicycle model with tanh-saturated tyre forces
-        uu = u if au > 0.5 else math.copysign(0.5, u if u != 0.0 else 1.0)
-        # slip angles; the force opposes the tyre's sideways slip, so reversing flips them
-        sign = 1.0 if uu > 0.0 else -1.0
-        alpha_f = sign * (steer_rad - math.atan((v + lf * r) / uu))
-        alpha_r = -sign * math.atan((v - lr * r) / uu)
-        fyf = p[B_MAX_FRONT] * math.tanh(p[B_C_FRONT] * alpha_f / p[B_MAX_FRONT])
-        fyr = p[B_MAX_REAR] * math.tanh(p[B_C_REAR] * alpha_r / p[B_MAX_REAR])
-        dv_dyn = (fyf * cos_d + fyr + side_n) / m - u * r
-        dr_dyn = (lf * fyf * cos_d - lr * fyr) / p[B_YAW_INERTIA]
-        u_new += (-fyf * sin_d / m + v * r) * dt
-        v_dyn = v + dv_dyn * dt
-        r_dyn = r + dr_dyn * dt
-    if w_dyn < 1.0:
-        # kinematic bicycle model: no tyre slip at walking pace
-        wb = p[B_WHEELBASE]
-        tan_d = math.tan(steer_rad)
-        beta = math.atan(lr * tan_d / wb)
-        r_kin = u_new * math.cos(beta) * tan_d / wb
-        v_kin = u_new * math.tan(beta)
-        v_new = w_dyn * v_dyn + (1.0 - w_dyn) * v_kin
-        r_new = w_dyn * r_dyn + (1.0 - w_dyn) * r_kin
-    else:
-        v_new, r_new = v_dyn, r_dyn
-    # brakes stop the car; they do not push it backwards
-    if (u > 0.0 > u_new or u < 0.0 < u_new) and abs(drive_n) <= brake:
-        u_new = 0.0
-    if abs(u_new) < STOP_SPEED and abs(drive_n) <= brake + 1e-9:
+    them once, and one that needs the heading's (a box's centre) reuses them.
+
+    The step is Bullet's `btRaycastVehicle::updateFriction` in the ground plane: per wheel a
+    sideways impulse of 0.2 x the sliding speed x the effective mass at the contact
+    (`resolveSingleBilateral`), a forward impulse of engine force x dt on driven wheels or
+    rolling friction capped by the brake impulse on the others (`calcRollingFriction`), both
+    scaled down together when they exceed load x dt x frictionSlip; then the body moves.
+    """
+    m, lf, lr, ht, inertia = p[B_MASS], p[B_LF], p[B_LR], p[B_HALF_TRACK], p[B_YAW_INERTIA]
+    inv_m, inv_i = 1.0 / m, 1.0 / inertia
+    slip = p[B_FRICTION_SLIP]
+    side = side_share(dt)
+    roll_term = p[B_ROLL_TERM]
+    # OpenDS's CarControl.accelerate: twice the engine force on each front wheel, none behind
+    front_force = 0.5 * drive_n
+    brake_imp = 0.25 * brake_n * dt  # per wheel (brake_n: the four wheels' force over a step)
+    du = dv = dr = 0.0
+    for w in range(4):
+        a = lf if w < 2 else -lr
+        b = ht if w % 2 == 0 else -ht
+        if w < 2:
+            fc, fs = cos_d, sin_d  # forward axis of a steered wheel (forward, left components)
+            load = p[B_LOAD_FRONT]
+        else:
+            fc, fs = 1.0, 0.0
+            load = p[B_LOAD_REAR]
+        # contact velocity (forward, left)
+        pu = u - r * b
+        pv = v + r * a
+        # sideways: the axle (-fs, fc)
+        arm = a * fc + b * fs  # p x axle
+        j_side = -side * (-fs * pu + fc * pv) / (inv_m + arm * arm * inv_i + roll_term)
+        # forward: engine force on the front wheels, else rolling friction up to the brake
+        if w < 2 and front_force != 0.0:
+            j_fwd = front_force * dt
+        else:
+            arm_f = a * fs - b * fc  # p x forward
+            j_fwd = -(fc * pu + fs * pv) / (inv_m + arm_f * arm_f * inv_i) / 4.0
+            if j_fwd > brake_imp:
+                j_fwd = brake_imp
+            elif j_fwd < -brake_imp:
+                j_fwd = -brake_imp
+        max_imp = load * dt * slip
+        xf = j_fwd * FORWARD_SLIP_FACTOR
+        sq = xf * xf + j_side * j_side
+        if sq > max_imp * max_imp:
+            k = max_imp / math.sqrt(sq)
+            j_fwd *= k
+            j_side *= k
+        # the impulse in body axes and its moment
+        ju = fc * j_fwd - fs * j_side
+        jv = fs * j_fwd + fc * j_side
+        du += ju
+        dv += jv
+        dr += a * jv - b * ju
+    u_new = u + du * inv_m
+    v_new = v + dv * inv_m + side_n * inv_m * dt
+    r_new = r + dr * inv_i
+    if -REST_SPEED < u_new < REST_SPEED and -REST_SPEED < v_new < REST_SPEED and drive_n == 0.0 and brake_n > 0.0:
         u_new = v_new = r_new = 0.0
     yaw = yaw + r_new * dt
     sy, cy = math.sin(yaw), math.cos(yaw)
@@ -186,44 +203,78 @@ def full_power_kw(car: np.ndarray, rpm: float) -> float:
 
 
 @inline
+def power_percentage(gear: int, speed_share: float) -> float:
+    """OpenDS's `Transmission.getPowerPercentage`: the share of the engine's power a gear
+    passes on at speed_share = v / 140 km/h (fitted polynomials of gears 1..6 and reverse,
+    clamped to 0..1; other gears 0)."""
+    x = speed_share
+    if gear == 1:
+        pp = ((((-2892.78 * x + 678.61) * x + 558.43) * x - 216.84) * x + 17.78) * x + 0.58
+    elif gear == 2:
+        pp = (((((-4206.38 * x + 4837.65) * x - 1897.61) * x + 310.7) * x - 34.7) * x + 3.82) * x + 0.43
+    elif gear == 3:
+        pp = ((-3.17 * x + 1.44) * x + 0.12) * x + 0.27
+    elif gear == 4:
+        pp = ((-1.27 * x + 0.64) * x + 0.24) * x + 0.20
+    elif gear == 5:
+        pp = ((-0.47 * x + 0.12) * x + 0.35) * x + 0.11
+    elif gear == 6:
+        pp = ((-0.27 * x + 0.24) * x + 0.18) * x + 0.01
+    elif gear == -1:
+        pp = (((-1154.84 * x + 134.09) * x + 21.63) * x + 0.5) * x + 0.57
+    else:
+        pp = 0.0
+    return 0.0 if pp < 0.0 else 1.0 if pp > 1.0 else pp
+
+
+@inline
+def best_power_gear(n_gears: int, speed_share: float) -> int:
+    """`Transmission.findBestPowerGear`: the forward gear of highest power percentage (the
+    first on a tie; 1 when all are 0)."""
+    best, best_gear = 0.0, 1
+    for g in range(1, n_gears + 1):
+        pp = power_percentage(g, speed_share)
+        if pp > best:
+            best, best_gear = pp, g
+    return best_gear
+
+
+@inline
 def powertrain_core(car: np.ndarray, gear: int, automatic: bool, engine_on: bool, rpm: float, prev_v: float, fuel_used: float,
                     fuel_left: float, dt: float, v_mps: float, gas: float, brake: float, slope_rad: float,
                     hand_brake: bool) -> tuple[int, float, float, float, float, float, float, float, float]:  # fmt: skip
     """One powertrain step at forward speed v (m/s, negative rolling backwards); `car` is
-    `car_constants`.
+    `car_constants`. OpenDS's order: `Transmission.updateRPM`, `PowerTrain.getPAccel`,
+    `Transmission.performAcceleration`, then the brake of `SteeringCar.update`.
 
     Returns (gear, rpm, drive N, brake N, P_engine kW, P_load kW, fuel litres this step,
-    fuel used L, fuel left L); see `sim.powertrain` for the formulas.
+    fuel used L, fuel left L). Drive: the four wheels' engine force (30 x P_accel x
+    powerPercentage, twice on each front wheel); brake: the brake impulse per wheel per
+    OpenDS tick as the four wheels' force. See `sim.powertrain` for the formulas.
     """
-    n_ratios, n_gears = int(car[C_N_RATIOS]), int(car[C_N_GEARS])
-    gears = C_TABLES + n_ratios + int(car[C_N_POWER])
+    n_ratios = int(car[C_N_RATIOS])
     speed = -v_mps if v_mps < 0.0 else v_mps
-    if automatic and gear > 0:
-        i = int(speed / TABLE_STEP + 0.5)
-        gear = int(car[gears + i]) if i < n_gears else int(car[gears + n_gears - 1])
+    speed_kmh = speed * 3.6
     max_rpm, min_rpm = car[C_PT + P_MAX_RPM], car[C_PT + P_MIN_RPM]
     if not engine_on or fuel_left <= 0.0:
         gas = 0.0
-    elif gear > 0:
-        # OpenDS's speed cap: power scaled by (maxSpeed - v) in the last km/h, 0 above
-        over = speed * 3.6 - car[C_PT + P_CAP_FROM_KMH]
-        if over > 0.0:
-            gas *= 0.0 if over >= 1.0 else 1.0 - over
+    # Transmission.updateRPM: the wheels' rpm in gear (gas x maxRPM in neutral), at least
+    # minRPM with the engine on, changing by at most 5000 rpm/s
     ratio = car[C_PT + P_REVERSE_RATIO] if gear < 0 else car[C_TABLES + gear - 1] if gear > 0 else 0.0
-    gear_rpm_now = speed * 3.6 * ratio / WHEEL_CONSTANT
-    if not engine_on:
-        target_rpm = 0.0
-    elif gear == 0:
-        target_rpm = gas * max_rpm
+    if gear == 0:
+        target_rpm = (-gas if gas < 0.0 else gas) * max_rpm
     else:
-        target_rpm = max_rpm if gear_rpm_now > max_rpm else min_rpm if gear_rpm_now < min_rpm else gear_rpm_now
+        target_rpm = speed_kmh * ratio / WHEEL_CONSTANT
+        target_rpm = max_rpm if target_rpm > max_rpm else target_rpm
+    if engine_on and target_rpm < min_rpm:
+        target_rpm = min_rpm
     max_change = RPM_RATE_LIMIT * dt
     d_rpm = target_rpm - rpm
     rpm += max_change if d_rpm > max_change else -max_change if d_rpm < -max_change else d_rpm
-    # power balance (kW), OpenDS's terms
+    # PowerTrain.getPAccel: P_accel = max(0, P_engine - P_load) (kW)
     prev = -prev_v if prev_v < 0.0 else prev_v
     dv = speed - prev
-    p_engine = full_power_kw(car, rpm) * gas if engine_on and gear != 0 else 0.0
+    p_engine = full_power_kw(car, rpm) * (-gas if gas < 0.0 else gas)
     m = car[C_PT + P_MASS]
     sin_slope = (math.sin(-slope_rad if gear < 0 else slope_rad)) if slope_rad != 0.0 else 0.0
     inner_kw = 7e-7 * rpm * rpm - 5e-4 * rpm + 10.9
@@ -236,34 +287,37 @@ def powertrain_core(car: np.ndarray, gear: int, automatic: bool, engine_on: bool
         )
         / 1000.0
         + ACCESSORIES_KW
-        + (inner_kw if engine_on else 10.9)
+        + inner_kw
     )
-    # drive force: P_accel = P_engine - P_load, with the road loads as body forces and the
-    # inertia term being the acceleration itself; accessories and engine friction remain
-    drive = 0.0
-    if gas > 0.0 and gear != 0 and engine_on and gear_rpm_now <= max_rpm:
-        p_wheel_kw = p_engine - ACCESSORIES_KW - inner_kw
-        if p_wheel_kw > 0.0:
-            v = speed if speed > MIN_DRIVE_SPEED else MIN_DRIVE_SPEED
-            cap = m * car[C_PT + P_ACCEL] * gas
-            drive = 1000.0 * p_wheel_kw / v
-            if drive > cap:
-                drive = cap
-            if gear < 0:
-                drive = -drive
-    # brakes: pedal, hand brake, and the engine/free-wheel drag when off the gas
-    brake_force = brake * m * car[C_PT + P_DEC_BRAKE]
+    p_accel = p_engine - p_load
+    p_accel = p_accel if p_accel > 0.0 else 0.0
+    surplus_kw = p_load - p_engine
+    surplus_kw = surplus_kw if surplus_kw > 0.0 else 0.0
+    # Transmission.performAcceleration: the automatic picks this step's best gear, the power
+    # share is the previous gear's; near maxSpeed the share shrinks by (maxSpeed - v)
+    share_gear = gear
+    if automatic and gear > 0:
+        gear = best_power_gear(n_ratios if n_ratios < 6 else 6, speed_kmh / SPEED_AT_FULL_SHARE_KMH)
+    pp = power_percentage(share_gear, speed_kmh / SPEED_AT_FULL_SHARE_KMH)
+    max_kmh = car[C_PT + P_MAX_SPEED_KMH]
+    if speed_kmh >= max_kmh - 1.0:
+        pp *= max_kmh - speed_kmh
+    drive = 4.0 * ENGINE_FORCE_PER_KW * p_accel * pp
+    if gas < 0.0:  # the "accelerate back" key: P_accel's sign is the pedal's (PowerTrain.getPAccel)
+        drive = -drive
+    if share_gear < 0:
+        drive = -drive
+    elif share_gear == 0:
+        drive = 0.0
+    # SteeringCar.update: hand brake, else pedal x maxBrakeForce + friction coefficient x
+    # maxFreeWheelBrakeForce, the coefficient clamp((P_load - P_engine - 10) / 50, 0.2, 1)
     if hand_brake:
-        held = m * car[C_PT + P_DEC_BRAKE] * 0.6
-        brake_force = held if held > brake_force else brake_force
-    if gas > 0.0:
-        # rolling and air resistance; off the gas OpenDS's free-wheel drag stands for them
-        brake_force += ROLLING_COEFF * m * G + AIR_K * speed * speed
+        per_wheel = car[C_PT + P_MAX_BRAKE]
     else:
-        surplus_kw = p_load - p_engine
         coeff = (surplus_kw - 10.0) / 50.0
         coeff = 0.2 if coeff < 0.2 else 1.0 if coeff > 1.0 else coeff
-        brake_force += m * car[C_PT + P_DEC_FREE] * coeff
+        per_wheel = brake * car[C_PT + P_MAX_BRAKE] + coeff * car[C_PT + P_MAX_FREE_WHEEL]
+    brake_force = 4.0 * per_wheel / OPENDS_TICK_S
     # fuel: grams = P_engine dt / 43.7 kJ/g, times 1..1.5 above 3600 rpm; idle 0.0003 L/s
     litres = 0.0
     if p_engine > 0.0:
@@ -328,3 +382,21 @@ def body_step_kernel(p: np.ndarray, x: float, z: float, yaw: float, u: float, v:
                      drive_n: float, brake_n: float, side_n: float) -> tuple[float, float, float, float, float, float]:  # fmt: skip
     """`body_step` for callers in Python (inlined functions are compiled for kernels only)."""
     return body_step(p, x, z, yaw, u, v, r, dt, steer_rad, drive_n, brake_n, side_n)
+
+
+@kernel
+def power_percentage_py(gear: int, speed_share: float) -> float:
+    """`power_percentage` for callers in Python."""
+    return power_percentage(gear, speed_share)
+
+
+@kernel
+def best_power_gear_py(n_gears: int, speed_share: float) -> int:
+    """`best_power_gear` for callers in Python."""
+    return best_power_gear(n_gears, speed_share)
+
+
+@kernel
+def side_share_py(dt: float) -> float:
+    """`side_share` for callers in Python."""
+    return side_share(dt)

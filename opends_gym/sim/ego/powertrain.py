@@ -1,16 +1,15 @@
 """OpenDS's powertrain: engine power, load terms, gears, rpm, brakes and fuel.
 
-Why: human-factors users compare fuel use and engine behaviour with OpenDS, so the
-formulas are OpenDS's (OpenDS `PowerTrain`, `Transmission`;
-docs/opends-compatibility.md#vehicle-model), in SI units, per physics step. Where OpenDS
-turned the surplus power P_accel = P_engine - P_load into a game-engine force with a tuning
-constant (`30 x P_accel x powerShare`), we apply it physically (F = P_accel / v, capped by
-the engine block's `acceleration`), with the road loads (tyre, air, grade) as forces on the
-body. The gear "power share" OpenDS read from fitted per-gear polynomials is computed from
-the same bmep engine curve (the fitted coefficients are not public) and picks the gear.
-Both are documented deviations; fuel follows OpenDS's formula exactly.
+Why: human-factors users compare speeds, fuel use and engine behaviour with OpenDS, so the
+formulas are OpenDS's own (its `PowerTrain`, `Transmission` and `SteeringCar.update`;
+docs/opends-compatibility.md#vehicle-model), in SI units, per physics step: P_accel = max(0, P_engine - P_load) becomes the engine force
+30 x P_accel x powerPercentage (jME's `accelerate()`, twice on each front wheel), the
+automatic gearbox picks the gear of the highest fitted power-percentage polynomial, and
+the brakes are Bullet brake impulses per wheel: pedal x maxBrakeForce plus the free-wheel
+friction coefficient x maxFreeWheelBrakeForce. There are no separate rolling or air
+forces: in OpenDS they act only through P_load (the engine force and the free-wheel drag).
 
-The per-step maths is a compiled kernel (`ego_fast.powertrain_step`), shared with the
+The per-step maths is a compiled kernel (`ego.step.powertrain_step`), shared with the
 native batch; the Python functions here are the formulas, for tests and tables.
 """
 
@@ -27,6 +26,7 @@ from . import kernels as ek
 from . import step as ef
 from .kernels import (  # the constants the compiled powertrain uses too: one definition
     ACCESSORIES_KW,
+    BRAKE_FORCE_PER_DECEL_KG,
     FUEL_LHV_KJ_PER_G,
     INERTIA_MASS_FACTOR,
     POWER_RPM_MAX,
@@ -39,7 +39,7 @@ from .kernels import RPM_TABLE_STEP as _RPM_TABLE_STEP
 from .kernels import TABLE_STEP as _TABLE_STEP
 
 BMEP_COEFFS = (-19950.8, 3479.90, -231.809, 8.25775, -0.169919, 0.00202259, -1.2921e-5, 3.42208e-8)  # kPa, n in 1/s
-RHO_AIR = 1.3  # kg/m^3 (ego_kernels.AIR_K = 0.5 x RHO_AIR x CW x FRONTAL_AREA_M2)
+RHO_AIR = 1.3  # kg/m^3 (ego.kernels.AIR_K = 0.5 x RHO_AIR x CW x FRONTAL_AREA_M2)
 CW = 0.3
 FRONTAL_AREA_M2 = 2.0
 CONSUMPTION_WINDOW_S = 2.0
@@ -142,7 +142,7 @@ _RING_ROWS = 256  # the display window's rows (t, litres, metres); grown when a 
 
 class PowertrainState:
     """The powertrain's changing state. The values live in one float array (`values`, slots
-    `ego_fast.S_*`) that the compiled step updates in place; the attributes read and write
+    `ego.step.S_*`) that the compiled step updates in place; the attributes read and write
     it. `ring` holds the consumption display's 2 s window."""
 
     gear: int
@@ -224,21 +224,17 @@ class Powertrain:
         self._power_table = [engine_power_kw(float(r), 1.0, self.engine.displacement_m3) for r in rpms]
         self.max_power_kw = max(self._power_table)
         self.state = PowertrainState(automatic=car.transmission.automatic, engine_on=car.engine.engine_on, fuel_left_l=car.fuel.start_l)
+        self._dec_brake, self._dec_free = car.brake.deceleration_brake_mps2, car.brake.deceleration_free_wheel_mps2
         self._build_gear_table()
         # constants of the per-step maths, looked up once (the car blocks are frozen)
-        self._cap_from_kmh = self.engine.max_speed_mps * 3.6 - 1.0
         self._max_rpm, self._min_rpm = self.engine.max_rpm, self.engine.min_rpm
-        self._accel_mps2 = self.engine.acceleration_mps2
         self._dec_brake, self._dec_free = self.brake.deceleration_brake_mps2, self.brake.deceleration_free_wheel_mps2
         params = np.zeros(8)
-        params[ek.P_MASS], params[ek.P_MAX_RPM], params[ek.P_MIN_RPM], params[ek.P_ACCEL] = (
-            mass_kg,
-            self._max_rpm,
-            self._min_rpm,
-            self._accel_mps2,
-        )
-        params[ek.P_DEC_BRAKE], params[ek.P_DEC_FREE] = self._dec_brake, self._dec_free
-        params[ek.P_CAP_FROM_KMH], params[ek.P_REVERSE_RATIO] = self._cap_from_kmh, self.reverse_ratio
+        params[ek.P_MASS], params[ek.P_MAX_RPM], params[ek.P_MIN_RPM] = mass_kg, self._max_rpm, self._min_rpm
+        params[ek.P_MAX_SPEED_KMH] = self.engine.max_speed_mps * 3.6
+        params[ek.P_MAX_BRAKE] = self.max_brake_impulse
+        params[ek.P_MAX_FREE_WHEEL] = self.max_free_wheel_impulse
+        params[ek.P_REVERSE_RATIO] = self.reverse_ratio
         self._tables = (
             params,
             np.asarray(self.ratios, float),
@@ -247,32 +243,33 @@ class Powertrain:
         )
         self._car = ek.car_constants(np.zeros(10), *self._tables)  # (no body: the backend has its own)
 
+    @property
+    def max_brake_impulse(self) -> float:
+        """OpenDS's maxBrakeForce = 0.004375 x decelerationBrake x mass: Bullet's brake
+        value, an impulse (N s) per wheel per 0.01 s Bullet step (SteeringCar's constructor)."""
+        return BRAKE_FORCE_PER_DECEL_KG * self._dec_brake * self.mass_kg
+
+    @property
+    def max_free_wheel_impulse(self) -> float:
+        """maxFreeWheelBrakeForce = 0.004375 x decelerationFreeWheel x mass (as above)."""
+        return BRAKE_FORCE_PER_DECEL_KG * self._dec_free * self.mass_kg
+
     # ------------------------------------------------------------------ gears
     def power_share(self, gear: int, v_mps: float) -> float:
-        """Share (0..1) of the engine's maximum power available in `gear` at speed v."""
-        ratio = self.reverse_ratio if gear < 0 else self.ratios[gear - 1]
-        rpm = gear_rpm(v_mps, ratio)
-        if rpm > self.engine.max_rpm:
-            return 0.0
-        share = self._full_power_kw(rpm) / self.max_power_kw
-        return 0.0 if share < 0.0 else 1.0 if share > 1.0 else share
+        """OpenDS's `Transmission.getPowerPercentage` at speed v: the share (0..1) of the
+        engine's power the gear passes on (its fitted polynomial in v / 140 km/h)."""
+        return float(ek.power_percentage_py(gear, abs(v_mps) * 3.6 / ek.SPEED_AT_FULL_SHARE_KMH))
 
     def _build_gear_table(self) -> None:
-        """Best forward gear per 0.1 m/s of speed, so the automatic costs one lookup a step."""
+        """Best forward gear per 0.1 m/s of speed (`Transmission.findBestPowerGear`), for tables and the native batch."""
+        n = min(len(self.ratios), 6)
         speeds = np.arange(0.0, _TABLE_MAX_SPEED, _TABLE_STEP)
-        shares = np.array([[self.power_share(g, float(v)) for v in speeds] for g in range(1, len(self.ratios) + 1)])
-        # OpenDS's power curve is clamped flat outside 1500..5100 rpm, so gears tie there; a
-        # tie goes to the gear whose rpm lies closest to that band (1st when crawling, the
-        # top gear at motorway speed) instead of to whichever comes first
-        rpm = np.array([[gear_rpm(float(v), r) for v in speeds] for r in self.ratios])
-        outside = np.maximum(POWER_RPM_MIN - rpm, 0.0) + np.maximum(rpm - POWER_RPM_MAX, 0.0)
-        self._best_gear_table = (np.argmax(shares - 1e-9 * outside, axis=0) + 1).tolist()
+        self._best_gear_table = [int(ek.best_power_gear_py(n, float(v) * 3.6 / ek.SPEED_AT_FULL_SHARE_KMH)) for v in speeds]
 
     def best_gear(self, v_mps: float) -> int:
-        """Automatic gearbox: the forward gear of highest power share (no hysteresis, as OpenDS)."""
-        i = int(abs(v_mps) / _TABLE_STEP + 0.5)
-        table = self._best_gear_table
-        return table[i] if i < len(table) else table[-1]
+        """Automatic gearbox: the forward gear of highest power percentage (no hysteresis, as OpenDS)."""
+        n = min(len(self.ratios), 6)
+        return int(ek.best_power_gear_py(n, abs(v_mps) * 3.6 / ek.SPEED_AT_FULL_SHARE_KMH))
 
     def shift(self, gear: int) -> None:
         """Manual shift request: -1 reverse, 0 neutral, 1..n forward."""
@@ -293,7 +290,7 @@ class Powertrain:
         self, dt_s: float, v_mps: float, gas: float, brake: float, slope_rad: float = 0.0, hand_brake: bool = False
     ) -> tuple[float, float]:
         """Advance one physics step at forward speed v (negative when rolling backwards);
-        (drive force N, brake force N). The maths is `ego_kernels.powertrain_step`."""
+        (drive force N, brake force N). The maths is `ego.kernels.powertrain_step`."""
         st = self.state
         if st.values[ef.S_RING_COUNT] + 2.0 > len(st.ring):
             st.ensure_ring_room()

@@ -17,14 +17,18 @@ from typing import Any, Protocol
 
 from ...task.model_car import Car
 
-# Front-wheel angle at full steering input. With the 450-degree steering wheel of
-# `controls.STEERING_WHEEL_MAX_DEG` this is a 15.7:1 steering ratio, a typical car's.
-MAX_WHEEL_ANGLE_RAD = 0.5
+# Front-wheel angle at full steering input: OpenDS passes its steering value (-1..1) to jME's
+# `VehicleControl.steer()`, which takes the wheels' angle in radians (`Car.steer`), so full
+# steering is 1 rad. (Its keyboard steers asin(wheelbase / (turningCircle / 2)) = 0.443 rad
+# with the defaults 3.0 m and 14 m: `SimulatorActionListener.onAction`.)
+MAX_WHEEL_ANGLE_RAD = 1.0
 
 
 @dataclass(frozen=True)
 class VehicleSpec:
-    """Geometry and tyre grip of a car. OpenDS task files give only mass and tyre slip."""
+    """Geometry, suspension and tyre grip of a car. OpenDS task files give only mass, suspension
+    and frictionSlip (Bullet's impulse limit, load x dt x frictionSlip per wheel); the geometry
+    is an assumption (the car's asset is not available)."""
 
     mass_kg: float = 1300.0
     length_m: float = 4.4
@@ -34,8 +38,6 @@ class VehicleSpec:
     cog_to_front_m: float = 1.2
     track_m: float = 1.55
     cog_height_m: float = 0.55
-    mu: float = 1.0
-    cornering_stiffness_per_rad: float = 16.0  # per unit of axle load
     suspension_stiffness: float = 120.0
     suspension_compression: float = 0.2
     suspension_damping: float = 0.3
@@ -51,11 +53,9 @@ class VehicleSpec:
 
     @staticmethod
     def from_car(car: Car, mass_kg: float) -> VehicleSpec:
-        """OpenDS `frictionSlip` 50 (its default) is read as dry asphalt, mu = 1.0."""
-        mu = min(1.2, max(0.1, car.wheel.friction_slip / 50.0))
+        """The scenario's car block and its model's mass (1300 kg where none is given)."""
         return VehicleSpec(
             mass_kg=mass_kg if mass_kg > 0 else 1300.0,
-            mu=mu,
             suspension_stiffness=car.suspension.stiffness,
             suspension_compression=car.suspension.compression,
             suspension_damping=car.suspension.damping,

@@ -3,7 +3,7 @@ consumption display) and the fast backend's body in one call.
 
 Why: one physics step of the ego car is a few hundred floating-point operations; as Python
 (or as several compiled calls) the call overhead dominated. The maths is the shared
-kernels of `ego_kernels` (the native batch calls the same ones per env). Units: SI, rpm,
+kernels of `ego.kernels` (the native batch calls the same ones per env). Units: SI, rpm,
 kW, litres, as there.
 """
 

@@ -11,7 +11,7 @@ order, then pedestrians, then ODvehicles:
     turn_signal (N,) int (0 off, 1 left, 2 right, 3 both), half_extents (N,2) m
     (half width, half length), head_light (N,) intensity.
 
-Cars follow the OpenDS follow-box rules (see `traffic_motion`); per-step work is array
+Cars follow the OpenDS follow-box rules (see `traffic.motion`); per-step work is array
 maths over all objects, and leg ends are rare per-object events (`traffic_legs`).
 Pedestrians walk their paths at the waypoint/segment speed. ODvehicles drive the lane
 centre route of `OpenDriveMap.route` at `maxSpeed` (50 km/h when absent) and stop at its
@@ -231,7 +231,7 @@ class TrafficManager(TrafficControls):
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt_s: float) -> None:
-        """One physics step: two compiled kernels (`traffic_motion`), with the rare per-object
+        """One physics step: two compiled kernels (`traffic.motion`), with the rare per-object
         events (waits over, legs ended, lights passed, lane changes) in Python between them."""
         self.t_s += dt_s
         st, work, flags = self.st, self._work, self._flags

@@ -3,7 +3,7 @@
 Why: issue 9 wants dozens of cars at many times real time, and the brake and platoon tests
 (one or two cars) paid ~270 us per step in fixed numpy overhead. So every per-step rule of
 OpenDS's `FollowBox` and `TrafficCar` is a loop over the objects here, compiled with numba
-(`sim.jit`); per-object Python runs only on rare events (a wait ends, a leg ends, a light
+(`jit`); per-object Python runs only on rare events (a wait ends, a leg ends, a light
 is passed), between the two kernels of a step. The native batch calls the same kernels on
 the cars of all its envs (`group` objects per world), so its traffic is the single env's.
 

@@ -208,9 +208,9 @@ class RoadNetwork:
         return frozenset(self.by_id[r] for r in refs if r in self.by_id)
 
     def continuations(self, has_light: Callable[[str], bool]) -> np.ndarray:
-        """One row per segment (columns `traffic_motion.N_*`): what a car that leaves no choice
+        """One row per segment (columns `traffic.motion.N_*`): what a car that leaves no choice
         to chance does on entering it, so a compiled kernel can move cars on without Python
-        (`traffic_motion.continue_on_network`). A segment is enterable that way unless it is a
+        (`traffic.motion.continue_on_network`). A segment is enterable that way unless it is a
         jump, its end waypoint has a traffic light (`has_light`, the car queues for it) or more
         than one segment leaves it (the next one is drawn with the world's rng)."""
         out = np.zeros((max(1, len(self.segments)), N_COLUMNS))

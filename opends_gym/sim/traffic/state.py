@@ -1,6 +1,6 @@
 """The traffic objects' state and fixed parameters, one row (array element) per object.
 
-Why: the per-step traffic maths is a compiled kernel (`traffic_motion`) that reads and
+Why: the per-step traffic maths is a compiled kernel (`traffic.motion`) that reads and
 writes these arrays. A kernel call costs about 0.1 us per argument, so the state is packed
 into a few 2D arrays (floats, ints, bools, plus the vector-valued fields), and every named
 field (`st.speed`, `st.pid`, ...) is a view of one row of them: Python code (leg events,
