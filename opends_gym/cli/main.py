@@ -12,6 +12,8 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from ..errors import UserError
+
 # (name, module, help) — modules are imported only when their command runs
 COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("validate", "opends_gym.cli.validate", "load and check OpenDS driving tasks"),
@@ -20,7 +22,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("drive", "opends_gym.cli.drive", "drive a task yourself in real time (keyboard, wheel, CAN) and print the metrics"),
     ("replay", "opends_gym.cli.replay", "re-simulate a recorded drive and check it is exact"),
     ("analyze", "opends_gym.cli.analyze", "drive measures, CSV and PDF report of a recording or OpenDS carData.txt"),
-    ("train", "opends_gym.cli.train", "train a baseline policy from a config in configs/"),
+    ("train", "opends_gym.cli.train", "train a baseline policy from a YAML config or a bundled one by name"),
 )
 
 
@@ -39,7 +41,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
-    code = importlib.import_module(args._module).run(args)
+    try:
+        code = importlib.import_module(args._module).run(args)
+    except UserError as e:  # a missing extra, a name that is no bundled file, ...: one line
+        print(f"opends-gym: {e}", file=sys.stderr)
+        return 2
     return int(code or 0)
 
 

@@ -20,14 +20,23 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import StrEnum
+from enum import Enum
 
 import numpy as np
 
 MAX_SAMPLE_DISTANCE_M = 10.0
 
 
-class Completeness(StrEnum):
+class Completeness(str, Enum):
+    """OpenDS Drive Analyzer's completeness status; str() and format() give the value (as
+    StrEnum would, which Python 3.10 lacks)."""
+
+    def __str__(self) -> str:
+        return str(self.value)
+
+    def __format__(self, spec: str) -> str:
+        return format(str(self.value), spec)
+
     COMPLETE = "Complete"
     INCOMPLETE_BEGINNING = "IncompleteBeginning"
     INCOMPLETE_END = "IncompleteEnd"
