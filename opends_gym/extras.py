@@ -15,7 +15,7 @@ from .errors import UserError
 # extra -> (what needs it, the modules it provides): the extras of pyproject.toml
 EXTRAS: dict[str, tuple[str, tuple[str, ...]]] = {
     "rl": ("stable-baselines3 policies and training", ("stable_baselines3", "torch", "tqdm", "rich")),
-    "bullet": ("the pybullet physics backend", ("pybullet", "pybullet_utils")),
+    "bullet": ('the pybullet physics backend (physics="bullet")', ("pybullet", "pybullet_utils")),
     "report": ("the PDF report", ("matplotlib",)),
     "can": ("the CAN bus input", ("can", "cantools")),
     "video": ("video recording (Gymnasium's RecordVideo)", ("moviepy",)),

@@ -206,7 +206,7 @@ def make_backend(kind: str, task: DrivingTask, **options: Any) -> VehicleBackend
     if kind == "bullet":
         from ..extras import require
 
-        require("bullet", "pybullet", 'physics="bullet"')
+        require("bullet", "pybullet")  # physics="bullet" without pybullet: one line naming the extra
         from .physics_bullet import BulletVehicle
 
         return BulletVehicle(spec, task, **options)
