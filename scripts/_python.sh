@@ -14,8 +14,8 @@ find_python() {
     [ -n "$cand" ] && cands+=("$cand")
   fi
   for cand in "${cands[@]}"; do
-    if command -v "$cand" >/dev/null 2>&1 \
-      && "$cand" -c "import sys, venv; sys.exit(0 if '%d.%d' % sys.version_info[:2] == '$want' else 1)" >/dev/null 2>&1; then
+    command -v "$cand" >/dev/null 2>&1 || continue
+    if [ "$("$cand" -c 'import sys, venv; print("%d.%d" % sys.version_info[:2])' 2>/dev/null)" = "$want" ]; then
       command -v "$cand"; return 0
     fi
   done
