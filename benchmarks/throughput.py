@@ -421,9 +421,16 @@ def main() -> None:
     async_max = args.async_max or (4 if quick else 64)
     sizes = (1, 4, 16, 64) if quick else SCALING_SIZES
     native_envs = 1024 if quick else NATIVE_ENVS
+    from opends_gym.errors import UserError
+    from opends_gym.extras import require
+
+    try:
+        require("bench", "highway_env", "the highway-env comparison")  # importing it registers the highway ids
+        require("bullet", "pybullet", "the bullet rows")
+    except UserError as e:
+        raise SystemExit(f"throughput.py: {e}") from None
     t_start = time.perf_counter()
     rows: list[Row] = []
-    import highway_env  # noqa: F401  (registers highway ids)
 
     for case in HIGHWAY:
         rows.append(measure_single(case, None, seconds * (1.5 if quick else 3.0)))

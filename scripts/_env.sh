@@ -1,27 +1,41 @@
 #!/usr/bin/env bash
-# Shared by run.sh and test.sh: make .venv (Python 3.11) and install the project into it.
+# Shared by run.sh and test.sh: make .venv and install the project into it.
 # Re-installs only when pyproject.toml, constraints.txt or the requested extras change.
+# The interpreter: $PYTHON if set, else any supported CPython (3.10 to 3.13) found on this
+# machine, 3.11 first: the `bullet` extra (pybullet) has Linux wheels only up to 3.11, so the
+# full test suite, which needs it, runs there; on 3.12+ pip compiles pybullet from source.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 VENV="${OPENDS_GYM_VENV:-$ROOT/.venv}"
 EXTRAS="${1:-}"
+source "$ROOT/scripts/_python.sh"
 
-find_python() {
-  for cand in "${PYTHON:-}" python3.11 python3 python; do
-    [ -n "$cand" ] || continue
-    if command -v "$cand" >/dev/null 2>&1 && "$cand" -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else 1)' 2>/dev/null; then
-      echo "$cand"; return 0
+pick_python() {
+  local v
+  if [ -n "${PYTHON:-}" ]; then
+    if "$PYTHON" -c 'import sys; sys.exit(0 if (3, 10) <= sys.version_info[:2] <= (3, 13) else 1)' 2>/dev/null; then
+      echo "$PYTHON"; return 0
     fi
+    echo "PYTHON=$PYTHON is not a CPython 3.10 to 3.13" >&2
+    return 1
+  fi
+  for v in $SUPPORTED_PYTHONS; do
+    find_python "$v" && return 0
   done
   return 1
 }
 
 if [ ! -x "$VENV/bin/python" ]; then
-  if ! PY="$(find_python)"; then
-    echo "opends_gym needs Python 3.11 (pybullet ships Linux wheels only up to 3.11;" >&2
-    echo "on newer Pythons pip compiles it for several minutes). Set PYTHON=/path/to/python3.11." >&2
+  if ! PY="$(pick_python)"; then
+    echo "opends_gym needs CPython 3.10 to 3.13 (3.11 for the full test suite: pybullet has Linux" >&2
+    echo "wheels only up to 3.11). Set PYTHON=/path/to/python3.11." >&2
     exit 1
   fi
+  case ",$EXTRAS," in
+    *,bullet,*)
+      "$PY" -c 'import sys; sys.exit(0 if sys.version_info[:2] <= (3, 11) else 1)' \
+        || echo "note: $PY is newer than 3.11: pip compiles pybullet (the bullet extra) from source, several minutes" >&2 ;;
+  esac
   "$PY" -m venv "$VENV"
 fi
 

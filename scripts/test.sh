@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# The whole test suite: set up .venv with every extra, lint, type-check, run pytest.
+# The whole test suite: set up .venv (Python 3.11 where there is one) with the extras the tests
+# use, lint, type-check, check the core package on a second Python (scripts/core_check.sh),
+# run pytest.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-source "$ROOT/scripts/_env.sh" "dev,rl,cluster,docs"
+source "$ROOT/scripts/_env.sh" "dev,rl,cluster,bullet,report,can,docs"
 cd "$ROOT"
 # The drive-window test (tests/test_human_window.py) runs a real window under Xvfb.
 # Install it once if missing (root, or sudo without a password); quiet, never fatal here.
@@ -18,6 +20,7 @@ echo "== ruff"; ruff check .
 ruff format --check .
 echo "== mypy"; mypy
 echo "== docs"; NO_MKDOCS_2_WARNING=1 mkdocs build --strict --quiet -d "$(mktemp -d)"
+"$ROOT/scripts/core_check.sh"
 echo "== pytest"
 set +e
 python -m pytest -n "${PYTEST_WORKERS:-auto}" "$@"

@@ -16,6 +16,7 @@ LAYERS = [
     "errors",
     "hints",
     "extras",
+    "resources",
     "jit",
     "task",
     "sim",

@@ -20,7 +20,7 @@ MISTAKES = [
     (["run", "--agent", "rnadom"], ["did you mean random?"]),
     (["run", "--agent", "distracted:hevy"], ["unknown distraction level 'hevy'"]),
     (["run", "--agent", "constant:a,b"], ["--agent constant:a,b"]),
-    (["run", "--agent", "ppo:no/such/model.zip"], ["no saved policy at no/such/model.zip"]),
+    (["run", "--agent", "ppo:no/such/model.zip"], ["no saved policy at 'no/such/model.zip'"]),
     (["run", "--agent", "ppo"], ["give the saved model: ppo:PATH"]),
     (["run", "--agent", f"ppo:{ROOT / 'README.md'}"], ["README.md", "zip"]),
     (["run", "--env-arg", "polcy_hz=20"], ["polcy_hz", "did you mean policy_hz?"]),

@@ -45,8 +45,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--physics", choices=("fast", "bullet"), default="fast")
     p.add_argument("--size", default="1280x720", metavar="WxH", help="window size in pixels")
-    p.add_argument("--calibration", metavar="FILE", help="wheel/pedal calibration (YAML or JSON; see configs/wheel_calibration.yaml)")
-    p.add_argument("--dbc", metavar="FILE", help="DBC file for --input can-bus (default: configs/can_example.dbc)")
+    p.add_argument("--calibration", metavar="FILE", help="wheel/pedal calibration (YAML/JSON, or wheel_calibration: the shipped example)")
+    p.add_argument("--dbc", metavar="FILE", help="DBC file for --input can-bus (default: the shipped can_example.dbc)")
     server = p.add_mutually_exclusive_group()
     server.add_argument(
         "--settings-server", dest="settings_server", action="store_true", default=None, help="start the settings-controller server"

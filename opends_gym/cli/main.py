@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 from ..errors import UserError
+from ..extras import extra_of_module
 from ..hints import closest, did_you_mean
 
 # (name, module, help) — modules are imported only when their command runs
@@ -28,21 +29,8 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("replay", "opends_gym.cli.replay", "re-simulate a recorded drive and check it is exact"),
     ("analyze", "opends_gym.cli.analyze", "drive measures, CSV and PDF report of a recording or OpenDS carData.txt"),
     ("conform", "opends_gym.cli.conform", "replay a real OpenDS carData.txt open loop through the vehicle model and compare"),
-    ("train", "opends_gym.cli.train", "train a baseline policy from a config in configs/"),
+    ("train", "opends_gym.cli.train", "train a baseline policy from a YAML config or a bundled one by name"),
 )
-
-# top-level module of an optional dependency -> the extra that installs it (pyproject.toml)
-EXTRAS: dict[str, str] = {
-    "stable_baselines3": "rl",
-    "torch": "rl",
-    "tqdm": "rl",
-    "rich": "rl",
-    "ray": "cluster",
-    "tensorboardX": "cluster",
-    "pybullet": "bullet",
-    "highway_env": "bench",
-    "moviepy": "video",
-}
 
 LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL")
 _INVALID_CHOICE = re.compile(r"invalid choice: '?([^'\s]*)'? \(choose from (.*)\)$")
@@ -88,7 +76,7 @@ def user_message(e: BaseException) -> str | None:
 
     if isinstance(e, ModuleNotFoundError):
         top = (e.name or "").split(".")[0]
-        extra = EXTRAS.get(top)
+        extra = extra_of_module(top)
         if extra is None:
             return f"the Python module '{top}' is not installed (pip install {top})"
         return f"this needs '{top}', which is not installed: pip install \"opends-gym[{extra}]\""

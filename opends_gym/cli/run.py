@@ -31,7 +31,10 @@ PER_ITEM = re.compile(r"^sign\d+_|\[")  # per-sign / per-track keys stay in the 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("target", nargs="?", default="OpenDS/LaneChangeTest-v0", help="env id or task (default: the lane change test)")
     p.add_argument(
-        "--agent", default="rule", help="rule (default) | distracted[:LEVEL] | ppo:PATH | sac:PATH | random | constant[:STEER,PEDAL]"
+        "--agent",
+        default="rule",
+        help="rule (default) | distracted[:LEVEL] | ppo:NAME|PATH | sac:NAME|PATH (NAME: opends-gym list --policies)"
+        " | random | constant[:STEER,PEDAL]",
     )
     p.add_argument("--episodes", type=int, default=1)
     p.add_argument("--seed", type=int, default=0)

@@ -1,4 +1,9 @@
-"""`opends-gym train CONFIG.yaml`: train a baseline policy from a config in `configs/`."""
+"""`opends-gym train CONFIG`: train a baseline policy from a YAML config or a bundled one by name.
+
+A bundled config (`opends-gym train lct_ppo`; `opends-gym list --configs`) writes its run to
+`runs/<name>` under the current folder unless `--output` says otherwise: the package's own
+folder is no place for a run.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +16,7 @@ from .run import _parse_value
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("config", help="a training config (YAML), e.g. configs/lct_ppo.yaml")
+    p.add_argument("config", help="a training config: a YAML file or a bundled config by name (lct_ppo, ...)")
     p.add_argument("--total-steps", type=int, default=None, help="override total_steps")
     p.add_argument("--output", default=None, help="run folder (default: the config's `output`)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a top-level config key (repeatable)")
@@ -20,6 +25,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..resources import ResourceNotFound, resolve_config
     from ..training import load_train_config
 
     overrides = {}
@@ -31,11 +37,13 @@ def run(args: argparse.Namespace) -> int:
     if args.no_progress:
         overrides["progress_bar"] = False
     try:
-        cfg, base = load_train_config(args.config, overrides)
-    except (OSError, ValueError) as e:
+        path = resolve_config(args.config)
+        cfg, base = load_train_config(path, overrides)
+    except (ResourceNotFound, OSError, ValueError) as e:
         print(f"opends-gym train: {e}", file=sys.stderr)
         return 2
-    out = Path(args.output).resolve() if args.output else None
+    by_name = not Path(args.config).is_file()
+    out = Path(args.output).resolve() if args.output else (Path.cwd() / "runs" / cfg.name if by_name else None)
     if cfg.framework == "rllib":
         from ..training.rllib import RllibConfigError
         from ..training.rllib import train as train_rllib

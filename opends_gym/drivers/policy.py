@@ -1,7 +1,8 @@
 """A driver that runs a saved stable-baselines3 policy.
 
 Why: trained baselines are compared with the rule and distracted drivers under the same
-metrics, through the same `--agent` interface (`ppo:PATH`, `sac:PATH`). Observation
+metrics, through the same `--agent` interface (`ppo:PATH`, `sac:PATH`, or a bundled policy by name:
+`ppo:lct` is `opends_gym.resources`' `lct_ppo`). Observation
 normalisation statistics saved beside the model (`<model>.vecnormalize.pkl`, written by
 `opends-gym train`) are applied the same way as during training.
 
@@ -22,6 +23,9 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+
+from ..extras import require
+from ..resources import resolve_policy
 
 ALGORITHMS = ("ppo", "sac", "a2c", "td3")
 
@@ -64,10 +68,8 @@ class PolicyDriver:
         if algorithm not in ALGORITHMS:
             raise ValueError(f"unknown algorithm {algorithm!r}; choose from {', '.join(ALGORITHMS)}")
         self.name = f"{algorithm}:{path}"
-        self.path = Path(path)
-        if not self.path.exists() and not self.path.with_suffix(".zip").exists():
-            raise FileNotFoundError(f"no saved policy at {self.path}")
-        import stable_baselines3 as sb3
+        self.path = resolve_policy(algorithm, path)
+        sb3 = require("rl", "stable_baselines3", f"the {algorithm.upper()} agent")
 
         cls = getattr(sb3, algorithm.upper())
         self.model = cls.load(str(self.path), device="cpu")
@@ -91,8 +93,7 @@ class PolicyDriver:
                 f"the env gives {env.observation_space.shape}"
             )
         if not self.deterministic:
-            import torch
-
+            torch = require("rl", "torch", f"the {self.name} agent")
             self._rng_state = torch.Generator().manual_seed(int(seed)).get_state()
 
     def act(self, obs: Any, info: dict[str, Any]) -> Any:

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import StrEnum
+from enum import Enum
 
 import numpy as np
 
@@ -42,8 +42,15 @@ CELL_M = 20.0  # bucket size for finding recorded positions near a cross line (s
 F32 = np.float32
 
 
-class Completeness(StrEnum):
-    """`IdealLine.IdealLineStatus`."""
+class Completeness(str, Enum):
+    """`IdealLine.IdealLineStatus`; str() and format() give the value (as
+    StrEnum would, which Python 3.10 lacks)."""
+
+    def __str__(self) -> str:
+        return str(self.value)
+
+    def __format__(self, spec: str) -> str:
+        return format(str(self.value), spec)
 
     COMPLETE = "Complete"
     INCOMPLETE_BEGINNING = "IncompleteBeginning"

@@ -134,7 +134,7 @@ def _epoch_ms(iso: str) -> int:
     import datetime as _dt
 
     try:
-        d = _dt.datetime.strptime(iso, "%Y-%m-%dT%H:%M:%S.%fZ").replace(tzinfo=_dt.UTC)
+        d = _dt.datetime.strptime(iso, "%Y-%m-%dT%H:%M:%S.%fZ").replace(tzinfo=_dt.timezone.utc)
     except ValueError:
         return 0
     return int(round(d.timestamp() * 1000))

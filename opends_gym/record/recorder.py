@@ -189,7 +189,7 @@ class DriveRecorder:
         meta: dict[str, Any] = {
             "format": FORMAT,
             "software_version": software_version(),
-            "created_utc": _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ"),
+            "created_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ"),
             **task_identity(w),
             "seed": self.seed,
             "world_config": asdict(w.config),

@@ -18,7 +18,12 @@ import math
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+from ..extras import MissingExtra
+
+try:
+    import matplotlib
+except ImportError as e:  # the `report` extra: one line naming the pip command
+    raise MissingExtra("report", "matplotlib", "the analyzer's PDF report") from e
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt

@@ -33,6 +33,7 @@ from typing import Any
 
 import gymnasium as gym
 
+from ..extras import require
 from ..jsonsafe import json_safe
 from .config import TrainConfig
 
@@ -169,6 +170,7 @@ def train(cfg: TrainConfig, base_dir: Path, out_dir: Path | None = None) -> dict
     s = RllibSettings.from_block(dict(cfg.rllib))
     if cfg.algorithm != "ppo":
         raise RllibConfigError(f"framework rllib supports algorithm 'ppo' here, not {cfg.algorithm!r}")
+    require("cluster", "ray", "training with framework: rllib")
     out = out_dir or cfg.output_dir(base_dir)
     out.mkdir(parents=True, exist_ok=True)
     iterations = s.iterations_for(cfg.total_steps)

@@ -22,6 +22,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from ..extras import require
 from ..jsonsafe import json_safe
 from .config import TrainConfig
 
@@ -32,7 +33,7 @@ def make_env(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env[Any, Any]:
 
 
 def _algorithm(name: str) -> Any:
-    import stable_baselines3 as sb3
+    sb3 = require("rl", "stable_baselines3", "opends-gym train")
 
     return getattr(sb3, name.upper())
 
@@ -56,6 +57,7 @@ def train(cfg: TrainConfig, base_dir: Path, out_dir: Path | None = None, resume:
 
     `resume`: a finished run folder (its `model.zip` and normaliser) to continue training
     for another `total_steps`; the curve's step counts continue from where it stopped."""
+    require("rl", "stable_baselines3", "opends-gym train")
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
     from stable_baselines3.common.vec_env import VecNormalize
 

@@ -64,7 +64,7 @@ class AxisCalibration:
 
 @dataclass(frozen=True)
 class Calibration:
-    """The axes of one rig (see `configs/wheel_calibration.yaml`)."""
+    """The axes of one rig (see the shipped example, `--calibration wheel_calibration`)."""
 
     steering: AxisCalibration = field(default_factory=AxisCalibration)
     combined_pedals: AxisCalibration = field(default_factory=AxisCalibration)
@@ -99,8 +99,10 @@ def calibration_from_dict(data: dict[str, Any], source: str = "<calibration>") -
 
 
 def load_calibration(path: str | Path) -> Calibration:
-    """Read a calibration from YAML (`.yaml`/`.yml`) or JSON."""
-    p = Path(path)
+    """Read a calibration from YAML (`.yaml`/`.yml`) or JSON; `wheel_calibration` names the shipped example."""
+    from ...resources import resolve_calibration
+
+    p = resolve_calibration(path)
     text = p.read_text(encoding="utf-8")
     if p.suffix.lower() in (".yaml", ".yml"):
         import yaml

@@ -3,7 +3,8 @@
 Why: a cockpit or instrumented car often speaks plain CAN, not OpenDS's XML gateway.
 python-can opens any bus (SocketCAN, PCAN, Vector, `virtual` within one process,
 `udp_multicast` across processes); cantools decodes the frames by the lab's DBC. The
-signal names come from `CanBusMapping` (defaults match `configs/can_example.dbc`).
+signal names come from `CanBusMapping` (defaults match the shipped example DBC,
+`opends_gym.resources.example_dbc()`, the repository's `configs/can_example.dbc`).
 Frames are received on a background thread and queued; `poll` applies them once per
 physics step. Feedback frames (speed, rpm, heading, gear; position) are encoded by the
 same DBC and sent at the update rate. Unknown ids are ignored; undecodable, non-finite or
@@ -21,10 +22,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
 
+from ...extras import require
+from ...resources import example_dbc
 from .base import InputFrame, InputStatus
 
 log = logging.getLogger(__name__)
-DEFAULT_DBC = Path(__file__).resolve().parents[3] / "configs" / "can_example.dbc"
+DEFAULT_DBC = example_dbc()
 TURN_SIGNALS = {0: "off", 1: "left", 2: "right", 3: "both"}
 
 
@@ -65,8 +68,7 @@ class CanBusSource:
         bus_kwargs: dict[str, Any] | None = None,
         start: bool = True,
     ) -> None:
-        import cantools
-
+        cantools = require("can", "cantools", "the CAN bus input")
         self.db: Any = cast(Any, cantools.database.load_file(str(dbc)))
         self.interface, self.channel = interface, channel
         self.bus_kwargs = dict(bus_kwargs or {})
@@ -91,7 +93,7 @@ class CanBusSource:
 
     # ------------------------------------------------------------------ receive thread
     def _open(self) -> Any:
-        import can
+        can = require("can", "can", "the CAN bus input")
 
         return can.Bus(interface=self.interface, channel=self.channel, **self.bus_kwargs)
 

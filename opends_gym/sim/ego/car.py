@@ -222,6 +222,9 @@ def make_backend(kind: str, task: DrivingTask, **options: Any) -> VehicleBackend
     if kind == "fast":
         return FastVehicle(spec, options.get("ground_height"))
     if kind == "bullet":
+        from ...extras import require
+
+        require("bullet", "pybullet")  # physics="bullet" without pybullet: one line naming the extra
         from ..bullet.vehicle import BulletVehicle
 
         return BulletVehicle(spec, task, **options)
