@@ -271,7 +271,7 @@ def locate_many(guide: dict[str, Any], x: np.ndarray, z: np.ndarray) -> tuple[np
         sign = float(guide["sign"])
         lat = -sign * x
         s = -sign * (z - sz)
-    elif kind == "ideal_track" and guide.get("polyline"):
+    elif kind in ("ideal_track", "route") and guide.get("polyline"):
         poly = Polyline([tuple(p) for p in guide["polyline"]])
         proj = [poly.project(float(a), float(b)) for a, b in zip(x, z)]
         s = np.asarray([q.s_m for q in proj])
@@ -284,7 +284,7 @@ def locate_many(guide: dict[str, Any], x: np.ndarray, z: np.ndarray) -> tuple[np
     dist = np.abs(lat[:, None] - lanes[None, :])
     nearest = np.argmin(dist, axis=1)
     lane = np.where(dist[np.arange(len(lat)), nearest] <= width / 2.0, nearest, -1).astype(float)
-    if kind != "lanes":
+    if kind not in ("lanes", "route"):
         lane = np.where(np.abs(lat) < width / 2.0, 0.0, -1.0)
     off = lat - lanes[nearest]
     return s, lat, lane, off

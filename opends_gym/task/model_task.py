@@ -14,7 +14,7 @@ from .model_scenario import Scenario
 from .model_scene import Model, Point, ResetPoint, Scene
 from .model_settings import Settings
 from .model_taskxml import TaskSpec
-from .values import IDENTITY, Rotation, Vec3
+from .values import IDENTITY, Rotation, Vec3, car_rotation
 
 
 @dataclass(frozen=True)
@@ -55,25 +55,27 @@ class DrivingTask:
     @property
     def start_pose(self) -> Pose:
         """Where the ego car starts: the pose of its scene model (OpenDS's
-        `ScenarioLoader.processSceneCar`), or, with the autopilot enabled, its start
+        `ScenarioLoader.processSceneCar`) with the heading OpenDS's `Car.setRotation` gives
+        it (the file's angle negated, see `values.car_rotation`), or, with the autopilot enabled, its start
         waypoint facing the next one (the `FollowBox` OpenDS's `SteeringCar` builds with
         setToStartWayPoint = autopilot on moves the car there, `FollowBox.getHeadingAtWP`)."""
         m = self.car_model
-        pose = Pose(m.translation_m or (0.0, 0.0, 0.0), m.rotation)
+        pose = Pose(m.translation_m or (0.0, 0.0, 0.0), car_rotation(m.rotation))
         return _autopilot_start(self, pose) or pose
 
     def reset_poses(self) -> dict[str, Pose]:
-        """Reset points of the car (scenario refs and inline ones) by id, then the scene's."""
+        """Reset points of the car (scenario refs and inline ones) by id, then the scene's,
+        with the heading `Car.setRotation` gives the car there (see `start_pose`)."""
         out: dict[str, Pose] = {}
         for rp in self.scenario.driver.car.reset_points:
             if rp.ref:
                 target: ResetPoint | None = self.scene.reset_point(rp.ref)
                 if target is not None:
-                    out[rp.ref] = Pose(target.translation_m, target.rotation)
+                    out[rp.ref] = Pose(target.translation_m, car_rotation(target.rotation))
             elif rp.translation_m is not None:
-                out[rp.id or f"reset{len(out)}"] = Pose(rp.translation_m, rp.rotation or IDENTITY)
+                out[rp.id or f"reset{len(out)}"] = Pose(rp.translation_m, car_rotation(rp.rotation or IDENTITY))
         for r in self.scene.reset_points:
-            out.setdefault(r.id, Pose(r.translation_m, r.rotation))
+            out.setdefault(r.id, Pose(r.translation_m, car_rotation(r.rotation)))
         return out
 
     @property
