@@ -130,31 +130,46 @@ def curve_speed(guide: Any, s_m: float, speed: float) -> float:
     return best
 
 
+CROSSING_HORIZON_S = 2.5  # a pedestrian who will be in the lane this soon is in the way
+CROSSING_MARGIN_M = 1.0
+
+
 def route_lead(world: Any, guide: Any, s_m: float, lane_lateral_m: float) -> LeadCar | None:
     """The nearest traffic object ahead along the route in the ego's lane (its centre within
     half a lane of the lane centre) that is not coming towards it: an oncoming car in the
-    other lane, or one met in a curve, is no lead."""
+    other lane, or one met in a curve, is no lead. A pedestrian counts while it is in the
+    lane or will walk into it (with a metre to spare) within `CROSSING_HORIZON_S`."""
     tr = world.traffic
     if tr is None or len(tr.ids) == 0:
         return None
     s = world.ego.state
     fx, fz = -math.sin(s.yaw), -math.cos(s.yaw)
     half = guide.lane_width_m / 2.0
+    n_cars = len(world.task.scenario.vehicles)  # (traffic rows: vehicles, pedestrians, ODvehicles)
+    n_peds = len(world.task.scenario.pedestrians)
     best: tuple[float, int] | None = None
     for i in range(len(tr.ids)):
         if not tr.enabled[i]:
             continue
         x, z = float(tr.positions[i, 0]), float(tr.positions[i, 2])
         dx, dz = x - s.x, z - s.z
-        if dx * dx + dz * dz > LEAD_RANGE_M * LEAD_RANGE_M or dx * fx + dz * fz < -5.0:
-            continue
+        if dx * dx + dz * dz > LEAD_RANGE_M * LEAD_RANGE_M or dx * fx + dz * fz < -5.0 or abs(float(tr.positions[i, 1]) - s.y) > 5.0:
+            continue  # far, behind, or parked out of reach below or above the road
         q = guide.polyline.project(x, z)
         ahead = q.s_m - s_m
-        if not (0.0 < ahead < LEAD_RANGE_M) or abs(q.offset_m - lane_lateral_m) > half:
+        if not (0.0 < ahead < LEAD_RANGE_M):
             continue
         heading = guide.heading_at(q.s_m)
-        if float(tr.speed[i]) > 0.5 and math.cos(float(tr.yaw[i]) - heading) < 0.0:
-            continue  # coming towards the ego
+        rel = float(tr.yaw[i]) - heading
+        speed = float(tr.speed[i])
+        off = q.offset_m - lane_lateral_m
+        if n_cars <= i < n_cars + n_peds:  # a pedestrian: now or soon in the lane
+            later = off + speed * math.sin(rel) * CROSSING_HORIZON_S  # (its velocity across the route: v sin(yaw - heading), + left)
+            lo, hi = min(off, later), max(off, later)
+            if hi < -half - CROSSING_MARGIN_M or lo > half + CROSSING_MARGIN_M:
+                continue
+        elif abs(off) > half or (speed > 0.5 and math.cos(rel) < 0.0):
+            continue  # another lane, or coming towards the ego
         if best is None or ahead < best[0]:
             best = (ahead, i)
     if best is None:

@@ -1,0 +1,130 @@
+"""Every corpus task runs like a driver would drive it: it loads, the rule driver drives it
+for 60 s of simulated time without a collision, a head-on standstill or leaving its road,
+and lanes are known wherever the task defines them (issue 17, item 3)."""
+
+from __future__ import annotations
+
+import math
+import shutil
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import opends_gym  # noqa: F401  (registers the env ids)
+from opends_gym.drivers.rule import RuleDriver
+from opends_gym.task import load_task
+from tests.conftest import CORPUS, DRIVES, corpus_task_dirs
+
+TASKS = [*corpus_task_dirs(), DRIVES / "Countryside"]
+# the lanes each task defines: X-band road/lane (ReactionTest), Gen B road segments
+# (MotorwayTask, TVPT, Idealtest2), OpenDRIVE (init_drive); the others have none
+LANES_DEFINED = {"ReactionTest", "MotorwayTask", "ThreeVehiclePlatooningTask", "Idealtest2", "init_drive"}
+
+
+def _drive(task: Path, seconds: float = 60.0) -> tuple[dict[str, float], list[str]]:
+    """Drive `task` with the rule driver; the episode metrics and what went wrong."""
+    env = gym.make("OpenDS/DrivingTask-v0", task=str(task), policy_hz=4.0, max_episode_s=seconds, terminate_on_collision=False)
+    base = env.unwrapped
+    driver = RuleDriver()
+    obs, info = env.reset(seed=0)
+    driver.reset(env, 0)
+    problems: list[str] = []
+    while True:
+        obs, _, terminated, truncated, info = env.step(driver.act(obs, info))
+        w = base.world
+        s = w.ego.state
+        if w.traffic is not None and abs(s.u) < 0.3 and w.t_s > 5.0:  # stopped: not facing an oncoming car
+            fx, fz = -math.sin(s.yaw), -math.cos(s.yaw)
+            for i in range(len(w.traffic.ids)):
+                dx, dz = float(w.traffic.positions[i, 0]) - s.x, float(w.traffic.positions[i, 2]) - s.z
+                ahead, across = dx * fx + dz * fz, abs(-dx * fz + dz * fx)
+                facing = math.cos(float(w.traffic.yaw[i]) - s.yaw) < -0.5
+                if w.traffic.enabled[i] and 0.0 < ahead < 15.0 and across < 2.5 and facing:
+                    problems.append(f"head-on standstill before {w.traffic.ids[i]} at {w.t_s:.1f} s")
+        if terminated or truncated:
+            break
+    metrics = dict(info["episode_metrics"])
+    env.close()
+    return metrics, problems
+
+
+@pytest.mark.parametrize("task", TASKS, ids=lambda p: p.name)
+def test_rule_driver_drives_every_task_for_a_minute(task: Path) -> None:
+    m, problems = _drive(task)
+    assert m["duration_s"] == pytest.approx(60.0, abs=0.5)
+    assert m["collisions"] == 0, f"{task.name}: {m['collisions']} collision(s)"
+    assert problems == []
+    assert m["off_road_s"] == 0.0, f"{task.name} left its road for {m['off_road_s']} s"
+    assert m["lanes_known"] == float(task.name in LANES_DEFINED)
+    assert m["distance_m"] > 100.0  # it drove (engine started, not stuck)
+    assert m["mean_abs_lateral_offset_m"] < 1.0
+
+
+def _with_engine_off(tmp_path: Path) -> Path:
+    dst = tmp_path / "MotorwayTask"
+    shutil.copytree(CORPUS / "opends-cts" / "MotorwayTask", dst)
+    f = dst / "scenario.xml"
+    f.write_text(f.read_text().replace("<engineOn>true</engineOn>", "<engineOn>false</engineOn>", 1))
+    return dst
+
+
+def test_rule_driver_turns_the_key_when_the_engine_is_off(tmp_path: Path) -> None:
+    task = _with_engine_off(tmp_path)
+    assert load_task(task).scenario.driver.car.engine.engine_on is False
+    env = gym.make("OpenDS/DrivingTask-v0", task=str(task), policy_hz=4.0, max_episode_s=10.0)
+    obs, info = env.reset(seed=0)
+    idle = np.array([0.0, 1.0], dtype=np.float32)
+    for _ in range(8):  # full throttle, engine off: the car stays put (OpenDS: no drive force)
+        obs, _, _, _, info = env.step(idle)
+    assert info["speed_kmh"] < 0.5
+    driver = RuleDriver()
+    driver.reset(env, 0)
+    for _ in range(16):
+        obs, _, _, _, info = env.step(driver.act(obs, info))
+    assert env.unwrapped.world.ego.powertrain.state.engine_on and info["speed_kmh"] > 10.0
+    env.close()
+
+
+def test_motorway_ego_starts_at_the_scene_pose_and_joins_the_right_lane() -> None:
+    """OpenDS puts the MotorwayTask car at its scene pose (a slip road of the 3-D model, where
+    the task paints its white start line) facing -Z; the guide joins it to the right-hand
+    motorway lane (x = -1.88, traffic towards +Z) and knows both lanes."""
+    env = gym.make("OpenDS/DrivingTask-v0", task=str(CORPUS / "opends-cts" / "MotorwayTask"))
+    _, info = env.reset(seed=0)
+    base = env.unwrapped
+    s = base.world.ego.state
+    assert (s.x, s.z) == pytest.approx((-91.2, -1218.0)) and s.yaw == pytest.approx(0.0)
+    g = base.guide
+    assert g.source == "segments" and g.lanes_known and info["lanes_known"]
+    assert g.lane_laterals_m == pytest.approx((0.0, 3.79), abs=0.01)
+    assert g.locate(-1.88, -1000.0).lateral_m == pytest.approx(0.0, abs=1e-6)
+    assert g.locate(1.91, -1000.0).lane_index == 1  # the left lane, towards +Z
+    assert abs(g.locate(-1.88, -1000.0).heading_rad) == pytest.approx(math.pi)  # facing +Z
+    assert g.locate(s.x, s.z).lateral_m == pytest.approx(0.0, abs=1e-6)  # on its road at the start
+    env.close()
+
+
+def test_countryside_ego_starts_heading_as_the_real_drive_log() -> None:
+    """OpenDS's Car.setRotation negates the scene's heading: the Countryside scene says +132
+    deg, and the real 2019 drive logs start at the quaternion of -132 deg."""
+    task = load_task(DRIVES / "Countryside")
+    log = (DRIVES / "drives" / "2019_01_04-11_26_07" / "carData.txt").read_text().splitlines()
+    row = next(line for line in log if line[:1].isdigit()).split(":")
+    qy, qw = float(row[5]), float(row[7])
+    assert math.degrees(task.start_pose.yaw_rad) == pytest.approx(-132.0, abs=1e-6)
+    assert math.degrees(2.0 * math.atan2(qy, qw)) % 360.0 == pytest.approx(math.degrees(task.start_pose.yaw_rad) % 360.0, abs=0.1)
+
+
+def test_opendrive_task_knows_its_curved_lanes() -> None:
+    env = gym.make("OpenDS/DrivingTask-v0", task=str(CORPUS / "opends2023-annegretj" / "init_drive"))
+    _, info = env.reset(seed=0)
+    g = env.unwrapped.guide
+    assert g.source == "opendrive" and info["lanes_known"] and len(g.lane_laterals_m) >= 2
+    od = env.unwrapped.world.road.opendrive
+    for s_m in (100.0, 400.0, 900.0):  # the start lane's centre along the road
+        x, z, _ = od.lane_center("s000", -1, s_m)
+        p = g.locate(x, z)
+        assert abs(p.lateral_m) < 0.2 and p.lane_index == g.lane_laterals_m.index(0.0)
+    env.close()
