@@ -128,3 +128,67 @@ def test_opendrive_task_knows_its_curved_lanes() -> None:
         p = g.locate(x, z)
         assert abs(p.lateral_m) < 0.2 and p.lane_index == g.lane_laterals_m.index(0.0)
     env.close()
+
+
+# ---------------------------------------------------------------------------- Gen A 4.x autopilot
+
+
+def _autopilot_task(tmp_path: Path, start: str = "ap_3") -> Path:
+    """The Countryside drive task with a Gen A 4.x driver autopilot: its own inline
+    <wayPoints> (car1a's path, renamed) and a <startWayPoint> naming one of them, the form
+    OpenDS's ScenarioLoader.getAutoPilotFollowBoxSettings reads."""
+    dst = tmp_path / "Countryside"
+    shutil.copytree(DRIVES / "Countryside", dst)
+    f = dst / "scenario.xml"
+    text = f.read_text()
+    a = text.index('<vehicle id="car1a">')
+    points = text[text.index("<wayPoints>", a) : text.index("</wayPoints>", a) + len("</wayPoints>")]
+    points = points.replace('id="WayPoint_', 'id="ap_')
+    block = (
+        "<autoPilot><enabled>true</enabled><curveTension>0.05</curveTension><pathIsCycle>false</pathIsCycle>"
+        f"<pathIsVisible>false</pathIsVisible>{points}<startWayPoint>{start}</startWayPoint></autoPilot>"
+    )
+    end = text.index("</car>")
+    f.write_text(text[:end] + block + text[end:])
+    return dst
+
+
+def test_autopilot_inline_waypoints_load_and_start_the_ego(tmp_path: Path) -> None:
+    task = load_task(_autopilot_task(tmp_path))
+    ap = task.scenario.driver.car.auto_pilot
+    assert ap is not None and ap.enabled and ap.start_way_point == "ap_3"
+    assert [w.id for w in ap.way_points][:3] == ["ap_1", "ap_2", "ap_3"] and len(ap.way_points) == 20
+    assert ap.way_points[0].speed_mps == pytest.approx(70.0 / 3.6) and ap.curve_tension == 0.05
+    p3, p4 = ap.way_points[2].translation_m, ap.way_points[3].translation_m
+    assert p3 is not None and p4 is not None
+    # OpenDS's FollowBox puts the car on its start waypoint, heading for the next one
+    assert task.start_pose.position_m == p3
+    dx, dz = p4[0] - p3[0], p4[2] - p3[2]
+    assert task.start_pose.yaw_rad == pytest.approx(math.atan2(-dx, -dz))
+
+
+def test_autopilot_start_waypoint_must_be_one_of_its_own(tmp_path: Path) -> None:
+    from opends_gym.task.errors import TaskError
+
+    with pytest.raises(TaskError, match=r"scenario\.xml:\d+ <startWayPoint>: .*'WayPoint_3'"):
+        load_task(_autopilot_task(tmp_path, start="WayPoint_3"))
+
+
+def test_rule_driver_follows_the_autopilot_route(tmp_path: Path) -> None:
+    env = gym.make("OpenDS/DrivingTask-v0", task=str(_autopilot_task(tmp_path)), policy_hz=4.0, max_episode_s=15.0)
+    g = env.unwrapped.guide
+    assert g.source == "autopilot" and not g.lanes_known
+    ap = env.unwrapped.task.scenario.driver.car.auto_pilot
+    for w in ap.way_points[3:8]:  # every waypoint after the start lies on the route
+        assert abs(g.locate(w.translation_m[0], w.translation_m[2]).lateral_m) < 0.05
+    driver = RuleDriver()
+    obs, info = env.reset(seed=0)
+    driver.reset(env, 0)
+    while True:
+        obs, _, terminated, truncated, info = env.step(driver.act(obs, info))
+        if terminated or truncated:
+            break
+    m = info["episode_metrics"]
+    assert m["collisions"] == 0 and m["off_road_s"] == 0.0 and m["distance_m"] > 100.0
+    assert m["mean_abs_lateral_offset_m"] < 0.5
+    env.close()
