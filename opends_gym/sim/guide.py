@@ -18,7 +18,7 @@ from .road import Polyline
 from .world import World
 
 DEFAULT_LANE_WIDTH_M = 3.5
-_WINDOW_BACK, _WINDOW_AHEAD = 3, 12  # segments searched around the last answer on a route
+_WINDOW_BACK, _WINDOW_AHEAD = 2, 6  # segments searched around the last answer on a route
 _NEAR_M = 8.0  # a windowed answer farther than this from the line is checked globally
 
 
@@ -130,14 +130,14 @@ class RoadGuide:
         around the last answer, the whole route when that answer is not clearly the one."""
         seg = self._seg
         lo, hi = max(0, self._hint - _WINDOW_BACK), min(len(seg), self._hint + _WINDOW_AHEAD)
-        best = self._nearest(x, z, lo, hi)
-        k = best[1]
-        if best[0] > _NEAR_M * _NEAR_M or (k == lo and lo > 0) or (k == hi - 1 and hi < len(seg)):
-            best = self._nearest(x, z, 0, len(seg))
-            k = best[1]
+        d2, k, t = self._nearest(x, z, lo, hi)
+        if d2 > _NEAR_M * _NEAR_M or (k == lo and lo > 0) or (k == hi - 1 and hi < len(seg)):
+            assert self.polyline is not None
+            q = self.polyline.project(x, z)  # the whole route (numpy)
+            self._hint = q.segment
+            return q.s_m, q.offset_m, seg[q.segment][6]
         self._hint = k
         ax, az, dx, dz, L, s0, heading = seg[k]
-        t = best[2]
         px, pz = ax + t * dx, az + t * dz
         lat = ((x - px) * dz - (z - pz) * dx) / L  # left of travel (dx, dz) is (dz, -dx)
         return s0 + t * L, lat, heading
