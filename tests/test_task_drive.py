@@ -234,3 +234,83 @@ def test_tvpt_is_refused_only_by_its_schemas_misspelt_displacement() -> None:
     with pytest.raises(TaskError, match=r"scenario\.xml:\d+ <displacement>"):
         load_task(task, strict=True)
     assert load_task(task).scenario.driver.car.engine.displacement_m3 > 0.0
+
+
+# ---------------------------------------------------------------------------- the lead
+
+
+def _lead_world(guide: object, objects: list[tuple[float, float, float, float]], pedestrians: int = 0) -> object:
+    """A world whose ego is at the route's start and whose traffic is `objects`: (metres ahead
+    along the route, metres left of it, yaw relative to the route, speed m/s); the last
+    `pedestrians` of them are pedestrians."""
+    from types import SimpleNamespace
+
+    g: object = guide
+    start = g.polyline.point_at(0.0)  # type: ignore[attr-defined]
+    pos, yaw = [], []
+    for ahead, left, rel, _ in objects:
+        x, z, h = g.polyline.point_at(ahead)  # type: ignore[attr-defined]
+        pos.append((x - left * math.cos(h), 0.0, z + left * math.sin(h)))
+        yaw.append(h + rel)
+    n = len(objects)
+    traffic = SimpleNamespace(
+        ids=tuple(f"o{i}" for i in range(n)),
+        enabled=np.ones(n, dtype=bool),
+        positions=np.array(pos),
+        yaw=np.array(yaw),
+        speed=np.array([o[3] for o in objects]),
+        half_extents=np.full((n, 2), 2.0),
+        brake_light=np.zeros(n, dtype=bool),
+        turn_signal=np.zeros(n, dtype=np.int64),
+    )
+    ego = SimpleNamespace(state=SimpleNamespace(x=start[0], y=0.0, z=start[1], yaw=start[2]), spec=SimpleNamespace(length_m=4.4))
+    scenario = SimpleNamespace(vehicles=(None,) * (n - pedestrians), pedestrians=(None,) * pedestrians)
+    return SimpleNamespace(traffic=traffic, ego=ego, task=SimpleNamespace(scenario=scenario))
+
+
+def test_lead_is_only_a_car_ahead_in_the_lane_moving_its_way() -> None:
+    from opends_gym.drivers.percept import route_lead
+
+    env = gym.make("OpenDS/DrivingTask-v0", task=str(CORPUS / "opends-cts" / "MotorwayTask"))
+    g = env.unwrapped.guide
+    s0 = g.join_s_m + 50.0  # on the motorway, right lane
+    oncoming = (s0 + 30.0, 0.0, math.pi, 15.0)
+    other_lane = (s0 + 20.0, 3.79, 0.0, 20.0)
+    behind = (s0 - 20.0, 0.0, 0.0, 20.0)
+    ahead = (s0 + 40.0, 0.0, 0.0, 20.0)
+    shifted = [(a - s0, left, rel, v) for a, left, rel, v in (oncoming, other_lane, behind, ahead)]
+    w = _lead_world(_Shifted(g, s0), shifted)
+    lead = route_lead(w, _Shifted(g, s0), 0.0, 0.0)
+    assert lead is not None and lead.gap_m == pytest.approx(40.0 - 2.0 - 2.2, abs=0.1) and lead.speed_mps == pytest.approx(20.0)
+    w = _lead_world(_Shifted(g, s0), shifted[:3])
+    assert route_lead(w, _Shifted(g, s0), 0.0, 0.0) is None  # oncoming, other lane, behind: no lead
+    stopped_oncoming = [(30.0, 0.0, math.pi, 0.0)]  # a car standing in the lane is in the way
+    assert route_lead(_lead_world(_Shifted(g, s0), stopped_oncoming), _Shifted(g, s0), 0.0, 0.0) is not None
+    env.close()
+
+
+def test_a_pedestrian_walking_into_the_lane_is_in_the_way() -> None:
+    from opends_gym.drivers.percept import route_lead
+
+    env = gym.make("OpenDS/DrivingTask-v0", task=str(CORPUS / "opends-cts" / "MotorwayTask"))
+    g = _Shifted(env.unwrapped.guide, env.unwrapped.guide.join_s_m + 50.0)
+    walking_in = [(25.0, 5.0, -math.pi / 2, 1.5)]  # 5 m to the left, walking right at 1.5 m/s
+    walking_away = [(25.0, 5.0, math.pi / 2, 1.5)]
+    assert route_lead(_lead_world(g, walking_in, pedestrians=1), g, 0.0, 0.0) is not None
+    assert route_lead(_lead_world(g, walking_away, pedestrians=1), g, 0.0, 0.0) is None
+    env.close()
+
+
+class _Shifted:
+    """A guide whose route starts `s0` metres into another's (the motorway part of the route)."""
+
+    def __init__(self, guide: object, s0: float) -> None:
+        from opends_gym.sim.road import Polyline
+
+        g: object = guide
+        pts = [g.polyline.point_at(s0 + k)[:2] for k in range(0, 400)]  # type: ignore[attr-defined]
+        self.polyline = Polyline(pts)
+        self.lane_width_m = g.lane_width_m  # type: ignore[attr-defined]
+
+    def heading_at(self, s_m: float) -> float:
+        return self.polyline.point_at(s_m)[2]
