@@ -314,3 +314,36 @@ class _Shifted:
 
     def heading_at(self, s_m: float) -> float:
         return self.polyline.point_at(s_m)[2]
+
+
+def test_rule_driver_follows_a_curved_opendrive_lane(tmp_path: Path) -> None:
+    """init_drive with its road bent into a 500 m radius arc: lanes are known along the curve
+    and the rule driver stays in its lane around it."""
+    dst = tmp_path / "init_drive"
+    shutil.copytree(CORPUS / "opends2023-annegretj" / "init_drive", dst)
+    xodr = dst / "road.xodr"
+    text = xodr.read_text()
+    xodr.write_text(text.replace("<line/>", '<arc curvature="0.002"/>', 1))
+    env = gym.make("OpenDS/DrivingTask-v0", task=str(dst), policy_hz=4.0, max_episode_s=60.0, terminate_on_collision=False)
+    base = env.unwrapped
+    g = base.guide
+    od = base.world.road.opendrive
+    assert g.source == "opendrive" and g.lanes_known
+    for s_m in (200.0, 600.0):  # lane centres of the bent road lie on the guide's lanes
+        for lane in (-2, -1, 1):
+            x, z, _ = od.lane_center("s000", lane, s_m)
+            p = g.locate(x, z)
+            assert p.lane_index >= 0 and abs(p.lateral_m - g.lane_laterals_m[p.lane_index]) < 0.2
+    driver = RuleDriver()
+    obs, info = env.reset(seed=0)
+    yaw0 = base.world.ego.state.yaw
+    driver.reset(env, 0)
+    while True:
+        obs, _, terminated, truncated, info = env.step(driver.act(obs, info))
+        if terminated or truncated:
+            break
+    m = info["episode_metrics"]
+    turned = abs(math.remainder(base.world.ego.state.yaw - yaw0, 2.0 * math.pi))
+    assert math.degrees(turned) > 60.0  # it went round the bend (about 95 deg in 60 s at 50 km/h)
+    assert m["off_road_s"] == 0.0 and m["mean_abs_lateral_offset_m"] < 0.5 and m["collisions"] == 0
+    env.close()
