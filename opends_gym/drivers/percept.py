@@ -75,6 +75,8 @@ def _base(env: Any) -> Percept:
         left = guide.route_length_m() - p.s_m
     else:
         lead = lead_vehicle(world) if world.traffic is not None else None
+        if lead is not None and lead.speed_mps < -ONCOMING_MPS:
+            lead = None  # coming towards the ego: no lead to follow
         lead_car = LeadCar(lead.gap_m, lead.speed_mps, lead.brake_light, int(world.traffic.turn_signal[lead.index])) if lead else None
         aim, curve, left = None, math.inf, math.inf
     return Percept(
@@ -99,6 +101,7 @@ CURVE_LATERAL_MPS2 = 3.0  # the lateral acceleration a driver accepts in a curve
 CURVE_BRAKE_MPS2 = 2.0  # and the deceleration before one
 CURVE_STEP_M = 5.0
 LEAD_RANGE_M = 200.0
+ONCOMING_MPS = 0.5  # a vehicle closing head-on faster than this is not a lead
 
 
 def _aim(guide: Any, x: float, z: float, yaw: float, speed: float, s_m: float, lateral_m: float) -> tuple[float, float]:
@@ -168,7 +171,7 @@ def route_lead(world: Any, guide: Any, s_m: float, lane_lateral_m: float) -> Lea
             lo, hi = min(off, later), max(off, later)
             if hi < -half - CROSSING_MARGIN_M or lo > half + CROSSING_MARGIN_M:
                 continue
-        elif abs(off) > half or (speed > 0.5 and math.cos(rel) < 0.0):
+        elif abs(off) > half or (speed > ONCOMING_MPS and math.cos(rel) < 0.0):
             continue  # another lane, or coming towards the ego
         if best is None or ahead < best[0]:
             best = (ahead, i)
