@@ -347,3 +347,16 @@ def test_rule_driver_follows_a_curved_opendrive_lane(tmp_path: Path) -> None:
     assert math.degrees(turned) > 60.0  # it went round the bend (about 95 deg in 60 s at 50 km/h)
     assert m["off_road_s"] == 0.0 and m["mean_abs_lateral_offset_m"] < 0.5 and m["collisions"] == 0
     env.close()
+
+
+@pytest.mark.parametrize(
+    ("env_id", "known"),
+    [("OpenDS/LaneChangeTest-v0", True), ("OpenDS/ReactionTest-v0", True), ("OpenDS/BrakeReaction-v0", True), ("OpenDS/ConTRe-v0", False)],
+)
+def test_task_envs_say_whether_lanes_are_known(env_id: str, known: bool) -> None:
+    env = gym.make(env_id)
+    _, info = env.reset(seed=0)
+    assert info["lanes_known"] is known
+    _, _, _, _, info = env.step(env.action_space.sample())
+    assert info["lanes_known"] is known
+    env.close()
