@@ -360,3 +360,17 @@ def test_task_envs_say_whether_lanes_are_known(env_id: str, known: bool) -> None
     _, _, _, _, info = env.step(env.action_space.sample())
     assert info["lanes_known"] is known
     env.close()
+
+
+def test_motorway_driver_view_shows_the_road_at_the_start() -> None:
+    """The MotorwayTask car starts on a slip road that only the task's 3D model has: the
+    view draws the ego's road onto the motorway there instead of grass alone."""
+    from opends_gym.render import make_renderer
+    from opends_gym.render import palette as pal
+    from opends_gym.sim.world import World
+
+    world = World(CORPUS / "opends-cts" / "MotorwayTask")
+    frame = make_renderer("driver_view", world).render(160, 90)
+    asphalt = np.all(np.abs(frame.astype(int) - np.array(pal.ASPHALT)) <= 3, axis=-1)
+    assert asphalt[45:, 60:100].mean() > 0.3  # asphalt straight ahead, below the horizon
+    world.close()
