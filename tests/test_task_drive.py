@@ -374,3 +374,36 @@ def test_motorway_driver_view_shows_the_road_at_the_start() -> None:
     asphalt = np.all(np.abs(frame.astype(int) - np.array(pal.ASPHALT)) <= 3, axis=-1)
     assert asphalt[45:, 60:100].mean() > 0.3  # asphalt straight ahead, below the horizon
     world.close()
+
+
+def _motorway_with_third_lane(tmp_path: Path, declare: bool) -> Path:
+    """MotorwayTask plus a lane C 3.79 m left of lane B (x = 5.70, towards +Z); with
+    `declare`, A's segments name B as their left neighbour (and nothing else)."""
+    dst = tmp_path / ("declared" if declare else "parallel") / "MotorwayTask"
+    shutil.copytree(CORPUS / "opends-cts" / "MotorwayTask", dst)
+    f = dst / "scenario.xml"
+    text = f.read_text()
+    wps = "".join(
+        f'<wayPoint id="WayPoint_C{k}"><translation><vector jtype="java_lang_Float" size="3"><entry>5.70</entry>'
+        f"<entry>-0.44</entry><entry>{z}</entry></vector></translation></wayPoint>"
+        for k, z in enumerate((-2000, -1000, 0))
+    )
+    segs = "".join(
+        f'<segment id="Segment_C{k}"><from>WayPoint_C{k}</from><to>WayPoint_C{k + 1}</to><speed>80</speed></segment>' for k in range(2)
+    )
+    text = text.replace("</wayPoints>", wps + "</wayPoints>", 1).replace("</segments>", segs + "</segments>", 1)
+    if declare:
+        for k in range(1, 26):
+            a, b = f"Segment_A{k:02d}", f"Segment_B{min(k, 16):02d}"
+            text = text.replace(f'<segment id="{a}">', f'<segment id="{a}"><leftNeighbor>{b}</leftNeighbor>', 1)
+    f.write_text(text)
+    return dst
+
+
+@pytest.mark.parametrize(("declare", "lanes"), [(False, (0.0, 3.79, 7.58)), (True, (0.0, 3.79))])
+def test_segment_lanes_are_declared_neighbours_else_parallel_segments(tmp_path: Path, declare: bool, lanes: tuple[float, ...]) -> None:
+    env = gym.make("OpenDS/DrivingTask-v0", task=str(_motorway_with_third_lane(tmp_path, declare)))
+    g = env.unwrapped.guide
+    assert g.source == "segments" and g.lane_laterals_m == pytest.approx(lanes, abs=0.01)
+    assert g.locate(5.70, -900.0).lane_index == (2 if not declare else -1)  # lane C, or off the known lanes
+    env.close()

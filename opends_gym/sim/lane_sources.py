@@ -318,6 +318,42 @@ def _lanes(offsets: list[float]) -> tuple[list[float], float]:
     return lats, min(max(width, 2.5), 5.0)
 
 
+def _neighbours(by_id: dict[str, _Seg], first: str) -> list[str]:
+    """Every segment reached through declared leftNeighbor/rightNeighbor links (a three-lane
+    road declares its outer lanes on the middle one only, or chains them)."""
+    seen, todo = {first}, [first]
+    while todo:
+        g = by_id[todo.pop()]
+        for n in (g.left, g.right):
+            for name in (n or "").split(","):
+                name = name.strip()
+                if name and name in by_id and name not in seen:
+                    seen.add(name)
+                    todo.append(name)
+    seen.discard(first)
+    return sorted(seen)
+
+
+def _along(segs: list[_Seg], names: list[str]) -> list[str]:
+    """The named segments and every segment chained to them before or after (a neighbour
+    lane goes on beyond the one segment that declares it)."""
+    before: dict[str, list[str]] = {}
+    after: dict[str, list[str]] = {}
+    for g in segs:
+        if not g.jump:
+            after.setdefault(g.from_wp, []).append(g.id)
+            before.setdefault(g.to_wp, []).append(g.id)
+    by_id = {g.id: g for g in segs}
+    seen, todo = set(names), list(names)
+    while todo:
+        g = by_id[todo.pop()]
+        for n in (*after.get(g.to_wp, ()), *before.get(g.from_wp, ())):
+            if n not in seen:
+                seen.add(n)
+                todo.append(n)
+    return sorted(seen)
+
+
 def _from_segments(task: DrivingTask, start: Pose) -> EgoRoad | None:
     segs = _segments(task)
     if not segs:
@@ -332,7 +368,7 @@ def _from_segments(task: DrivingTask, start: Pose) -> EgoRoad | None:
         return None
     points, join_s = joined
     by_id = {g.id: g for g in segs}
-    declared = [by_id[n].points for n in (segs[first].left, segs[first].right) if n and n in by_id]
+    declared = [by_id[n].points for n in _along(segs, _neighbours(by_id, segs[first].id))]
     others = declared or [g.points for i, g in enumerate(segs) if i != first and not g.jump]
     arc = _arc(points)
     probe = min(join_s + 1.0, float(arc[-1]))
