@@ -11,7 +11,7 @@ or nothing but the start pose. Lateral coordinates are positive to the left of t
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 from .lane_sources import ego_road
 from .road import Polyline
@@ -170,10 +170,6 @@ class RoadGuide:
         one lane width either side of it; no road known: never)."""
         left, right = self.road_edges_m
         return lateral_m > left or lateral_m < right
-
-    def describe(self) -> dict[str, Any]:
-        """Which source the guide uses, and what it knows (for info and the CLI)."""
-        return {"kind": self.kind, "source": self.source, "lanes_known": self.lanes_known, "lanes": len(self.lane_laterals_m)}
 
     def _along_start_line(self, x: float, z: float) -> tuple[float, float]:
         """(distance along, lateral position across) the line through the start position along
