@@ -62,6 +62,17 @@ def test_rule_driver_drives_every_task_for_a_minute(task: Path) -> None:
     assert m["mean_abs_lateral_offset_m"] < 1.0
 
 
+def _episode(env: gym.Env) -> dict[str, float]:  # type: ignore[type-arg]
+    """One episode with the rule driver; its episode metrics."""
+    driver = RuleDriver()
+    obs, info = env.reset(seed=0)
+    driver.reset(env, 0)
+    while True:
+        obs, _, terminated, truncated, info = env.step(driver.act(obs, info))
+        if terminated or truncated:
+            return dict(info["episode_metrics"])
+
+
 def _with_engine_off(tmp_path: Path) -> Path:
     dst = tmp_path / "MotorwayTask"
     shutil.copytree(CORPUS / "opends-cts" / "MotorwayTask", dst)
@@ -181,14 +192,7 @@ def test_rule_driver_follows_the_autopilot_route(tmp_path: Path) -> None:
     ap = env.unwrapped.task.scenario.driver.car.auto_pilot
     for w in ap.way_points[3:8]:  # every waypoint after the start lies on the route
         assert abs(g.locate(w.translation_m[0], w.translation_m[2]).lateral_m) < 0.05
-    driver = RuleDriver()
-    obs, info = env.reset(seed=0)
-    driver.reset(env, 0)
-    while True:
-        obs, _, terminated, truncated, info = env.step(driver.act(obs, info))
-        if terminated or truncated:
-            break
-    m = info["episode_metrics"]
+    m = _episode(env)
     assert m["collisions"] == 0 and m["off_road_s"] == 0.0 and m["distance_m"] > 100.0
     assert m["mean_abs_lateral_offset_m"] < 0.5
     env.close()
@@ -334,15 +338,8 @@ def test_rule_driver_follows_a_curved_opendrive_lane(tmp_path: Path) -> None:
             x, z, _ = od.lane_center("s000", lane, s_m)
             p = g.locate(x, z)
             assert p.lane_index >= 0 and abs(p.lateral_m - g.lane_laterals_m[p.lane_index]) < 0.2
-    driver = RuleDriver()
-    obs, info = env.reset(seed=0)
-    yaw0 = base.world.ego.state.yaw
-    driver.reset(env, 0)
-    while True:
-        obs, _, terminated, truncated, info = env.step(driver.act(obs, info))
-        if terminated or truncated:
-            break
-    m = info["episode_metrics"]
+    yaw0 = base.world.start_pose.yaw_rad
+    m = _episode(env)
     turned = abs(math.remainder(base.world.ego.state.yaw - yaw0, 2.0 * math.pi))
     assert math.degrees(turned) > 60.0  # it went round the bend (about 95 deg in 60 s at 50 km/h)
     assert m["off_road_s"] == 0.0 and m["mean_abs_lateral_offset_m"] < 0.5 and m["collisions"] == 0

@@ -96,30 +96,10 @@ class RoadLayout:
         elif not self.bands:
             points = {g.id: g.translation_m for g in task.scene.geometries if isinstance(g, Point)}
             for path in _network_paths(task, points) or self.tracks or _camera_flight_path(task, points):
-                xz = resample(path)
-                if xz is not None:
-                    left, right = offset_polyline(xz, PATH_LANE_HALF_W_M), offset_polyline(xz, -PATH_LANE_HALF_W_M)
-                    self.ribbons.append(
-                        Ribbon(
-                            offset_polyline(xz, PATH_LANE_HALF_W_M + SHOULDER_M),
-                            offset_polyline(xz, -PATH_LANE_HALF_W_M - SHOULDER_M),
-                            pal.ASPHALT,
-                            ((left, False), (right, False)),
-                        )
-                    )
+                self._add_path(path)
         connector = _start_connector(world)
         if connector is not None:  # the ego's own road onto the task's roads (lane_sources)
-            xz = resample(connector)
-            if xz is not None:
-                left, right = offset_polyline(xz, PATH_LANE_HALF_W_M), offset_polyline(xz, -PATH_LANE_HALF_W_M)
-                self.ribbons.append(
-                    Ribbon(
-                        offset_polyline(xz, PATH_LANE_HALF_W_M + SHOULDER_M),
-                        offset_polyline(xz, -PATH_LANE_HALF_W_M - SHOULDER_M),
-                        pal.ASPHALT,
-                        ((left, False), (right, False)),
-                    )
-                )
+            self._add_path(connector)
         if self.bands:
             lo = min(b.x_min for b in self.bands)
             hi = max(b.x_max for b in self.bands)
@@ -129,6 +109,21 @@ class RoadLayout:
                 for e in (round(b.x_min, 2), round(b.x_max, 2)):
                     edges[e] = edges.get(e, 0) + 1
             self.band_marks = tuple((e, n > 1) for e, n in sorted(edges.items()))  # shared edges are dashed
+
+    def _add_path(self, path: Any) -> None:
+        """A path drawn as one 3.5 m lane with solid edges and a shoulder."""
+        xz = resample(path)
+        if xz is None:
+            return
+        left, right = offset_polyline(xz, PATH_LANE_HALF_W_M), offset_polyline(xz, -PATH_LANE_HALF_W_M)
+        self.ribbons.append(
+            Ribbon(
+                offset_polyline(xz, PATH_LANE_HALF_W_M + SHOULDER_M),
+                offset_polyline(xz, -PATH_LANE_HALF_W_M - SHOULDER_M),
+                pal.ASPHALT,
+                ((left, False), (right, False)),
+            )
+        )
 
     # ------------------------------------------------------------------ cut out
     def pieces(self, x: float, z: float, radius: float, breaks: np.ndarray | None = None, dash_radius: float = 300.0) -> GroundPieces:
