@@ -98,6 +98,20 @@ def test_rule_driver_turns_the_key_when_the_engine_is_off(tmp_path: Path) -> Non
     env.close()
 
 
+def test_a_recorded_drive_that_turns_the_key_replays_exactly(tmp_path: Path) -> None:
+    from opends_gym.record import RecordDrive
+    from opends_gym.record.replay import replay
+
+    env = RecordDrive(
+        gym.make("OpenDS/DrivingTask-v0", task=str(_with_engine_off(tmp_path)), policy_hz=4.0, max_episode_s=4.0), tmp_path / "d.mcap"
+    )
+    m = _episode(env)
+    assert m["distance_m"] > 5.0  # the key was turned: it drove
+    result = replay(env.paths[0])
+    env.close()
+    assert result.ok, result.mismatch
+
+
 def test_motorway_ego_starts_at_the_scene_pose_and_joins_the_right_lane() -> None:
     """OpenDS puts the MotorwayTask car at its scene pose (a slip road of the 3-D model, where
     the task paints its white start line) facing -Z; the guide joins it to the right-hand

@@ -180,6 +180,11 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         starts with the engine off and the accelerator does nothing until then)."""
         self._engine_key = bool(on)
 
+    @property
+    def pending_engine_key(self) -> bool | None:
+        """The ignition key turned for the next step (recordings keep it beside the action)."""
+        return self._engine_key
+
     def _stop_early(self) -> bool:
         return self._terminated(self.world.collisions - self._collisions_seen)
 
