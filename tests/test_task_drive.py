@@ -418,3 +418,16 @@ def test_segment_lanes_are_declared_neighbours_else_parallel_segments(tmp_path: 
     assert g.source == "segments" and g.lane_laterals_m == pytest.approx(lanes, abs=0.01)
     assert g.locate(5.70, -900.0).lane_index == (2 if not declare else -1)  # lane C, or off the known lanes
     env.close()
+
+
+def test_a_distracted_driver_turns_the_key_too(tmp_path: Path) -> None:
+    from opends_gym.drivers.agents import make_agent
+
+    env = gym.make("OpenDS/DrivingTask-v0", task=str(_with_engine_off(tmp_path)), policy_hz=4.0, max_episode_s=8.0)
+    agent = make_agent("distracted:heavy")
+    obs, info = env.reset(seed=0)
+    agent.reset(env, 0)
+    for _ in range(32):
+        obs, _, _, _, info = env.step(agent.act(obs, info))
+    assert env.unwrapped.world.ego.powertrain.state.engine_on and info["speed_kmh"] > 10.0
+    env.close()

@@ -59,6 +59,15 @@ class _Plan:
     t_s: float | None = None
 
 
+def start_engine(env: Any, p: Percept) -> None:
+    """A person turns the ignition key when the engine is off (the task's `<engineOn>` is
+    false): `OpenDSEnv.turn_engine_key`, whatever the env's action type carries."""
+    if p.engine_off:
+        turn = getattr(env.unwrapped, "turn_engine_key", None)
+        if turn is not None:
+            turn(True)
+
+
 class RuleDriver:
     """Agent interface of `opends_gym.drivers.agents`: `reset(env, seed)`, `act(obs, info)`."""
 
@@ -83,10 +92,7 @@ class RuleDriver:
 
     def act(self, obs: Any, info: dict[str, Any]) -> Any:
         p = perceive(self.env, info)
-        if p.engine_off:  # a person turns the key first (the task's <engineOn> is false)
-            turn = getattr(self.env.unwrapped, "turn_engine_key", None)
-            if turn is not None:
-                turn(True)
+        start_engine(self.env, p)
         return to_action(self.env, self.decide(p))
 
     # ------------------------------------------------------------------ decisions
