@@ -18,8 +18,8 @@ from .road import Polyline
 from .world import World
 
 DEFAULT_LANE_WIDTH_M = 3.5
-_WINDOW_BACK, _WINDOW_AHEAD = 2, 6  # segments searched around the last answer on a route
-_NEAR_M = 8.0  # a windowed answer farther than this from the line is checked globally
+_WALK_MAX = 64  # segments walked from the last answer on a route before giving up
+_SURE_M = 2.5  # a walked answer farther than this from the line is checked against the whole route
 
 
 def wrap_angle(a: float) -> float:
@@ -126,34 +126,53 @@ class RoadGuide:
         return GuidePoint(s, lat, self.start_yaw, 0 if abs(lat) < self.lane_width_m / 2 else -1)
 
     def _route_foot(self, x: float, z: float) -> tuple[float, float, float]:
-        """(s, lateral, heading) of the foot point on the route: searched a few segments
-        around the last answer, the whole route when that answer is not clearly the one."""
+        """(s, lateral, heading) of the foot point on the route: walked from the last answer
+        segment by segment (a step moves the car a metre or so); an answer off the line is
+        checked against the whole route (the walk finds the nearest point near the last one,
+        a point far from it may be nearer another part of the route)."""
         seg = self._seg
-        lo, hi = max(0, self._hint - _WINDOW_BACK), min(len(seg), self._hint + _WINDOW_AHEAD)
-        d2, k, t = self._nearest(x, z, lo, hi)
-        if d2 > _NEAR_M * _NEAR_M or (k == lo and lo > 0) or (k == hi - 1 and hi < len(seg)):
-            assert self.polyline is not None
-            q = self.polyline.project(x, z)  # the whole route (numpy)
-            self._hint = q.segment
-            return q.s_m, q.offset_m, seg[q.segment][6]
-        self._hint = k
+        n = len(seg)
+        k = self._hint
+        t = 0.0
+        for _ in range(_WALK_MAX):
+            ax, az, dx, dz, L, _, _ = seg[k]
+            t = ((x - ax) * dx + (z - az) * dz) / (L * L)
+            if t > 1.0 and k + 1 < n:
+                bx, bz, ex, ez, M, _, _ = seg[k + 1]
+                if ((x - bx) * ex + (z - bz) * ez) < 0.0:  # outside a corner: its vertex
+                    t = 1.0
+                    break
+                k += 1
+            elif t < 0.0 and k > 0:
+                bx, bz, ex, ez, M, _, _ = seg[k - 1]
+                if ((x - bx) * ex + (z - bz) * ez) > M * M:
+                    t = 0.0
+                    break
+                k -= 1
+            else:
+                break
+        t = 0.0 if t < 0.0 else 1.0 if t > 1.0 else t
         ax, az, dx, dz, L, s0, heading = seg[k]
         px, pz = ax + t * dx, az + t * dz
-        lat = ((x - px) * dz - (z - pz) * dx) / L  # left of travel (dx, dz) is (dz, -dx)
-        return s0 + t * L, lat, heading
-
-    def _nearest(self, x: float, z: float, lo: int, hi: int) -> tuple[float, int, float]:
-        """(squared distance, segment, fraction along it) of the nearest route point in [lo, hi)."""
-        best = (math.inf, lo, 0.0)
-        for k in range(lo, hi):
-            ax, az, dx, dz, L, _, _ = self._seg[k]
-            t = ((x - ax) * dx + (z - az) * dz) / (L * L)
-            t = 0.0 if t < 0.0 else 1.0 if t > 1.0 else t
-            ex, ez = ax + t * dx - x, az + t * dz - z
-            d2 = ex * ex + ez * ez
-            if d2 < best[0]:
-                best = (d2, k, t)
-        return best
+        ex, ez = x - px, z - pz
+        d2 = ex * ex + ez * ez
+        for j in (k - 1, k + 1):  # inside a bend two segments hold a foot point: the nearer one
+            if 0 <= j < n:
+                bx, bz, fx, fz, M, _, _ = seg[j]
+                u = ((x - bx) * fx + (z - bz) * fz) / (M * M)
+                u = 0.0 if u < 0.0 else 1.0 if u > 1.0 else u
+                gx, gz = x - bx - u * fx, z - bz - u * fz
+                if gx * gx + gz * gz < d2 - 1e-12:
+                    k, t, d2, ex, ez = j, u, gx * gx + gz * gz, gx, gz
+                    ax, az, dx, dz, L, s0, heading = seg[k]
+        if d2 > _SURE_M * _SURE_M:  # off the line: the whole route may hold a nearer point (numpy)
+            assert self.polyline is not None
+            q = self.polyline.project(x, z)
+            if q.offset_m * q.offset_m < d2 - 1e-12:
+                self._hint = q.segment
+                return q.s_m, q.offset_m, seg[q.segment][6]
+        self._hint = k
+        return s0 + t * L, (ex * dz - ez * dx) / L, heading  # left of travel (dx, dz) is (dz, -dx)
 
     def heading_at(self, s_m: float) -> float:
         """The reference heading at arc length s (the start heading off a route)."""
@@ -190,6 +209,9 @@ class RoadGuide:
                 if abs(lat - c) <= half:
                     return s, lat, i, lat - c
             lane = -1
+        elif self.kind == "route":  # (no GuidePoint: this runs every physics step)
+            s, lat, _ = self._route_foot(x, z)
+            lane = self._lane_index(lat)
         elif self.kind == "start_line":  # (no GuidePoint; its one lane is centred on the line)
             s, lat = self._along_start_line(x, z)
             return s, lat, 0 if abs(lat) < self.lane_width_m / 2 else -1, lat - self.lane_laterals_m[0]
