@@ -431,3 +431,12 @@ def test_a_distracted_driver_turns_the_key_too(tmp_path: Path) -> None:
         obs, _, _, _, info = env.step(agent.act(obs, info))
     assert env.unwrapped.world.ego.powertrain.state.engine_on and info["speed_kmh"] > 10.0
     env.close()
+
+
+def test_validate_names_where_the_lanes_come_from(capsys: pytest.CaptureFixture[str]) -> None:
+    from opends_gym.cli.main import main as cli
+
+    tasks = [CORPUS / "opends-cts" / "MotorwayTask", CORPUS / "opends2023-annegretj" / "init_drive", DRIVES / "Countryside"]
+    assert cli(["validate", *map(str, tasks)]) == 0
+    out = capsys.readouterr().out
+    assert "road=segments road_lanes=2" in out and "road=opendrive road_lanes=3" in out and "road=traffic_route road_lanes=0" in out
