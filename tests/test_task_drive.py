@@ -15,7 +15,8 @@ import pytest
 import opends_gym  # noqa: F401  (registers the env ids)
 from opends_gym.drivers.rule import RuleDriver
 from opends_gym.task import load_task
-from tests.conftest import CORPUS, DRIVES, corpus_task_dirs
+
+from .conftest import CORPUS, DRIVES, corpus_task_dirs
 
 TASKS = [*corpus_task_dirs(), DRIVES / "Countryside"]
 # the lanes each task defines: X-band road/lane (ReactionTest), Gen B road segments
