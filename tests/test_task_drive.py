@@ -441,3 +441,16 @@ def test_validate_names_where_the_lanes_come_from(capsys: pytest.CaptureFixture[
     assert cli(["validate", *map(str, tasks)]) == 0
     out = capsys.readouterr().out
     assert "road=segments road_lanes=2" in out and "road=opendrive road_lanes=3" in out and "road=traffic_route road_lanes=0" in out
+
+
+@pytest.mark.parametrize("log", ["2019_01_04-11_26_07/carData(2).txt", "2019_01_04-11_40_24/carData.txt"])
+def test_real_countryside_drives_stay_on_the_road_the_guide_builds(log: str) -> None:
+    """A person drove the Countryside task in OpenDS (2019 logs): every recorded position lies
+    on the road the guide builds for it (start heading as OpenDS sets it, then the traffic
+    route it joins), within 3 m of its line."""
+    env = gym.make("OpenDS/DrivingTask-v0", task=str(DRIVES / "Countryside"))
+    g = env.unwrapped.guide
+    rows = [line.split(":") for line in (DRIVES / "drives" / log).read_text().splitlines() if line[:1].isdigit()]
+    offsets = [abs(g.polyline.project(float(r[1]), float(r[3])).offset_m) for r in rows]
+    assert len(offsets) > 100 and max(offsets) < 3.0 and not any(g.off_road(o) for o in offsets)
+    env.close()
