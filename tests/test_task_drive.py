@@ -123,12 +123,21 @@ def test_motorway_ego_starts_at_the_scene_pose_and_joins_the_right_lane() -> Non
     s = base.world.ego.state
     assert (s.x, s.z) == pytest.approx((-91.2, -1218.0)) and s.yaw == pytest.approx(0.0)
     g = base.guide
-    assert g.source == "segments" and g.lanes_known and info["lanes_known"]
+    assert g.source == "segments" and g.lanes_known and g.join_s_m > 80.0
+    assert info["lanes_known"] is False  # on the slip-road curve: the lanes there are not the task's
     assert g.lane_laterals_m == pytest.approx((0.0, 3.79), abs=0.01)
     assert g.locate(-1.88, -1000.0).lateral_m == pytest.approx(0.0, abs=1e-6)
     assert g.locate(1.91, -1000.0).lane_index == 1  # the left lane, towards +Z
     assert abs(g.locate(-1.88, -1000.0).heading_rad) == pytest.approx(math.pi)  # facing +Z
     assert g.locate(s.x, s.z).lateral_m == pytest.approx(0.0, abs=1e-6)  # on its road at the start
+    driver = RuleDriver()
+    driver.reset(env, 0)
+    obs = None
+    for _ in range(300):  # on the motorway within 30 s: the lanes are the task's from there on
+        obs, _, _, _, info = env.step(driver.act(obs, info))
+        if info["lanes_known"]:
+            break
+    assert info["lanes_known"] and abs(base.world.ego.state.x + 1.88) < 1.0
     env.close()
 
 

@@ -15,8 +15,9 @@ equal across seeded runs):
   OpenDS/ISO value is in episode_metrics), sdlp_m (running over lane-keeping samples, 0
   until there are two), headway_s (front-to-front to the lead, inf without one), ttc_s
   (inf unless closing in), lanes_known (the task defines the lanes lateral offset and
-  lane index are measured in: OpenDS X-band lanes, OpenDRIVE lanes or Gen B road segments;
-  otherwise they are measured from the ego's route, see `sim.guide.RoadGuide`).
+  lane index are measured in, here: OpenDS X-band lanes, OpenDRIVE lanes or Gen B road
+  segments; otherwise, and on the curve that joins a start off every road to the task's
+  roads, they are measured from the ego's route, see `sim.guide.RoadGuide`).
   `events`: tuple of event dicts emitted this step (the documented non-numeric key).
   `episode_metrics`: dict of the task's summary, present only on the last step; the base
   adds lanes_known (0/1), mean_abs_lateral_offset_m (mean |lateral_offset_m| over physics
@@ -246,7 +247,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             "sdlp_m": self._run.sdlp_m,
             "headway_s": tr.last("headway_s"),
             "ttc_s": tr.last("ttc_s"),
-            "lanes_known": self.guide.lanes_known,
+            "lanes_known": self.guide.lanes_known_at(self._last_s),
             "progress_m": progress_m,
             "new_collisions": new_collisions,
             "events": events,

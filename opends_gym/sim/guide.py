@@ -180,6 +180,10 @@ class RoadGuide:
             return self.polyline.point_at(s_m)[2]
         return self.road_heading if self.kind == "lanes" else self.start_yaw
 
+    def lanes_known_at(self, s_m: float) -> bool:
+        """Whether the lanes at arc length s are the task's (not on the start connector)."""
+        return self.lanes_known and s_m >= self.join_s_m
+
     def route_length_m(self) -> float:
         """How far the route goes (infinite where the road is a straight line)."""
         return self.polyline.length if self.kind == "route" and self.polyline is not None else math.inf
