@@ -108,7 +108,9 @@ def test_missing_extra_is_one_line_naming_the_pip_command(
     monkeypatch.setitem(sys.modules, module, None)
     assert cli(argv) == 2
     err = _one_line_error(capsys)
-    assert re.match(r"opends-gym \w+: error: ", err) and err.endswith(f"needs the '{extra}' extra: pip install \"opends-gym[{extra}]\""), err
+    assert re.match(r"opends-gym \w+: error: ", err) and err.endswith(f"needs the '{extra}' extra: pip install \"opends-gym[{extra}]\""), (
+        err
+    )
     assert not (tmp_path / "runs").exists()
 
 
@@ -119,5 +121,8 @@ def test_missing_report_extra_is_one_line(capsys: pytest.CaptureFixture[str], mo
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     monkeypatch.delitem(sys.modules, "opends_gym.record.report", raising=False)
     assert cli(["analyze", str(rec), "--report", str(tmp_path / "r.pdf")]) == 2
-    assert _one_line_error(capsys) == "opends-gym analyze: error: the analyzer's PDF report needs the 'report' extra: pip install \"opends-gym[report]\""
+    assert (
+        _one_line_error(capsys)
+        == "opends-gym analyze: error: the analyzer's PDF report needs the 'report' extra: pip install \"opends-gym[report]\""
+    )
     assert not (tmp_path / "r.pdf").exists()

@@ -29,6 +29,8 @@ from opends_gym.sim.world import World
 from opends_gym.task.bundled import BUNDLED_DIR
 from opends_gym.task.model_scene import Picture, ScreenAnchor
 from opends_gym.task.model_settings import TopView
+from opends_gym.task.model_task import Pose
+from opends_gym.task.values import Rotation
 
 from .conftest import CORPUS
 
@@ -230,11 +232,16 @@ def test_turn_signal_blinks_in_simulation_time() -> None:
 def test_traffic_light_state_is_drawn() -> None:
     world = World(CORPUS / "opends-cts" / "Idealtest2")
     assert world.lights is not None
+    # the car where the scene places it, facing -X towards intersection 03 (the task's autopilot
+    # would start it at waypoint 209, under a light)
+    world.reset(start=Pose(world.task.car_model.translation_m or (0.0, 0.0, 0.0), Rotation.from_euler_deg(0.0, 90.0, 0.0)))
     scene_r = make_renderer("topdown", world, view_m=200.0)
     scene_r.render(200, 200)
     lights = scene_r.scene.lights
     assert lights, "Idealtest2 lights should be placed at their waypoints"
-    light_id = min(lights, key=lambda p: math.hypot(p.x - world.ego.state.x, p.z - world.ego.state.z)).light_id
+    ego = world.ego.state  # the nearest light ahead of the car (the chase camera looks forward)
+    ahead = [p for p in lights if (p.x - ego.x) * -math.sin(ego.yaw) + (p.z - ego.z) * -math.cos(ego.yaw) > 0.0]
+    light_id = min(ahead, key=lambda p: math.hypot(p.x - ego.x, p.z - ego.z)).light_id
     world.lights.set_mode("external")
     for state, lamp in (("red", pal.LAMP_RED), ("green", pal.LAMP_GREEN)):
         assert world.lights.set_external_state(light_id, state)

@@ -130,6 +130,8 @@ def run_episodes(args: argparse.Namespace, progress: ProgressBar | None = None) 
                 "wall_s": ep.wall_s,
             }
             row.update(ep.metrics)
+            if "lanes_known" in row:  # (a yes/no: the task defines the lanes the offsets are measured in)
+                row["lanes_known"] = bool(row["lanes_known"])
             recorded = getattr(env, "paths", None)  # RecordDrive's files so far
             if recorded:
                 row["recording"] = str(recorded[-1])

@@ -61,3 +61,14 @@ def pure_pursuit_steering(
     alpha = math.atan2(left, ahead)
     delta = math.atan2(2.0 * wheelbase_m * math.sin(alpha), math.hypot(ahead, left))
     return max(-1.0, min(1.0, delta / MAX_WHEEL_ANGLE_RAD))
+
+
+def pure_pursuit(ahead_m: float, left_m: float, wheelbase_m: float) -> float:
+    """Steering input (-1..1, + left) onto the arc through a target point (ahead, left) in
+    the car's frame (Coulter 1992): curvature 2 * left / distance^2, wheel angle
+    atan(wheelbase * curvature)."""
+    d2 = ahead_m * ahead_m + left_m * left_m
+    if d2 < 1e-6:
+        return 0.0
+    delta = math.atan(wheelbase_m * 2.0 * left_m / d2)
+    return max(-1.0, min(1.0, delta / MAX_WHEEL_ANGLE_RAD))

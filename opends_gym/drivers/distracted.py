@@ -46,7 +46,7 @@ import numpy as np
 
 from .intent import to_action
 from .percept import Percept, perceive
-from .rule import RuleDriver
+from .rule import RuleDriver, start_engine
 
 
 @dataclass(frozen=True)
@@ -190,6 +190,7 @@ class DistractedDriver:
         t = float(self.env.unwrapped.world.t_s)  # type: ignore[attr-defined]
         if hasattr(self.base, "decide"):
             now = perceive(self.env, info)
+            start_engine(self.env, now)  # (the key is turned whatever the eyes do)
             settled = abs(now.target_lateral_m - now.lateral_m) < MANOEUVRE_OFFSET_M and abs(now.heading_error_rad) < MANOEUVRE_HEADING_RAD
             off = self._eyes_off(t, settled or self._stale is not None)
             return self._act_on_percept(now, off)

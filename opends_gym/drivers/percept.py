@@ -12,6 +12,7 @@ to the left of travel.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -49,6 +50,10 @@ class Percept:
     sign_distance_m: float | None = None  # to the lane-change sign that set the target (LCT)
     contre: tuple[float, float, float] | None = None  # (target bar m, steering bar m, light 0/1 red/2 green)
     follow_gap_m: float | None = None  # the gap to keep to the lead (platoon band centre)
+    engine_off: bool = False  # the engine is not running (a person turns the key first)
+    aim: tuple[float, float] | None = None  # on a route: the point to steer at, (ahead, left) m in the car's frame
+    curve_speed_mps: float = math.inf  # on a route: the fastest speed that takes the curves ahead
+    route_left_m: float = math.inf  # on a route: how far it goes on
 
 
 Reader = Callable[[Any, Percept], Percept]
@@ -59,20 +64,123 @@ def _base(env: Any) -> Percept:
     s = world.ego.state
     p = guide.locate(s.x, s.z)
     lane = p.lane_index if p.lane_index >= 0 else guide.nearest_lane(p.lateral_m)
-    lead = lead_vehicle(world) if world.traffic is not None else None
+    target = guide.lane_laterals_m[lane]
     engine = world.task.scenario.driver.car.engine
     limit = world.road.current_limit_mps or DEFAULT_CRUISE_MPS
     cruise = min(limit, engine.max_speed_mps)
+    if guide.kind == "route":
+        lead_car = route_lead(world, guide, p.s_m, target) if world.traffic is not None else None
+        aim = _aim(guide, s.x, s.z, s.yaw, s.u, p.s_m, target)
+        curve = curve_speed(guide, p.s_m, max(s.u, cruise))
+        left = guide.route_length_m() - p.s_m
+    else:
+        lead = lead_vehicle(world) if world.traffic is not None else None
+        if lead is not None and lead.speed_mps < -ONCOMING_MPS:
+            lead = None  # coming towards the ego: no lead to follow
+        lead_car = LeadCar(lead.gap_m, lead.speed_mps, lead.brake_light, int(world.traffic.turn_signal[lead.index])) if lead else None
+        aim, curve, left = None, math.inf, math.inf
     return Percept(
         t_s=world.t_s,
         speed_mps=s.u,
         lateral_m=p.lateral_m,
         heading_error_rad=wrap_angle(s.yaw - p.heading_rad),
         yaw_rate_radps=s.r,
-        target_lateral_m=guide.lane_laterals_m[lane],
+        target_lateral_m=target,
         cruise_mps=cruise,
-        lead=LeadCar(lead.gap_m, lead.speed_mps, lead.brake_light, int(world.traffic.turn_signal[lead.index])) if lead else None,
+        lead=lead_car,
+        engine_off=not world.ego.powertrain.state.engine_on,
+        aim=aim,
+        curve_speed_mps=curve,
+        route_left_m=left,
     )
+
+
+LOOKAHEAD_S = 0.9  # pure pursuit: aim this many seconds of travel ahead
+LOOKAHEAD_MIN_M = 6.0
+CURVE_LATERAL_MPS2 = 3.0  # the lateral acceleration a driver accepts in a curve
+CURVE_BRAKE_MPS2 = 2.0  # and the deceleration before one
+CURVE_STEP_M = 5.0
+LEAD_RANGE_M = 200.0
+ONCOMING_MPS = 0.5  # a vehicle closing head-on faster than this is not a lead
+
+
+def _aim(guide: Any, x: float, z: float, yaw: float, speed: float, s_m: float, lateral_m: float) -> tuple[float, float]:
+    """The route point `LOOKAHEAD_S` ahead, shifted to the target lane, in the car's frame."""
+    ld = max(LOOKAHEAD_MIN_M, LOOKAHEAD_S * max(speed, 0.0))
+    ax, az, ah = guide.polyline.point_at(s_m + ld)
+    wx, wz = ax - lateral_m * math.cos(ah), az + lateral_m * math.sin(ah)  # left of heading h is (-cos h, sin h)
+    dx, dz = wx - x, wz - z
+    return (dx * -math.sin(yaw) + dz * -math.cos(yaw), dx * -math.cos(yaw) + dz * math.sin(yaw))
+
+
+def curve_speed(guide: Any, s_m: float, speed: float) -> float:
+    """The fastest speed now from which the driver can slow (at `CURVE_BRAKE_MPS2`) to take
+    every curve within the braking distance at `CURVE_LATERAL_MPS2`; curvature is the
+    heading change over `2 * CURVE_STEP_M` of route."""
+    horizon = speed * speed / (2.0 * CURVE_BRAKE_MPS2) + 4.0 * CURVE_STEP_M
+    best = math.inf
+    d = 0.0
+    h0 = guide.heading_at(s_m - CURVE_STEP_M)
+    h1 = guide.heading_at(s_m)
+    while d <= horizon:
+        h2 = guide.heading_at(s_m + d + CURVE_STEP_M)
+        kappa = abs(wrap_angle(h2 - h0)) / (2.0 * CURVE_STEP_M)
+        if kappa > 1e-4:
+            v = math.sqrt(CURVE_LATERAL_MPS2 / kappa)
+            best = min(best, math.sqrt(v * v + 2.0 * CURVE_BRAKE_MPS2 * d))
+        h0, h1 = h1, h2
+        d += CURVE_STEP_M
+    return best
+
+
+CROSSING_HORIZON_S = 2.5  # a pedestrian who will be in the lane this soon is in the way
+CROSSING_MARGIN_M = 1.0
+
+
+def route_lead(world: Any, guide: Any, s_m: float, lane_lateral_m: float) -> LeadCar | None:
+    """The nearest traffic object ahead along the route in the ego's lane (its centre within
+    half a lane of the lane centre) that is not coming towards it: an oncoming car in the
+    other lane, or one met in a curve, is no lead. A pedestrian counts while it is in the
+    lane or will walk into it (with a metre to spare) within `CROSSING_HORIZON_S`."""
+    tr = world.traffic
+    if tr is None or len(tr.ids) == 0:
+        return None
+    s = world.ego.state
+    fx, fz = -math.sin(s.yaw), -math.cos(s.yaw)
+    half = guide.lane_width_m / 2.0
+    n_cars = len(world.task.scenario.vehicles)  # (traffic rows: vehicles, pedestrians, ODvehicles)
+    n_peds = len(world.task.scenario.pedestrians)
+    best: tuple[float, int] | None = None
+    for i in range(len(tr.ids)):
+        if not tr.enabled[i]:
+            continue
+        x, z = float(tr.positions[i, 0]), float(tr.positions[i, 2])
+        dx, dz = x - s.x, z - s.z
+        if dx * dx + dz * dz > LEAD_RANGE_M * LEAD_RANGE_M or dx * fx + dz * fz < -5.0 or abs(float(tr.positions[i, 1]) - s.y) > 5.0:
+            continue  # far, behind, or parked out of reach below or above the road
+        q = guide.polyline.project(x, z)
+        ahead = q.s_m - s_m
+        if not (0.0 < ahead < LEAD_RANGE_M):
+            continue
+        heading = guide.heading_at(q.s_m)
+        rel = float(tr.yaw[i]) - heading
+        speed = float(tr.speed[i])
+        off = q.offset_m - lane_lateral_m
+        if n_cars <= i < n_cars + n_peds:  # a pedestrian: now or soon in the lane
+            later = off + speed * math.sin(rel) * CROSSING_HORIZON_S  # (its velocity across the route: v sin(yaw - heading), + left)
+            lo, hi = min(off, later), max(off, later)
+            if hi < -half - CROSSING_MARGIN_M or lo > half + CROSSING_MARGIN_M:
+                continue
+        elif abs(off) > half or (speed > ONCOMING_MPS and math.cos(rel) < 0.0):
+            continue  # another lane, or coming towards the ego
+        if best is None or ahead < best[0]:
+            best = (ahead, i)
+    if best is None:
+        return None
+    ahead, j = best
+    gap = ahead - float(tr.half_extents[j, 1]) - 0.5 * world.ego.spec.length_m
+    v_along = float(tr.speed[j]) * math.cos(float(tr.yaw[j]) - guide.heading_at(s_m + ahead))
+    return LeadCar(gap, v_along, bool(tr.brake_light[j]), int(tr.turn_signal[j]))
 
 
 def _read_lct(env: Any, p: Percept) -> Percept:

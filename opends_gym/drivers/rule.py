@@ -20,7 +20,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from ..control.controllers import stanley_steering
+from ..control.controllers import pure_pursuit, stanley_steering
 from .intent import Intent, to_action
 from .percept import Percept, perceive
 
@@ -50,12 +50,22 @@ class RuleParams:
     platoon_overspeed_mps: float = 15.0 / 3.6  # platoon: may exceed the cruise speed this much to close a gap
     contre_response_s: float = 0.25  # ConTRe: time to close the bar gap
     contre_bar_speed_mps: float = 1.0
+    route_end_margin_m: float = 10.0  # stop this far before the end of the known route
 
 
 @dataclass
 class _Plan:
     lateral_m: float | None = None  # the lane-change path's current lateral position
     t_s: float | None = None
+
+
+def start_engine(env: Any, p: Percept) -> None:
+    """A person turns the ignition key when the engine is off (the task's `<engineOn>` is
+    false): `OpenDSEnv.turn_engine_key`, whatever the env's action type carries."""
+    if p.engine_off:
+        turn = getattr(env.unwrapped, "turn_engine_key", None)
+        if turn is not None:
+            turn(True)
 
 
 class RuleDriver:
@@ -75,12 +85,15 @@ class RuleDriver:
         self._plan = _Plan()
         self._integral = 0.0
         self._pedal_t = None
-        base = env.unwrapped
+        base: Any = env.unwrapped
         so = getattr(getattr(base, "contre", None), "steering_object", None)
         self._bar_speed = float(so.speed) if so is not None and so.speed > 0 else self.params.contre_bar_speed_mps
+        self._wheelbase = float(base.world.ego.spec.wheelbase_m)
 
     def act(self, obs: Any, info: dict[str, Any]) -> Any:
-        return to_action(self.env, self.decide(perceive(self.env, info)))
+        p = perceive(self.env, info)
+        start_engine(self.env, p)
+        return to_action(self.env, self.decide(p))
 
     # ------------------------------------------------------------------ decisions
     def decide(self, p: Percept) -> Intent:
@@ -98,8 +111,12 @@ class RuleDriver:
         )
 
     def _steer(self, p: Percept) -> float:
-        """Stanley onto a path that ramps to the target lateral at the lane-change gradient."""
+        """Stanley onto a path that ramps to the target lateral at the lane-change gradient;
+        on a route (curves, turns) pure pursuit of its point ahead in the target lane."""
         prm = self.params
+        if p.aim is not None:
+            ahead, left = p.aim
+            return pure_pursuit(ahead, left, self._wheelbase)
         plan = self._plan
         per_lane = prm.lane_change_m_per_lane if p.sign_distance_m is not None else prm.reaction_lane_change_m_per_lane
         slope = prm.lane_width_m / per_lane
@@ -140,7 +157,9 @@ class RuleDriver:
 
     def _speed_setpoint(self, p: Percept) -> float:
         prm = self.params
-        target = p.cruise_mps
+        target = min(p.cruise_mps, p.curve_speed_mps)
+        if p.route_left_m < math.inf:  # stop where the known road ends
+            target = min(target, math.sqrt(2.0 * prm.idm_comfort_decel_mps2 * max(0.0, p.route_left_m - prm.route_end_margin_m)))
         if p.brake_to_mps is not None:
             target = min(target, p.brake_to_mps - prm.brake_margin_mps)
         lead = p.lead

@@ -14,9 +14,14 @@ equal across seeded runs):
   none; misses are 10 s as OpenDS's 10000 ms), mean_deviation_m (running; the final
   OpenDS/ISO value is in episode_metrics), sdlp_m (running over lane-keeping samples, 0
   until there are two), headway_s (front-to-front to the lead, inf without one), ttc_s
-  (inf unless closing in).
+  (inf unless closing in), lanes_known (the task defines the lanes lateral offset and
+  lane index are measured in, here: OpenDS X-band lanes, OpenDRIVE lanes or Gen B road
+  segments; otherwise, and on the curve that joins a start off every road to the task's
+  roads, they are measured from the ego's route, see `sim.guide.RoadGuide`).
   `events`: tuple of event dicts emitted this step (the documented non-numeric key).
-  `episode_metrics`: dict of the task's summary, present only on the last step.
+  `episode_metrics`: dict of the task's summary, present only on the last step; the base
+  adds lanes_known (0/1), mean_abs_lateral_offset_m (mean |lateral_offset_m| over physics
+  steps) and off_road_s (simulated seconds beyond the road's edges).
 """
 
 from __future__ import annotations
@@ -77,6 +82,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         self._renderer: Any = None
         self._window: Any = None
         self._episode_over = False
+        self._engine_key: bool | None = None
 
     # ------------------------------------------------------------------ hooks
     def _make_task(self) -> DrivingTask:
@@ -117,6 +123,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         self.world.reset(seed=int(self.np_random.integers(0, 2**31 - 1)))
+        self.guide.reset()
         self.act_type.reset()
         self.trace.clear()
         self._run = RunningLateral()
@@ -125,6 +132,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         self._collisions_seen = 0
         self._last_s = self.guide.locate(self.world.ego.state.x, self.world.ego.state.z).s_m
         self._episode_over = False
+        self._engine_key = None
         self._reset_task(options)
         self._record_row()
         info = self._info(progress_m=0.0, new_collisions=0, events=())
@@ -134,6 +142,9 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         if self._episode_over:
             raise RuntimeError("step() called after the episode ended; call reset() first")
         controls = self._transform_controls(self.act_type.to_controls(action))
+        if self._engine_key is not None:  # the ignition key turned since the last step
+            controls = DriverControls(**controls.__dict__)
+            controls.engine_on, self._engine_key = self._engine_key, None
         applied = controls.clipped()  # what the world gets: clipped once for the action repeat
         world = self.world
         for k in range(self.config.action_repeat):
@@ -164,6 +175,18 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         if self.render_mode == "human":
             self.render()
         return self.obs_type.observe(), reward, terminated, truncated, info
+
+    def turn_engine_key(self, on: bool = True) -> None:
+        """The driver turns the ignition key: the engine is switched on (off) with the next
+        step, whatever the action type carries (OpenDS: the TOGGLE_ENGINE key of
+        `SimulatorActionListener` calls `Car.setEngineOn`; a task with `<engineOn>` false
+        starts with the engine off and the accelerator does nothing until then)."""
+        self._engine_key = bool(on)
+
+    @property
+    def pending_engine_key(self) -> bool | None:
+        """The ignition key turned for the next step (recordings keep it beside the action)."""
+        return self._engine_key
 
     def _stop_early(self) -> bool:
         return self._terminated(self.world.collisions - self._collisions_seen)
@@ -226,6 +249,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             "sdlp_m": self._run.sdlp_m,
             "headway_s": tr.last("headway_s"),
             "ttc_s": tr.last("ttc_s"),
+            "lanes_known": self.guide.lanes_known_at(self._last_s),
             "progress_m": progress_m,
             "new_collisions": new_collisions,
             "events": events,
@@ -260,9 +284,19 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             "reactions_failed": float(sum(1 for r in reactions if r.result == -1)),
             "reactions_missed": float(sum(1 for r in reactions if r.result == -2)),
             "mean_reaction_time_s": float(np.mean([r.reaction_time_s for r in correct])) if correct else math.nan,
+            "lanes_known": float(self.guide.lanes_known),
+            "mean_abs_lateral_offset_m": float(np.mean(np.abs(offsets))) if tr.n else math.nan,
+            "off_road_s": self._off_road_s(),
         }
         out.update(self._episode_metrics())
         return out
+
+    def _off_road_s(self) -> float:
+        """Simulated seconds the car's reference point spent beyond its road's edges
+        (`RoadGuide.off_road`; 0 where no road is known)."""
+        left, right = self.guide.road_edges_m
+        lat = self.trace.col("lateral_m")[1:]  # (the reset row is no step)
+        return float(np.count_nonzero((lat > left) | (lat < right))) / self.config.physics_hz
 
     # ------------------------------------------------------------------ render
     def render(self) -> np.ndarray | None:

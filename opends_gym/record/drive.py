@@ -277,7 +277,7 @@ def locate_many(guide: dict[str, Any], x: np.ndarray, z: np.ndarray) -> tuple[np
     dist = np.abs(lat[:, None] - lanes[None, :])
     nearest = np.argmin(dist, axis=1)
     lane = np.where(dist[np.arange(len(lat)), nearest] <= width / 2.0, nearest, -1).astype(float)
-    if kind != "lanes":
+    if kind not in ("lanes", "route"):
         lane = np.where(np.abs(lat) < width / 2.0, 0.0, -1.0)
     off = lat - lanes[nearest]
     return s, lat, lane, off

@@ -256,9 +256,12 @@ class DriveRecorder:
         return self.sink is not None
 
     # ------------------------------------------------------------------ inputs
-    def log_action(self, action: Any) -> None:
-        """A policy action about to be passed to env.step() (called by `RecordDrive`)."""
+    def log_action(self, action: Any, engine_key: bool | None = None) -> None:
+        """A policy action about to be passed to env.step() (called by `RecordDrive`), with the
+        ignition key the driver turned for that step (`OpenDSEnv.turn_engine_key`), if any."""
         msg = M.action_message(self.world.t_s, self._action_index, action)
+        if engine_key is not None:
+            msg["engine_key"] = bool(engine_key)
         self._action_index += 1
         t_ns = M.sim_ns(self.world.t_s)
         if self.follow:

@@ -198,6 +198,8 @@ def replay(path: str | Path | Recording, *, check: bool = True, until_s: float |
             for msg in actions:
                 if until_s is not None and world.t_s >= until_s - EPS_S:
                     break
+                if msg.get("engine_key") is not None:  # the ignition key turned with this action
+                    env.unwrapped.turn_engine_key(bool(msg["engine_key"]))
                 _, _, terminated, truncated, _ = env.step(M.action_from_message(msg))
                 result.inputs_fed += 1
                 if terminated or truncated:

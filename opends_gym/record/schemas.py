@@ -132,6 +132,7 @@ ACTION_SCHEMA: dict[str, Any] = {
         "dtype": {"type": ["string", "null"]},
         "shape": {"type": ["array", "null"]},
         "data": {"description": "the value (flattened for arrays)"},
+        "engine_key": {"type": "boolean", "description": "the ignition key turned on (off) with this action (OpenDSEnv.turn_engine_key)"},
     },
     "required": ["t_s", "index", "kind", "data"],
 }

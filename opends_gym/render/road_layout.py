@@ -5,7 +5,8 @@ use the first that the task has: an OpenDRIVE road (`world.road.opendrive`: ever
 between its edges, drivable lanes as asphalt, others as shoulder), the `road/lane`
 X-bands (straight along Z, as OpenDS's reaction timers assume), the traffic road network
 (Gen B segments or Gen A waypoints, one 3.5 m lane each), else the ideal tracks, else the
-camera-flight track. Ideal tracks are also returned as thin lines for the map. Markings: solid outer edges, dashed
+camera-flight track; plus, where the ego starts off all of them, the curve that joins it
+to its road (`sim.lane_sources`). Ideal tracks are also returned as thin lines for the map. Markings: solid outer edges, dashed
 lines between lanes (6 m paint, 12 m gap, as on German motorways), 0.15 m wide.
 """
 
@@ -95,17 +96,10 @@ class RoadLayout:
         elif not self.bands:
             points = {g.id: g.translation_m for g in task.scene.geometries if isinstance(g, Point)}
             for path in _network_paths(task, points) or self.tracks or _camera_flight_path(task, points):
-                xz = resample(path)
-                if xz is not None:
-                    left, right = offset_polyline(xz, PATH_LANE_HALF_W_M), offset_polyline(xz, -PATH_LANE_HALF_W_M)
-                    self.ribbons.append(
-                        Ribbon(
-                            offset_polyline(xz, PATH_LANE_HALF_W_M + SHOULDER_M),
-                            offset_polyline(xz, -PATH_LANE_HALF_W_M - SHOULDER_M),
-                            pal.ASPHALT,
-                            ((left, False), (right, False)),
-                        )
-                    )
+                self._add_path(path)
+        connector = _start_connector(world)
+        if connector is not None:  # the ego's own road onto the task's roads (lane_sources)
+            self._add_path(connector)
         if self.bands:
             lo = min(b.x_min for b in self.bands)
             hi = max(b.x_max for b in self.bands)
@@ -115,6 +109,21 @@ class RoadLayout:
                 for e in (round(b.x_min, 2), round(b.x_max, 2)):
                     edges[e] = edges.get(e, 0) + 1
             self.band_marks = tuple((e, n > 1) for e, n in sorted(edges.items()))  # shared edges are dashed
+
+    def _add_path(self, path: Any) -> None:
+        """A path drawn as one 3.5 m lane with solid edges and a shoulder."""
+        xz = resample(path)
+        if xz is None:
+            return
+        left, right = offset_polyline(xz, PATH_LANE_HALF_W_M), offset_polyline(xz, -PATH_LANE_HALF_W_M)
+        self.ribbons.append(
+            Ribbon(
+                offset_polyline(xz, PATH_LANE_HALF_W_M + SHOULDER_M),
+                offset_polyline(xz, -PATH_LANE_HALF_W_M - SHOULDER_M),
+                pal.ASPHALT,
+                ((left, False), (right, False)),
+            )
+        )
 
     # ------------------------------------------------------------------ cut out
     def pieces(self, x: float, z: float, radius: float, breaks: np.ndarray | None = None, dash_radius: float = 300.0) -> GroundPieces:
@@ -243,6 +252,22 @@ def opendrive_ribbons(od: Any, step: float = RESAMPLE_M) -> list[Ribbon]:
                         if k == 0:
                             marks += ((world(inner), True),)  # the centre line between the two directions
                     out.append(Ribbon(world(inner), world(outer), pal.ASPHALT if drivable else pal.SHOULDER, marks))
+    return out
+
+
+def _start_connector(world: Any) -> np.ndarray | None:
+    """Where the ego starts off every road the task describes (the MotorwayTask car stands on
+    a slip road of its 3D model), the curve `sim.lane_sources` joins it to them by, (N, 2)."""
+    from ..sim.lane_sources import ego_road
+
+    start = getattr(world, "start_pose", None)
+    if start is None or world.road.lanes or not hasattr(world.task, "scenario"):
+        return None
+    road = ego_road(world.task, world.road, start)
+    if road is None or road.join_s_m <= 0.0:
+        return None
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(road.points, axis=0).T))])
+    out: np.ndarray = road.points[arc <= road.join_s_m + 1e-6]
     return out
 
 

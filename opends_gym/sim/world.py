@@ -39,6 +39,9 @@ from .triggers import TriggerCore, make_trigger_core
 from .world_config import WorldConfig
 
 _NOTHING: frozenset[str] = frozenset()
+# traffic this far above or below the ego is not hit (init_drive parks its pedestrians at y = -50
+# until a trigger brings them up; OpenDS's 3-D physics never lets the car touch them there)
+TRAFFIC_REACH_Y_M = 5.0
 
 
 class World:
@@ -167,7 +170,9 @@ class World:
             self.touching = frozenset(o.id for o in triggers) if triggers else _NOTHING
         hits = {o.id for o in obstacles} if obstacles else set()
         if traffic is not None:
-            hits.update(traffic.colliding_with(box))
+            met = traffic.colliding_with(box)
+            if met:  # boxes meet in plan view; a car or pedestrian parked far below or above does not
+                hits.update(i for i in met if abs(float(traffic.positions[traffic.ids.index(i), 1]) - s.y) < TRAFFIC_REACH_Y_M)
         if not hits:  # the usual step: nothing hit, nothing to count
             self._hitting = _NOTHING
             return

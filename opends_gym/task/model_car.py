@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .bind import BOOL, CM3, FLOAT, INT, KMH, REF_ITEM, STR, Struct, attr, elem, elems, source_line
+from .model_traffic import VehicleWayPoint
 from .values import FLOATS, ROTATION, VEC3, Rotation, Vec3
 
 DEFAULT_FORWARD_RATIOS = (3.615, 1.955, 1.281, 0.973, 0.778, 0.646)
@@ -36,7 +37,10 @@ class Engine:
 
 @dataclass(frozen=True)
 class AutoPilot:
-    """Gen B: the ego car driven along road segments by the follow-box controller."""
+    """The ego car driven by the follow-box controller: along its own inline `wayPoints`
+    (Gen A 4.x, read by OpenDS's `ScenarioLoader.getAutoPilotFollowBoxSettings`, with
+    `curveTension`, `pathIsCycle`, `pathIsVisible`) or along road segments (Gen B).
+    `startWayPoint` names one of the inline waypoints when there are any, else a road one."""
 
     enabled: bool = elem("enabled", BOOL, False)
     min_distance_from_path_m: float | None = elem("minDistanceFromPath", FLOAT)
@@ -48,6 +52,10 @@ class AutoPilot:
     reset_when_stuck: bool | None = elem("resetWhenStuck", BOOL)
     start_way_point: str | None = elem("startWayPoint", STR)
     segment_refs: tuple[str, ...] = elems("segments", ("segment", REF_ITEM))
+    curve_tension: float | None = elem("curveTension", FLOAT)
+    path_is_cycle: bool | None = elem("pathIsCycle", BOOL)
+    path_is_visible: bool | None = elem("pathIsVisible", BOOL)
+    way_points: tuple[VehicleWayPoint, ...] = elems("wayPoints", ("wayPoint", Struct(VehicleWayPoint)))
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ from .model_interaction import Interaction
 from .model_scenario import Scenario
 from .model_scene import Model, Point, Scene
 from .model_taskxml import TaskSpec
-from .model_traffic import Pedestrian, TrafficVehicle
+from .model_traffic import Pedestrian, TrafficVehicle, VehicleWayPoint
 
 
 class RefChecker:
@@ -204,7 +204,9 @@ class RefChecker:
         if ap is not None:
             for ref in ap.segment_refs:
                 self._need(ref in self.segments, "scenario", sc.driver.car.line, "segment", "autopilot segment", ref)
-            if ap.start_way_point:
+            if ap.way_points:  # Gen A 4.x: the autopilot's own waypoints, checked like a traffic car's
+                self._check_own_waypoints(ap.way_points, "the driver's autopilot", ap.start_way_point, sc.driver.car.line)
+            elif ap.start_way_point:
                 self._need(
                     ap.start_way_point in self.road_wps,
                     "scenario",
@@ -214,20 +216,22 @@ class RefChecker:
                     ap.start_way_point,
                 )
 
+    def _check_own_waypoints(self, points: tuple[VehicleWayPoint, ...], owner: str, start: str | None, line: int) -> None:
+        """A Gen A waypoint list: unique ids, a position each, known lights, a start among them."""
+        own = self._unique("scenario", "wayPoint", ((w.id, w.line) for w in points))
+        for w in points:
+            if w.translation_m is None:
+                if not w.ref:
+                    raise self._err("scenario", w.line, "wayPoint", f"waypoint '{w.id}' of {owner} needs a ref or a <translation>")
+                self._point_ref(w.ref, w.line, "wayPoint")
+            if w.traffic_light:
+                self._need(w.traffic_light in self.lights, "scenario", w.line, "trafficLight", "waypoint traffic light", w.traffic_light)
+        if start:
+            self._need(start in own, "scenario", line, "startWayPoint", f"start waypoint of {owner}", start)
+
     def _check_path(self, t: TrafficVehicle | Pedestrian) -> None:
         if t.way_points:
-            own = self._unique("scenario", "wayPoint", ((w.id, w.line) for w in t.way_points))
-            for w in t.way_points:
-                if w.translation_m is None:
-                    if not w.ref:
-                        raise self._err("scenario", w.line, "wayPoint", f"waypoint '{w.id}' of '{t.id}' needs a ref or a <translation>")
-                    self._point_ref(w.ref, w.line, "wayPoint")
-                if w.traffic_light:
-                    self._need(
-                        w.traffic_light in self.lights, "scenario", w.line, "trafficLight", "waypoint traffic light", w.traffic_light
-                    )
-            if t.start_way_point:
-                self._need(t.start_way_point in own, "scenario", t.line, "startWayPoint", f"start waypoint of '{t.id}'", t.start_way_point)
+            self._check_own_waypoints(t.way_points, f"'{t.id}'", t.start_way_point, t.line)
             return
         for ref in t.segment_refs:
             self._need(ref in self.segments, "scenario", t.line, "segment", f"segment of '{t.id}'", ref)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from .model_task import DrivingTask
 
@@ -18,12 +19,14 @@ class TaskSummary:
     lanes: int
     ideal_tracks: int
     warnings: int
+    road: str = "none"  # where the ego's road comes from (X-band `lanes`, or a `sim.lane_sources` source)
+    road_lanes: int = 0  # the lanes known across it (0: a line to follow, lanes unknown)
 
     def line(self) -> str:
         return (
             f"models={self.models} triggers={self.triggers} actions={self.actions} "
             f"traffic={self.traffic_vehicles} pedestrians={self.pedestrians} lanes={self.lanes} "
-            f"ideal_tracks={self.ideal_tracks} warnings={self.warnings}"
+            f"ideal_tracks={self.ideal_tracks} road={self.road} road_lanes={self.road_lanes} warnings={self.warnings}"
         )
 
 
@@ -39,4 +42,19 @@ def summarize(task: DrivingTask) -> TaskSummary:
         lanes=len(sc.road.lanes),
         ideal_tracks=len(sc.driver.ideal_tracks),
         warnings=len(task.warnings),
+        **_road(task),
     )
+
+
+def _road(task: DrivingTask) -> dict[str, Any]:
+    """The ego's road as the envs measure lanes on it (`sim.guide.RoadGuide`)."""
+    if task.scenario.road.lanes:
+        return {"road": "lanes", "road_lanes": len(task.scenario.road.lanes)}
+    from ..sim.lane_sources import ego_road
+    from ..sim.road import RoadModel
+
+    model = RoadModel(task)
+    road = ego_road(task, model, model.driver_start_pose() or task.start_pose)
+    if road is None:
+        return {"road": "none", "road_lanes": 0}
+    return {"road": road.source, "road_lanes": len(road.lane_laterals_m) if road.lanes_known else 0}

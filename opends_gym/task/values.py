@@ -89,6 +89,32 @@ def yaw_from_quat(q: Quat) -> float:
     return math.atan2(-fx, -fz)
 
 
+def quat_to_angles(q: Quat) -> Vec3:
+    """jME `Quaternion.toAngles`: (x, y, z) Euler angles in radians."""
+    x, y, z, w = q
+    sqw, sqx, sqy, sqz = w * w, x * x, y * y, z * z
+    unit = sqx + sqy + sqz + sqw
+    test = x * y + z * w
+    if test > 0.499 * unit:
+        return (0.0, 2.0 * math.atan2(x, w), 0.5 * math.pi)
+    if test < -0.499 * unit:
+        return (0.0, -2.0 * math.atan2(x, w), -0.5 * math.pi)
+    return (
+        math.atan2(2 * x * w - 2 * y * z, -sqx + sqy - sqz + sqw),
+        math.atan2(2 * y * w - 2 * x * z, sqx - sqy - sqz + sqw),
+        math.asin(max(-1.0, min(1.0, 2 * test / unit))),
+    )
+
+
+def car_rotation(rot: Rotation) -> Rotation:
+    """The rotation OpenDS gives a car placed with `rot`: `Car.setRotation` negates the
+    heading angle ("compensate that car is actually driving backwards"), so a scene car
+    rotated by +132 deg about Y drives at heading -132 deg (the real Countryside drive logs
+    start at the quaternion of -132 deg)."""
+    ax, ay, az = quat_to_angles(rot.quaternion)
+    return Rotation.from_euler_deg(math.degrees(ax), -math.degrees(ay), math.degrees(az))
+
+
 def quat_from_yaw(yaw: float) -> Quat:
     return (0.0, math.sin(yaw * 0.5), 0.0, math.cos(yaw * 0.5))
 

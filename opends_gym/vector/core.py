@@ -283,6 +283,7 @@ class BatchCore:
             "sdlp_m": self.sdlp(),
             "headway_s": self.headway.copy(),
             "ttc_s": self.ttc.copy(),
+            "lanes_known": np.full(len(self.t), bool(self.guide.lanes_known)),
             "progress_m": self.progress.copy(),
             "new_collisions": self.new_collisions.copy(),
         }

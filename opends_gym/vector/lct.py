@@ -90,6 +90,7 @@ class LctBatch(BatchCore):
             "sdlp_m": sdlp,
             "headway_s": self.headway.copy(),
             "ttc_s": self.ttc.copy(),
+            "lanes_known": np.full(n, bool(self.guide.lanes_known)),
             "progress_m": progress,
             "new_collisions": new_collisions,
         }
