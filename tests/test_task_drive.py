@@ -463,3 +463,32 @@ def test_real_countryside_drives_stay_on_the_road_the_guide_builds(log: str) -> 
     offsets = [abs(g.polyline.project(float(r[1]), float(r[3])).offset_m) for r in rows]
     assert len(offsets) > 100 and max(offsets) < 3.0 and not any(g.off_road(o) for o in offsets)
     env.close()
+
+
+def test_rule_driver_yields_at_the_motorway_merge_to_a_car_about_to_pass() -> None:
+    """On the slip road the driver accepts a gap, as a person checking the mirror does: a
+    motorway car reaching the join at the ego's time makes it stop before the join; with
+    that car moved far back (or already past) the way is free."""
+    from opends_gym.drivers.percept import MERGE_STOP_BEFORE_M, merge_stop_left_m
+
+    env = gym.make("OpenDS/DrivingTask-v0", task=str(CORPUS / "opends-cts" / "MotorwayTask"))
+    env.reset(seed=0)
+    base = env.unwrapped
+    world, guide = base.world, base.guide
+    s = world.ego.state
+    s_m = guide.locate(s.x, s.z).s_m
+    assert s_m < guide.join_s_m  # the ego starts on the connector
+    tr = world.traffic
+    jx, jz, heading = guide.polyline.point_at(guide.join_s_m)
+    fx, fz = -math.sin(heading), -math.cos(heading)
+    ego_eta = (2.0 * (guide.join_s_m - s_m) / 2.0) ** 0.5  # from rest at the merge acceleration
+    tr.enabled[:] = False
+    tr.enabled[0] = True
+    tr.yaw[0], tr.speed[0] = heading, 27.0
+    tr.positions[0, 0], tr.positions[0, 2] = jx - fx * 27.0 * ego_eta, jz - fz * 27.0 * ego_eta  # arrives with the ego
+    left = merge_stop_left_m(world, guide, s_m, 0.0)
+    assert left < math.inf and guide.join_s_m - MERGE_STOP_BEFORE_M - s_m <= left <= guide.join_s_m - s_m
+    tr.positions[0, 0], tr.positions[0, 2] = jx - fx * 27.0 * (ego_eta + 10.0), jz - fz * 27.0 * (ego_eta + 10.0)
+    assert merge_stop_left_m(world, guide, s_m, 0.0) == math.inf  # 10 s behind: a free gap
+    tr.positions[0, 0], tr.positions[0, 2] = jx + fx * 20.0, jz + fz * 20.0
+    assert merge_stop_left_m(world, guide, s_m, 0.0) == math.inf  # already past the join

@@ -73,6 +73,8 @@ def _base(env: Any) -> Percept:
         aim = _aim(guide, s.x, s.z, s.yaw, s.u, p.s_m, target)
         curve = curve_speed(guide, p.s_m, max(s.u, cruise))
         left = guide.route_length_m() - p.s_m
+        if world.traffic is not None and p.s_m < guide.join_s_m:
+            left = min(left, merge_stop_left_m(world, guide, p.s_m, s.u))
     else:
         lead = lead_vehicle(world) if world.traffic is not None else None
         if lead is not None and lead.speed_mps < -ONCOMING_MPS:
@@ -111,6 +113,38 @@ def _aim(guide: Any, x: float, z: float, yaw: float, speed: float, s_m: float, l
     wx, wz = ax - lateral_m * math.cos(ah), az + lateral_m * math.sin(ah)  # left of heading h is (-cos h, sin h)
     dx, dz = wx - x, wz - z
     return (dx * -math.sin(yaw) + dz * -math.cos(yaw), dx * -math.cos(yaw) + dz * math.sin(yaw))
+
+
+MERGE_STOP_BEFORE_M = 15.0  # on a connector (a slip road): where to wait before the join
+MERGE_GAP_S = 1.5  # a car reaching the join less than this after the ego would: wait (it brakes for the rest)
+MERGE_AFTER_S = 1.0  # and one passing the join less than this before the ego would arrive
+MERGE_ACCEL_MPS2 = 2.0  # the ego's acceleration towards the join, for its arrival time
+MERGE_LANE_HALF_M = 2.5  # a car whose path passes this close to the join point is in its lane
+STOP_MARGIN_M = 10.0  # RuleParams.route_end_margin_m: the driver stops this far before `left`
+
+
+def merge_stop_left_m(world: Any, guide: Any, s_m: float, speed_mps: float) -> float:
+    """On the connector from the start pose to the road (a slip road): the route length to
+    stop at, before the join, while a traffic car in the joined lane would reach the join
+    point within a moment of the ego (gap acceptance); `inf` when the gap is free. A driver checks the
+    mirror and yields at a merge; traffic on its path does not brake for the ego in time."""
+    tr = world.traffic
+    jx, jz, _ = guide.polyline.point_at(guide.join_s_m)
+    d, u = max(guide.join_s_m - s_m, 0.0), max(speed_mps, 0.0)
+    ego_eta = (math.sqrt(u * u + 2.0 * MERGE_ACCEL_MPS2 * d) - u) / MERGE_ACCEL_MPS2  # speeding up to it
+    for i in range(len(tr.ids)):
+        speed = float(tr.speed[i])
+        if not tr.enabled[i] or speed < 1.0:
+            continue
+        x, z, yaw = float(tr.positions[i, 0]), float(tr.positions[i, 2]), float(tr.yaw[i])
+        fx, fz = -math.sin(yaw), -math.cos(yaw)  # its heading (yaw 0 faces -z)
+        along = (jx - x) * fx + (jz - z) * fz
+        across = (jx - x) * fz - (jz - z) * fx
+        if along < -5.0 or abs(across) > MERGE_LANE_HALF_M:
+            continue  # already past the join point, or its path does not cross it
+        if ego_eta - MERGE_AFTER_S < along / speed < ego_eta + MERGE_GAP_S:
+            return max(0.0, guide.join_s_m - MERGE_STOP_BEFORE_M - s_m) + STOP_MARGIN_M
+    return math.inf
 
 
 def curve_speed(guide: Any, s_m: float, speed: float) -> float:
