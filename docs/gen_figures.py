@@ -235,7 +235,7 @@ def cli_help(command: str | None) -> str:
     saved = os.environ.get("COLUMNS")
     os.environ["COLUMNS"] = HELP_COLUMNS
     try:
-        parser = build_parser()
+        parser, _ = build_parser()
         if command is not None:
             sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
             parser = sub.choices[command]

@@ -106,7 +106,7 @@ def test_every_cli_subcommand_is_documented_with_its_options() -> None:
     from opends_gym.cli.main import build_parser
 
     page = (DOCS / "cli.md").read_text()
-    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    sub = next(a for a in build_parser()[0]._actions if isinstance(a, argparse._SubParsersAction))
     assert set(sub.choices) == set(gen.cli_commands())
     for name, parser in sub.choices.items():
         assert f"## {name} {{#{name}}}" in page, f"docs/cli.md has no section for `opends-gym {name}`"
