@@ -15,6 +15,12 @@ from lxml import etree
 
 from .errors import TaskError
 
+# Caps on one task file, far above the largest real OpenDS task (the corpus's largest file,
+# opends-cts ReactionTest/scene.xml, is 3.1 MB with 49,042 elements) and far below what makes
+# a load slow: an 18 MB scene of 300,000 models took 8.8 s and 575 MB before these caps.
+MAX_FILE_BYTES = 16 * 1024 * 1024
+MAX_ELEMENTS = 250_000
+
 
 def _parser() -> etree.XMLParser:
     return etree.XMLParser(
@@ -54,16 +60,32 @@ def _reject_entity_declarations(data: bytes, path: Path) -> None:
     )
 
 
+def _read_capped(path: Path) -> bytes:
+    """The file's bytes, refusing files over MAX_FILE_BYTES before reading them."""
+    try:
+        with path.open("rb") as fh:
+            data = fh.read(MAX_FILE_BYTES + 1)
+    except OSError as exc:
+        raise TaskError(f"cannot read file: {exc.strerror or exc}", file=_short(path)) from exc
+    if len(data) > MAX_FILE_BYTES:
+        cap = MAX_FILE_BYTES // (1024 * 1024)
+        raise TaskError(f"file is larger than {cap} MiB (the cap; real OpenDS task files are under 4 MB)", file=path)
+    return data
+
+
+def _short(path: Path, limit: int = 200) -> str:
+    """A path for a one-line message (a hostile name may be thousands of characters)."""
+    s = str(path)
+    return s if len(s) <= limit else s[:100] + "..." + s[-60:]
+
+
 def parse_file(path: Path) -> etree._Element:
     """Parse one XML file safely and return its root element.
 
     Raises TaskError naming the file and line for unreadable or malformed XML, and for
     documents that declare entities (entity expansion is never performed).
     """
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise TaskError(f"cannot read file: {exc.strerror or exc}", file=path) from exc
+    data = _read_capped(path)
     _reject_entity_declarations(data, path)
     try:
         tree = etree.fromstring(data, _parser(), base_url=None).getroottree()
@@ -84,7 +106,14 @@ def parse_file(path: Path) -> etree._Element:
                 element="!DOCTYPE",
             )
     root = tree.getroot()
-    for node in root.iter():
+    for count, node in enumerate(root.iter(), start=1):
+        if count > MAX_ELEMENTS:
+            raise TaskError(
+                f"more than {MAX_ELEMENTS:,} elements in one file (the cap; real OpenDS tasks have under 50,000)",
+                file=path,
+                line=node.sourceline,
+                element=local_name(node) or None,
+            )
         if isinstance(node, etree._Entity):
             raise TaskError(
                 f"entity reference '&{node.name};' is not allowed in driving-task files",
