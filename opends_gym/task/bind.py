@@ -26,6 +26,8 @@ from .xmlsafe import local_name
 
 T = TypeVar("T")
 
+JAVA_FLOAT_MAX = 3.4028234663852886e38  # Float.MAX_VALUE
+
 
 @dataclass
 class ReadCtx:
@@ -97,7 +99,9 @@ class Float(Scalar[float]):
 
     def parse(self, text: str) -> float:
         value = float(text.strip())
-        if not math.isfinite(value):
+        # OpenDS reads these with Java's Float.parseFloat: beyond the float range they are
+        # Infinity there, so they are refused here like inf and nan.
+        if not math.isfinite(value) or abs(value) > JAVA_FLOAT_MAX:
             raise ValueError(text)
         return value * self.scale if self.scale != 1.0 else value
 

@@ -91,7 +91,8 @@ def parse_file(path: Path) -> etree._Element:
         tree = etree.fromstring(data, _parser(), base_url=None).getroottree()
     except etree.XMLSyntaxError as exc:
         line = exc.lineno if exc.lineno else None
-        raise TaskError(f"malformed XML: {exc.msg}", file=path, line=line) from exc
+        msg = " ".join(str(exc.msg).split()).removesuffix(f", line {line}, column {exc.position[1]}") if line else str(exc.msg)
+        raise TaskError(f"malformed XML: {' '.join(msg.split())}", file=path, line=line) from exc
     docinfo = tree.docinfo
     dtd = docinfo.internalDTD
     if dtd is not None:
