@@ -15,6 +15,7 @@ from pathlib import Path, PurePosixPath, PureWindowsPath
 from .errors import TaskError
 
 _DRIVE = re.compile(r"^[A-Za-z]:")
+NAME_MAX, PATH_MAX = 255, 4096  # Linux/Windows limits: a longer key names no file anywhere
 
 
 def is_absolute_name(name: str) -> bool:
@@ -48,7 +49,10 @@ def check_asset_key(key: str, file: Path, line: int | None, element: str) -> Non
     """Refuse asset keys that are absolute or climb with `..` (missing assets stay a warning)."""
     if not key:
         return
-    why = "is an absolute path" if is_absolute_name(key) else "climbs out with '..'" if ".." in re.split(r"[\\/]", key) else None
+    parts = re.split(r"[\\/]", key)
+    why = "is an absolute path" if is_absolute_name(key) else "climbs out with '..'" if ".." in parts else None
+    if why is None and (len(key) > PATH_MAX or max(len(p.encode("utf-8", "replace")) for p in parts) > NAME_MAX):
+        why = f"is longer than any file name can be ({NAME_MAX} bytes a part, {PATH_MAX} in all)"
     if why is not None:
         raise TaskError(f"asset key '{_short(key)}' {why}; keys are relative to the OpenDS assets folder", file, line, element)
 
