@@ -53,6 +53,7 @@ def test_bad_discrete_actions_are_refused(action: object) -> None:
         ("physics_hz", math.nan, "physics_hz must be finite"),
         ("physics_hz", math.inf, "physics_hz must be finite"),
         ("physics_hz", 1e12, "physics_hz must be at most"),
+        ("physics_hz", 0.5, "physics_hz must be at least 1 Hz"),
         ("policy_hz", 0.0, "policy_hz must be positive"),
         ("max_episode_s", -1.0, "max_episode_s must be positive"),
         ("max_episode_s", "60", "max_episode_s must be a number"),
@@ -65,6 +66,14 @@ def test_bad_discrete_actions_are_refused(action: object) -> None:
 def test_bad_config_numbers_give_a_clear_error(option: str, value: object, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         gym.make(LCT, disable_env_checker=True, **{option: value})
+
+
+@pytest.mark.parametrize("dt_s", [math.nan, math.inf, 0.0, -0.01, 2.0])
+def test_a_world_step_must_be_a_sane_number_of_seconds(dt_s: float) -> None:
+    from opends_gym.sim.world_config import WorldConfig
+
+    with pytest.raises(ValueError, match=r"WorldConfig\.dt_s must be"):
+        WorldConfig(dt_s=dt_s)
 
 
 @pytest.mark.parametrize("shards", [{"threads": 2}, {"processes": 2}])

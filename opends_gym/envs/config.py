@@ -77,6 +77,8 @@ def _check_numbers(cfg: Any) -> None:
             raise ValueError(f"{name}.{f.name} must be finite, not {value!r}")
         if f.name in _POSITIVE and number <= 0:
             raise ValueError(f"{name}.{f.name} must be positive, not {value!r}")
+        if f.name == "physics_hz" and number < 1.0:
+            raise ValueError(f"{name}.physics_hz must be at least 1 Hz, not {value!r}")
         if isinstance(default, int) and number < 0:
             raise ValueError(f"{name}.{f.name} must not be negative, not {value!r}")
         if f.name in _UPPER and number > _UPPER[f.name]:
