@@ -54,6 +54,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     server.add_argument("--no-settings-server", dest="settings_server", action="store_false", help="never start it")
     p.add_argument("--server-host", default="127.0.0.1", help="settings-controller bind address (default 127.0.0.1)")
     p.add_argument("--server-port", type=port, help="settings-controller port (default: settings.xml)")
+    p.add_argument(
+        "--server-allow", action="append", metavar="ADDRESS", help="only this peer may send control events (repeatable; docs/hardening.md)"
+    )
+    p.add_argument(
+        "--server-token-env", metavar="VAR", help="control events need the token in this environment variable (docs/hardening.md)"
+    )
     p.add_argument("--no-audio", action="store_true", help="log sounds without playing them")
     p.add_argument("--screenshot", metavar="OUT.png", help="save the last frame of the window as PNG")
     p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
@@ -94,6 +100,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
         settings_server=args.settings_server,
         server_host=args.server_host,
         server_port=args.server_port,
+        server_control_peers=tuple(args.server_allow) if args.server_allow else None,
+        server_token_env=args.server_token_env,
         audio=not args.no_audio,
         screenshot_path=args.screenshot,
         env_kwargs=env_kwargs,

@@ -41,11 +41,33 @@ class ActionType:
         raise NotImplementedError
 
 
-def _check_finite(action: np.ndarray) -> np.ndarray:
-    a = np.asarray(action, dtype=np.float64).reshape(-1)
+def _flat(action: Any, size: int, kind: str) -> np.ndarray:
+    """The action as `size` floats; a wrong length is an error (extras were silently dropped)."""
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"a {kind} action is {size} numbers (shape ({size},)), got {action!r:.80}") from None
+    if a.shape != (size,):
+        raise ValueError(f"a {kind} action has shape ({size},), got {a.shape}")
+    return a
+
+
+def _check_finite(action: Any, size: int, kind: str) -> np.ndarray:
+    a = _flat(action, size, kind)
     if not np.all(np.isfinite(a)):
         raise ValueError(f"action contains NaN or infinity: {a.tolist()}")
     return np.clip(a, -1.0, 1.0)
+
+
+def _whole(action: Any) -> int | None:
+    """A discrete action as an int: one integer, or one float with an integral value; else None."""
+    if isinstance(action, np.ndarray) and action.size == 1:
+        action = action.item()
+    if isinstance(action, (bool, np.bool_)) or not isinstance(action, (int, np.integer, float, np.floating)):
+        return None
+    if isinstance(action, (float, np.floating)) and not (math.isfinite(action) and float(action).is_integer()):
+        return None
+    return int(action)
 
 
 class ContinuousAction(ActionType):
@@ -60,7 +82,7 @@ class ContinuousAction(ActionType):
         if type(action) is np.ndarray and action.shape == (2,) and action.dtype.kind == "f":
             values = action.tolist()  # plain floats: cheaper than array maths here
         else:
-            values = np.asarray(action, dtype=np.float64).reshape(-1).tolist()
+            values = _flat(action, 2, self.name).tolist()
         if not all(map(math.isfinite, values)):
             raise ValueError(f"action contains NaN or infinity: {values}")
         steering, pedal = (-1.0 if v < -1.0 else 1.0 if v > 1.0 else v for v in values[:2])
@@ -93,8 +115,8 @@ class ContinuousButtonsAction(ContinuousAction):
         return gym.spaces.Box(-1.0, 1.0, shape=(2 + len(BUTTONS),), dtype=np.float32)
 
     def to_controls(self, action: Any) -> DriverControls:
-        a = _check_finite(action)
-        c = super().to_controls(a[:2])
+        a = _check_finite(action, 2 + len(BUTTONS), self.name)
+        c = ContinuousAction.to_controls(self, a[:2])
         down = [bool(v > 0.0) for v in a[2:]]
         pressed = [d and not h for d, h in zip(down, self._held)]
         self._held = down
@@ -137,11 +159,9 @@ class DiscreteAction(ActionType):
         self.target_speed = max(abs(s.u), min(engine.max_speed_mps, 50.0 / 3.6))
 
     def to_controls(self, action: Any) -> DriverControls:
-        if isinstance(action, np.ndarray):
-            action = action.item()
-        a = int(action)
-        if not 0 <= a < 5:
-            raise ValueError(f"discrete action must be 0..4, got {action!r}")
+        a = _whole(action)
+        if a is None or not 0 <= a < 5:
+            raise ValueError(f"discrete action must be one whole number 0..4, got {action!r:.80}")
         lats = self.guide.lane_laterals_m
         current = lats[self.target_lane]
         if a == self.LEFT:

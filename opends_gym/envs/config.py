@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
@@ -55,10 +57,40 @@ def build_config(cls: type[T], kwargs: dict[str, Any]) -> T:
     return cfg
 
 
+# Fields that must be positive, and sanity bounds (not OpenDS values: OpenDS steps physics at
+# 60 Hz): beyond them one policy step would take minutes or a frame gigabytes.
+_POSITIVE = ("physics_hz", "policy_hz", "max_episode_s", "ray_range_m", "image_width", "image_height", "render_width", "render_height")
+_UPPER = {"physics_hz": 10_000.0, "image_width": 8192, "image_height": 8192, "render_width": 8192, "render_height": 8192}
+
+
+def _check_numbers(cfg: Any) -> None:
+    """Every number field is a finite number of its default's type (int fields take whole ints)."""
+    for f in dataclasses.fields(cfg):
+        default = f.default
+        if default is dataclasses.MISSING or isinstance(default, bool) or not isinstance(default, (int, float)):
+            continue
+        value = getattr(cfg, f.name)
+        name = type(cfg).__name__
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise ValueError(f"{name}.{f.name} must be a number, not {value!r}")
+        if isinstance(default, int) and not isinstance(value, numbers.Integral):
+            raise ValueError(f"{name}.{f.name} must be a whole number, not {value!r}")
+        number = float(value)
+        if not math.isfinite(number):
+            raise ValueError(f"{name}.{f.name} must be finite, not {value!r}")
+        if f.name in _POSITIVE and number <= 0:
+            raise ValueError(f"{name}.{f.name} must be positive, not {value!r}")
+        if f.name == "physics_hz" and number < 1.0:
+            raise ValueError(f"{name}.physics_hz must be at least 1 Hz, not {value!r}")
+        if isinstance(default, int) and number < 0:
+            raise ValueError(f"{name}.{f.name} must not be negative, not {value!r}")
+        if f.name in _UPPER and number > _UPPER[f.name]:
+            raise ValueError(f"{name}.{f.name} must be at most {_UPPER[f.name]:g}, not {value!r}")
+
+
 def _validate(cfg: Any) -> None:
     if getattr(cfg, "physics", "fast") not in ("fast", "bullet"):
         raise ValueError(f"physics must be 'fast' or 'bullet', not {cfg.physics!r}")
-    if getattr(cfg, "policy_hz", 1.0) <= 0 or getattr(cfg, "physics_hz", 1.0) <= 0:
-        raise ValueError("policy_hz and physics_hz must be positive")
+    _check_numbers(cfg)
     if getattr(cfg, "policy_hz", 1.0) > getattr(cfg, "physics_hz", 60.0):
         raise ValueError("policy_hz cannot exceed physics_hz")

@@ -75,6 +75,8 @@ class DriveConfig:
     settings_server: bool | None = None  # None: settings.xml settingsControllerServer/startServer
     server_host: str = "127.0.0.1"
     server_port: int | None = None  # None: settings.xml port
+    server_control_peers: tuple[str, ...] | None = None  # None: any peer may send control events
+    server_token_env: str | None = None  # environment variable holding the control token
     audio: bool = True
     max_catch_up_steps: int = 6
     screenshot_path: str | None = None  # save the last frame as PNG when the drive ends

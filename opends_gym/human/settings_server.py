@@ -9,22 +9,29 @@ docs/opends-compatibility.md#settings-controller): each request is
 after `EstablishConnection` the subscribed values are pushed every update interval.
 
 It is off unless enabled and binds to 127.0.0.1 unless told otherwise. Each client has
-its own thread; requests are bounded (64 KiB) and parsed with entity expansion and
-network access off; anything malformed gets an `<Error>` reply and is logged, never
-raised. Values are read from the latest `VehicleSnapshot` (`publish`); commands that
-change the simulation are queued and applied by `poll` once per physics step, so the
-server is also an `InputSource`.
+its own thread, at most `max_clients` of them (more are answered `<Error>` and closed); a
+client that sends no complete request for `idle_timeout_s` and is not subscribed to pushes
+is closed. Requests are bounded (64 KiB) and parsed with entity expansion and network
+access off; numbers are ASCII decimals in range; anything malformed gets an `<Error>`
+reply and a rate-limited log line, never an exception. Commands that drive the car or
+fire triggers (`CONTROL_EVENTS`) can be limited to peers in `control_peers` and/or to
+clients that first sent `<Event Name="Authenticate">token</Event>` (docs/hardening.md).
+Values are read from the latest `VehicleSnapshot` (`publish`); commands that change the
+simulation are queued and applied by `poll` once per physics step, so the server is also an
+`InputSource`.
 """
 
 from __future__ import annotations
 
 import contextlib
+import hmac
 import logging
 import math
 import queue
 import socket
 import socketserver
 import threading
+import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
@@ -33,11 +40,17 @@ from lxml import etree
 from .inputs.base import InputFrame, InputStatus, TrafficControl
 from .snapshot import VehicleSnapshot
 from .value_tree import build_tree, matching_paths, schema_tree
+from .wire import RateLimitedWarning, ascii_float, ascii_int
 
 log = logging.getLogger(__name__)
 
 MAX_REQUEST_BYTES = 64 * 1024
 MIN_INTERVAL_MS = 10
+MAX_INTERVAL_MS = 3_600_000  # one hour; 1e308 ms overflowed the push thread's wait
+MAX_CLIENTS = 16
+IDLE_TIMEOUT_S = 60.0
+# events that change the simulation (GetXMLRequest may execute remote triggers)
+CONTROL_EVENTS = frozenset({"SetVehicleControl", "SetPedestrianControl", "GetXMLRequest"})
 _PARSER = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
 
 
@@ -46,9 +59,28 @@ class SettingsControllerServer:
 
     name = "settings-controller"
 
-    def __init__(self, host: str = "127.0.0.1", port: int = 1000, remote_ids: Iterable[str] | Callable[[], Iterable[str]] = ()) -> None:
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int = 1000,
+        remote_ids: Iterable[str] | Callable[[], Iterable[str]] = (),
+        *,
+        max_clients: int = MAX_CLIENTS,
+        idle_timeout_s: float = IDLE_TIMEOUT_S,
+        control_token: str | None = None,
+        control_peers: Iterable[str] | None = None,
+    ) -> None:
+        if max_clients < 1 or not (idle_timeout_s > 0):
+            raise ValueError("max_clients must be at least 1 and idle_timeout_s positive")
         self.host, self.requested_port = host, int(port)
         self._remote_ids = remote_ids
+        self.max_clients = int(max_clients)
+        self.idle_timeout_s = float(idle_timeout_s)
+        self.control_token = control_token or None
+        self.control_peers = frozenset(control_peers) if control_peers is not None else None
+        self.warn = RateLimitedWarning(log)
+        self.refused = 0  # connections turned away at the cap
+        self._active = 0
         self.snapshot = VehicleSnapshot()
         self._commands: queue.Queue[tuple[str, Any]] = queue.Queue(10000)
         self._ego: tuple[float, float, float] | None = None
@@ -65,16 +97,38 @@ class SettingsControllerServer:
 
         class Handler(socketserver.BaseRequestHandler):
             def handle(self) -> None:
-                _Client(owner, self.request).serve()
+                try:
+                    _Client(owner, self.request, str(self.client_address[0])).serve()
+                finally:
+                    with owner._lock:
+                        owner._active -= 1
 
-        socketserver.ThreadingTCPServer.allow_reuse_address = True
-        server = socketserver.ThreadingTCPServer((self.host, self.requested_port), Handler)
+        class Server(socketserver.ThreadingTCPServer):
+            allow_reuse_address = True
+
+            def verify_request(self, request: Any, client_address: Any) -> bool:
+                return owner._admit(request)
+
+        server = Server((self.host, self.requested_port), Handler)
         server.daemon_threads = True
         self._server = server
         self._thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.1}, name="settings-controller", daemon=True)
         self._thread.start()
         log.info("settings-controller server listening on %s:%d", *self.address)
         return self
+
+    def _admit(self, sock: socket.socket) -> bool:
+        """Take a connection only below `max_clients` (before its thread starts)."""
+        with self._lock:
+            if self._active < self.max_clients:
+                self._active += 1
+                return True
+            self.refused += 1
+        self.warn.warn("settings controller: connection refused, %d clients already (max_clients)", self.max_clients)
+        with contextlib.suppress(OSError):
+            sock.setblocking(False)
+            sock.send(_error(f"too many connections (at most {self.max_clients})"))
+        return False
 
     @property
     def address(self) -> tuple[str, int]:
@@ -134,7 +188,7 @@ class SettingsControllerServer:
             self._commands.put_nowait((kind, value))
         except queue.Full:
             self.errors += 1
-            log.warning("settings controller: command queue full; %s dropped", kind)
+            self.warn.warn("settings controller: command queue full; %s dropped", kind)
 
     # ------------------------------------------------------------------ requests
     def handle_message(self, client: _Client, root: etree._Element) -> bytes:
@@ -145,10 +199,11 @@ class SettingsControllerServer:
             name = ev.get("Name", "")
             value = (ev.text or "").strip()
             try:
+                self._authorize(client, name)
                 self._event(client, name, value, ev, reply)
             except Exception as e:  # one bad event must not cost the reply to the others
                 self.errors += 1
-                log.warning("settings controller: event %r failed: %s", name, e)
+                self.warn.warn("settings controller: event %r from %s failed: %s", name[:40], client.peer, e)
                 err = etree.SubElement(reply, "Event", Name="Error")
                 err.text = f"{name}: {e}"
         return b'<?xml version="1.0" encoding="UTF-8"?>\n' + etree.tostring(reply) + b"\n"
@@ -162,7 +217,13 @@ class SettingsControllerServer:
                 e.text = text
 
         snap = self.snapshot
-        if name == "EstablishConnection":
+        if name == "Authenticate":
+            ok = self.control_token is not None and hmac.compare_digest(value.encode(), self.control_token.encode())
+            if not ok:
+                raise PermissionError("wrong token" if self.control_token is not None else "this server has no token")
+            client.authenticated = True
+            event("Authenticated")
+        elif name == "EstablishConnection":
             if value:
                 client.interval_ms = _interval(value)
             client.start_pushing()
@@ -203,13 +264,22 @@ class SettingsControllerServer:
         else:
             raise ValueError(f"unknown event {name!r}")
 
+    def _authorize(self, client: _Client, name: str) -> None:
+        """Control events need an allowed peer and, when the server has a token, an authenticated client."""
+        if name not in CONTROL_EVENTS:
+            return
+        if self.control_peers is not None and client.peer not in self.control_peers:
+            raise PermissionError(f"{name} is not allowed from {client.peer}")
+        if self.control_token is not None and not client.authenticated:
+            raise PermissionError(f'{name} needs <Event Name="Authenticate">token</Event> first')
+
     def _vehicle_control(self, value: str) -> None:
         parts = value.split(";")
         if len(parts) < 4:
             raise ValueError("expected ID;steering;acceleration;brake")
         vid = parts[0].strip()
         try:
-            steer, acc, brk = (float(p) for p in parts[1:4])
+            steer, acc, brk = (ascii_float(p) for p in parts[1:4])
         except ValueError:
             raise ValueError("steering, acceleration and brake must be numbers") from None
         if not all(math.isfinite(v) for v in (steer, acc, brk)) or abs(steer) > 1 or not 0 <= acc <= 1 or not 0 <= brk <= 1:
@@ -248,20 +318,22 @@ class SettingsControllerServer:
 
 def _interval(value: str) -> int:
     try:
-        ms = int(float(value))
+        ms = ascii_int(value)
     except ValueError:
-        raise ValueError(f"update interval must be a number of milliseconds, not {value!r}") from None
-    if ms < MIN_INTERVAL_MS:
-        raise ValueError(f"update interval must be at least {MIN_INTERVAL_MS} ms")
+        raise ValueError(f"update interval must be a whole number of milliseconds, not {value[:40]!r}") from None
+    if not MIN_INTERVAL_MS <= ms <= MAX_INTERVAL_MS:
+        raise ValueError(f"update interval must be {MIN_INTERVAL_MS}..{MAX_INTERVAL_MS} ms")
     return ms
 
 
 class _Client:
     """One connection: reads requests, answers them, pushes subscribed values."""
 
-    def __init__(self, server: SettingsControllerServer, sock: socket.socket) -> None:
+    def __init__(self, server: SettingsControllerServer, sock: socket.socket, peer: str = "") -> None:
         self.server = server
         self.sock = sock
+        self.peer = peer
+        self.authenticated = False
         self.interval_ms = 1000
         self.subscriptions: frozenset[str] = frozenset()
         self.closing = False
@@ -275,11 +347,16 @@ class _Client:
             srv._clients.add(self)
         buf = b""
         self.sock.settimeout(0.1)
+        self.last_request = time.monotonic()
         try:
             while not self._stop.is_set() and not self.closing:
                 try:
                     data = self.sock.recv(65536)
                 except TimeoutError:
+                    if self._pusher is None and time.monotonic() - self.last_request > srv.idle_timeout_s:
+                        srv.warn.warn("settings controller: %s idle for %g s; closed", self.peer, srv.idle_timeout_s)
+                        self.send(_error(f"idle for {srv.idle_timeout_s:g} s; closing"))
+                        break
                     continue
                 if not data:
                     break
@@ -301,12 +378,13 @@ class _Client:
             if end < 0:
                 if len(buf) > MAX_REQUEST_BYTES:
                     self.server.errors += 1
-                    log.warning("settings controller: request over %d bytes without </Message> dropped", MAX_REQUEST_BYTES)
+                    self.server.warn.warn("settings controller: request over %d bytes without </Message> dropped", MAX_REQUEST_BYTES)
                     self.send(_error("request too large"))
                     return b""
                 return buf
             end += len(b"</Message>")
             chunk, buf = buf[:end], buf[end:]
+            self.last_request = time.monotonic()
             start = chunk.rfind(b"<Message")
             if start < 0 or len(chunk) > MAX_REQUEST_BYTES:
                 self.server.errors += 1
@@ -316,7 +394,7 @@ class _Client:
                 root = etree.fromstring(chunk[start:], _PARSER)
             except etree.XMLSyntaxError as e:
                 self.server.errors += 1
-                log.warning("settings controller: malformed request: %s", e)
+                self.server.warn.warn("settings controller: malformed request from %s: %s", self.peer, e)
                 self.send(_error("No valid XML data received"))
                 continue
             self.send(self.server.handle_message(self, root))
@@ -335,9 +413,14 @@ class _Client:
 
     def _push(self) -> None:
         while not self._stop.wait(self.interval_ms / 1000.0):
-            reply = etree.Element("Message")
-            ev = etree.SubElement(reply, "Event", Name="SubscribedValues")
-            ev.append(build_tree(self.subscriptions, self.server.snapshot))
+            try:
+                reply = etree.Element("Message")
+                ev = etree.SubElement(reply, "Event", Name="SubscribedValues")
+                ev.append(build_tree(self.subscriptions, self.server.snapshot))
+            except Exception as e:  # a value that cannot be written must not end the pushes
+                self.server.errors += 1
+                self.server.warn.warn("settings controller: push to %s failed: %s", self.peer, e)
+                continue
             self.send(etree.tostring(reply) + b"\n")
 
     def stop(self) -> None:

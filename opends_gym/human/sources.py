@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -77,7 +78,12 @@ def build_sources(config: DriveConfig, task: Any, joystick_backend: Any = None) 
         port = config.server_port if config.server_port is not None else settings.settings_controller_server.port
         ids = remote_ids_of(task)
         try:
-            out.server = SettingsControllerServer(config.server_host, port, remote_ids=lambda: ids).start()
+            token = os.environ.get(config.server_token_env) if config.server_token_env else None
+            if config.server_token_env and not token:
+                raise ValueError(f"--server-token-env {config.server_token_env}: that environment variable is empty or unset")
+            out.server = SettingsControllerServer(
+                config.server_host, port, remote_ids=lambda: ids, control_token=token, control_peers=config.server_control_peers
+            ).start()
             ordered.append(out.server)
         except OSError as e:  # port taken or privileged: the drive goes on without the server
             log.error("settings-controller server not started on %s:%s: %s", config.server_host, port, e)

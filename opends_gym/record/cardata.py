@@ -21,6 +21,7 @@ from __future__ import annotations
 import datetime as _dt
 import logging
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -64,11 +65,22 @@ class CarData:
         return (e - e[0]) / 1000.0 if len(e) else e
 
 
+# What Java's Float/Double.toString and Boolean.toString write (OpenDS builds rows by string
+# concatenation): ASCII decimals, NaN and Infinity; `1_0` or non-ASCII digits are damage.
+_JAVA_NUMBER = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|NaN|Infinity)", re.ASCII)
+_FLOAT_MAX = 3.4028234663852886e38  # Float.MAX_VALUE: no OpenDS float column exceeds it
+
+
 def _float(text: str) -> float:
     t = text.strip()
     if t in ("true", "false"):
         return 1.0 if t == "true" else 0.0
-    return float(t)
+    if len(t) > 64 or not _JAVA_NUMBER.fullmatch(t):
+        raise ValueError(f"could not convert {t[:40]!r} to a number (ASCII decimals, NaN or Infinity)")
+    v = float(t)
+    if math.isfinite(v) and abs(v) > _FLOAT_MAX:
+        raise ValueError(f"could not convert {t[:40]!r}: beyond the range of a Java float")
+    return v
 
 
 def _variant_from_format(fmt: str) -> str | None:

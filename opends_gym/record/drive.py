@@ -23,6 +23,7 @@ import numpy as np
 from ..sim.road import Polyline
 from .cardata import CarData, read_cardata
 from .mcap_io import read_recording
+from .mcap_walk import MAGIC, not_mcap_reason
 from .messages import yaw_from_jme_quaternion
 from .opends_logs import read_driving_task_log, read_reaction_data
 from .reference import log_reference
@@ -92,8 +93,10 @@ def load_drive(path: str | Path, task: str | Path | None = None) -> Drive:
         raise FileNotFoundError(f"{p}: no such recording")
     with open(p, "rb") as f:
         magic = f.read(8)
-    if magic == b"\x89MCAP0\r\n":
+    if magic == MAGIC:
         return _from_mcap(p)
+    if p.suffix.lower() == ".mcap":  # not the carData parser's business: say what is wrong
+        raise ValueError(f"{p}: not an MCAP recording ({not_mcap_reason(magic)})")
     return _from_cardata(p, task)
 
 

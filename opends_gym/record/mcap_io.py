@@ -4,9 +4,10 @@ Why: a recording is the experiment's data; a crashed or killed session must not 
 The writer puts the header, the metadata and the attachment on disk at once, closes a
 chunk and flushes the file every `flush_interval_s` of simulation time (and whenever a
 chunk fills), so a SIGKILL loses at most the last interval. `finish()` adds the summary
-and footer. The reader walks the file record by record (mcap's `StreamReader`) and stops
+and footer. The reader walks the file record by record (`mcap_walk`) and stops
 cleanly at a torn record, so a file without a summary reads back up to its last flush;
-`Recording.complete` says whether the footer was there.
+`Recording.complete` says whether the footer was there. Damage inside the file (a chunk,
+attachment, data-section or summary CRC that does not match) is an error naming its byte.
 
 mcap facts used: log times are integer nanoseconds (we use simulation time); chunked
 writing only reaches the file when a chunk is closed, which `mcap.writer.Writer` does for
@@ -21,17 +22,15 @@ import json
 import logging
 import os
 import re
-import struct
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mcap.exceptions import McapError
-from mcap.records import Attachment, Channel, Footer, Header, Message, Metadata, Schema
-from mcap.stream_reader import StreamReader
+from mcap.records import Attachment, Channel, Footer, Header, Message, Metadata
 from mcap.writer import CompressionType, Writer
 
+from .mcap_walk import MAGIC, Corrupt, Torn, not_mcap_reason, walk
 from .messages import encode
 from .schemas import schema_bytes
 
@@ -87,7 +86,8 @@ class McapSink:
         self.path: Path | None = created
         self.flush_interval_ns = int(flush_interval_s * 1e9)
         self.fsync = fsync
-        self._writer = Writer(self._file, chunk_size=chunk_bytes, compression=_compression())
+        # data-section CRC on: with the chunk CRCs it lets the reader tell damage from truncation
+        self._writer = Writer(self._file, chunk_size=chunk_bytes, compression=_compression(), enable_data_crcs=True)
         self._finalize_chunk = getattr(self._writer, "_Writer__finalize_chunk", None)
         if self._finalize_chunk is None:  # pragma: no cover - only with a future mcap
             log.warning("mcap.Writer has no chunk finalizer; writing unchunked so every record is flushed")
@@ -189,7 +189,8 @@ class Recording:
     messages: dict[str, list[tuple[int, Any]]] = field(default_factory=dict)  # topic -> [(log_time_ns, decoded)]
     attachments: dict[str, bytes] = field(default_factory=dict)
     complete: bool = False  # footer present (finish() ran)
-    problem: str = ""  # why reading stopped early, for a truncated file
+    problem: str = ""  # why reading stopped early (a torn last record, or damage with salvage=True)
+    corrupt_at: int | None = None  # byte offset of the damaged record (salvage=True only)
 
     def topic(self, name: str) -> list[Any]:
         return [m for _, m in self.messages.get(name, [])]
@@ -218,46 +219,65 @@ def _decode_meta(raw: dict[str, str]) -> dict[str, Any]:
     return out
 
 
-def read_recording(path: str | Path, topics: Iterable[str] | None = None) -> Recording:
+class CorruptRecordingError(ValueError):
+    """A recording damaged in the middle (not merely cut short); `offset` is the damaged record's byte."""
+
+    def __init__(self, path: Path, offset: int, reason: str) -> None:
+        super().__init__(f"{path}: corrupt recording at byte {offset}: {reason}")
+        self.path, self.offset, self.reason = path, offset, reason
+
+
+def read_recording(path: str | Path, topics: Iterable[str] | None = None, *, salvage: bool = False) -> Recording:
     """Read an MCAP recording, complete or cut short (killed writer, full disk).
 
-    Raises ValueError naming the file when it is not an MCAP file at all.
+    Raises ValueError naming the file (and why) when it is not an MCAP file at all, and
+    `CorruptRecordingError` naming the byte offset when a record in the file is damaged
+    (chunk, attachment, data-section or summary CRC, or an unreadable record); with
+    `salvage=True` the messages before the damage are returned instead, with
+    `Recording.corrupt_at` and `problem` set.
     """
     p = Path(path)
     wanted = set(topics) if topics is not None else None
     rec = Recording(p, {})
-    schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
+    size = p.stat().st_size
     with open(p, "rb") as f:
-        reader = StreamReader(f, record_size_limit=1 << 31)
-        records = reader.records
+        why = not_mcap_reason(f.read(len(MAGIC)))
+        if why is not None:
+            raise ValueError(f"{p}: not an MCAP recording ({why})")
+        records = walk(f, size)
         try:
-            first = next(records)
-        except (McapError, EOFError, struct.error, ValueError, StopIteration) as e:
-            raise ValueError(f"{p}: not an MCAP recording ({e or 'empty file'})") from e
-        if not isinstance(first, Header):
-            raise ValueError(f"{p}: not an MCAP recording (no header record)")
-        try:
-            for r in records:
+            first = next(records, None)
+            if first is None or not isinstance(first[1], Header):
+                raise ValueError(f"{p}: not an MCAP recording (no header record after the magic)")
+            for _, r in records:
                 if isinstance(r, Message):
                     ch = channels.get(r.channel_id)
                     if ch is None:
-                        raise McapError(f"message on unknown channel {r.channel_id}")
+                        raise ValueError(f"message on unknown channel {r.channel_id}")
                     if wanted is None or ch.topic in wanted:
                         rec.messages.setdefault(ch.topic, []).append((r.log_time, json.loads(r.data)))
                 elif isinstance(r, Channel):
                     channels[r.id] = r
-                elif isinstance(r, Schema):
-                    schemas[r.id] = r
                 elif isinstance(r, Metadata) and r.name == META_NAME:
                     rec.meta = _decode_meta(dict(r.metadata))
                 elif isinstance(r, Attachment):
                     rec.attachments[r.name] = bytes(r.data)
                 elif isinstance(r, Footer):
                     rec.complete = True
-        except Exception as e:  # a torn last record: keep everything before it
-            rec.problem = f"{type(e).__name__}: {e}" if str(e) else type(e).__name__
+        except Torn as e:  # a torn last record: keep everything before it
+            rec.problem = str(e)
             log.info("%s: read up to a torn record (%s)", p, rec.problem)
+        except Corrupt as e:
+            if not salvage:
+                raise CorruptRecordingError(p, e.offset, str(e)) from e
+            rec.corrupt_at, rec.problem = e.offset, f"corrupt at byte {e.offset}: {e}"
+        except ValueError as e:  # a record that parsed but means nothing (bad JSON, unknown channel)
+            if str(e).startswith(str(p)):
+                raise
+            if not salvage:
+                raise CorruptRecordingError(p, f.tell(), str(e)) from e
+            rec.corrupt_at, rec.problem = f.tell(), f"corrupt near byte {f.tell()}: {e}"
     config = rec.attachments.get(CONFIG_ATTACHMENT)
     if config is not None:  # the exact JSON; the metadata record holds the same as strings
         try:

@@ -26,6 +26,8 @@ from .xmlsafe import local_name
 
 T = TypeVar("T")
 
+JAVA_FLOAT_MAX = 3.4028234663852886e38  # Float.MAX_VALUE
+
 
 @dataclass
 class ReadCtx:
@@ -97,7 +99,9 @@ class Float(Scalar[float]):
 
     def parse(self, text: str) -> float:
         value = float(text.strip())
-        if not math.isfinite(value):
+        # OpenDS reads these with Java's Float.parseFloat: beyond the float range they are
+        # Infinity there, so they are refused here like inf and nan.
+        if not math.isfinite(value) or abs(value) > JAVA_FLOAT_MAX:
             raise ValueError(text)
         return value * self.scale if self.scale != 1.0 else value
 
@@ -112,17 +116,24 @@ class Float(Scalar[float]):
 
 
 class Int(Scalar[int]):
+    """A Java `int`: OpenDS reads these with `Integer.parseInt`, so values outside
+    [-2^31, 2^31-1] (and inf/nan/1e308 written as floats) are refused, not wrapped."""
+
     kind = "integer"
+    MIN, MAX = -(2**31), 2**31 - 1
 
     def parse(self, text: str) -> int:
         t = text.strip()
         try:
-            return int(t)
+            value = int(t)
         except ValueError:
             f = float(t)  # tolerate "2.0" as OpenDS's Float parsing would
-            if f != int(f):
+            if not math.isfinite(f) or f != int(f):
                 raise
-            return int(f)
+            value = int(f)
+        if not self.MIN <= value <= self.MAX:
+            raise ValueError(t)
+        return value
 
     def format(self, value: int) -> str:
         return str(int(value))
@@ -327,9 +338,15 @@ def source_line() -> Any:
 def parse_scalar(codec: Scalar[T], text: str, el: etree._Element, ctx: ReadCtx, what: str | None = None) -> T:
     try:
         return codec.parse(text)
-    except (ValueError, TypeError):
+    except (ValueError, TypeError, OverflowError):
         name = what or local_name(el)
-        raise ctx.error(f"'{text.strip()}' is not a valid {codec.kind} for {name}", el) from None
+        raise ctx.error(f"'{shown(text)}' is not a valid {codec.kind} for {name}", el) from None
+
+
+def shown(text: str, limit: int = 60) -> str:
+    """`text` for a one-line message: stripped, newlines folded, cut to `limit` characters."""
+    t = " ".join(text.split())
+    return t if len(t) <= limit else t[: limit - 3] + "..."
 
 
 def children(el: etree._Element, tag: str | None = None) -> list[etree._Element]:

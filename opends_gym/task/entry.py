@@ -6,7 +6,7 @@ may hand us the folder or the file, so we also find the entry file inside a fold
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from lxml import etree
@@ -33,6 +33,11 @@ class EntryFile:
     verbose: bool = False
     comment: str | None = None
     other: tuple[tuple[str, str], ...] = ()
+    lines: tuple[tuple[str, int], ...] = field(default=(), compare=False, repr=False)
+
+    def line_of(self, key: str) -> int | None:
+        """The entry file's line naming layer `key`, for messages."""
+        return dict(self.lines).get(key)
 
     def layer_file(self, key: str) -> str | None:
         return {
@@ -93,6 +98,7 @@ def read_entry_file(path: Path, diag: Diagnostics) -> EntryFile:
             f"entry file root must be <properties>, found <{local_name(root)}>", file=path, line=root.sourceline, element=local_name(root)
         )
     values: dict[str, str] = {}
+    lines: dict[str, int] = {}
     other: list[tuple[str, str]] = []
     verbose = False
     comment = None
@@ -114,6 +120,7 @@ def read_entry_file(path: Path, diag: Diagnostics) -> EntryFile:
             if key in values:
                 diag.warn(f"entry '{key}' given twice; the last one is used", file=path, line=el.sourceline, element="entry")
             values[key] = text
+            lines[key] = el.sourceline or 0
         else:
             other.append((key, text))
     for key in REQUIRED_KEYS:
@@ -130,6 +137,7 @@ def read_entry_file(path: Path, diag: Diagnostics) -> EntryFile:
         verbose=verbose,
         comment=comment,
         other=tuple(other),
+        lines=tuple(lines.items()),
     )
 
 

@@ -8,6 +8,7 @@ from typing import Any, TypeVar
 
 from lxml import etree
 
+from . import containment, layer_checks
 from .bind import ReadCtx, read_struct
 from .bundled import resolve_task_path
 from .entry import EntryFile, read_entry_file
@@ -36,9 +37,9 @@ LAYERS: dict[str, type[Any]] = {
 NAMESPACE = "http://opends.eu/drivingtask/{}"
 
 
-def _layer_path(folder: Path, entry: EntryFile, key: str) -> Path | None:
+def _layer_path(folder: Path, entry_path: Path, entry: EntryFile, key: str) -> Path | None:
     name = entry.layer_file(key)
-    return folder / name if name else None
+    return containment.layer_file(folder, name, entry_path, key, entry.line_of(key)) if name else None
 
 
 def _read_layer(path: Path, layer: str, cls: type[T], diag: Diagnostics) -> tuple[T, etree._Element]:
@@ -50,6 +51,13 @@ def _read_layer(path: Path, layer: str, cls: type[T], diag: Diagnostics) -> tupl
     if ns and ns != NAMESPACE.format(layer):
         diag.warn(f"unexpected namespace '{ns}'", file=path, line=root.sourceline, element=name)
     return read_struct(cls, root, ReadCtx(path, diag)), root
+
+
+def _check_asset_keys(scene: Scene, files: dict[str, Path]) -> None:
+    where = files.get("scene", files["entry"])
+    for kind, items in (("model", scene.models), ("sound", scene.sounds), ("picture", scene.pictures)):
+        for item in items:
+            containment.check_asset_key(item.key, where, item.line or None, kind)
 
 
 def _warn_missing_assets(task: DrivingTask, files: dict[str, Path], diag: Diagnostics) -> None:
@@ -104,14 +112,15 @@ def load_task(path: str | Path, *, strict: bool = False, schema_dir: str | Path 
     parts: dict[str, Any] = {}
     roots: dict[str, etree._Element] = {}
     for layer, cls in LAYERS.items():
-        lp = _layer_path(folder, entry, layer)
+        lp = _layer_path(folder, entry_path, entry, layer)
         if lp is None:
             if layer in ("interaction", "settings"):
                 diag.warn(f"no '{layer}' entry; an empty {layer} is used", entry_path, None, "properties")
             parts[layer] = cls() if layer != "task" else None
             continue
-        if not lp.is_file():
-            raise TaskError(f"the entry file names '{lp.name}' for {layer}, but it does not exist", file=entry_path, element="entry")
+        if not containment.is_file(lp, entry_path, layer, entry.line_of(layer)):
+            msg = f"the entry file names '{lp.name}' for {layer}, but it does not exist"
+            raise TaskError(msg, entry_path, entry.line_of(layer), "entry")
         files[layer] = lp
         parts[layer], roots[layer] = _read_layer(lp, layer, cls, diag)
     if strict:
@@ -119,6 +128,10 @@ def load_task(path: str | Path, *, strict: bool = False, schema_dir: str | Path 
 
         for layer, root in roots.items():
             validate_against_xsd(files[layer], root, layer, schema_dir)
+    _check_asset_keys(parts["scene"], files)
+    od = _layer_path(folder, entry_path, entry, "openDrive")
+    if od is not None and containment.is_file(od, entry_path, "openDrive", entry.line_of("openDrive")):
+        layer_checks.run("openDrive", od)
     RefChecker(files, diag).check(parts["scene"], parts["scenario"], parts["interaction"], parts["task"])
     task = DrivingTask(
         name=entry_path.stem,

@@ -55,8 +55,11 @@ def asset_exists(folder: Path, key: str) -> bool:
         base = folder
         for _ in range(hops):
             base = base.parent
-        if (base / key).exists():
-            return True
+        try:
+            if (base / key).exists():
+                return True
+        except (OSError, ValueError):  # a name the OS refuses is no file
+            continue
     return False
 
 

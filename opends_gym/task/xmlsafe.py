@@ -15,6 +15,13 @@ from lxml import etree
 
 from .errors import TaskError
 
+# Caps on one task file, far above the largest real OpenDS task (the corpus's largest file,
+# opends-cts ReactionTest/scene.xml, is 3.1 MB with 49,042 elements) and far below what makes
+# a load slow: an 18 MB scene of 300,000 models took 8.8 s and 575 MB before these caps (issue 21);
+# benchmarks/hostile_task.py measures how fast such scenes are refused now.
+MAX_FILE_BYTES = 16 * 1024 * 1024
+MAX_ELEMENTS = 250_000
+
 
 def _parser() -> etree.XMLParser:
     return etree.XMLParser(
@@ -54,22 +61,55 @@ def _reject_entity_declarations(data: bytes, path: Path) -> None:
     )
 
 
+_START_TAG = re.compile(rb"<([^!?/\s>]+)")
+
+
+def _reject_too_many_elements(data: bytes, path: Path) -> None:
+    """Count start tags before parsing (a parse tree costs ~15 times the file in memory).
+
+    Tags inside comments and CDATA count too: an overcount that matters only near the cap."""
+    for count, match in enumerate(_START_TAG.finditer(data), start=1):
+        if count > MAX_ELEMENTS:
+            line = data.count(b"\n", 0, match.start()) + 1
+            tag = match.group(1).decode("utf-8", "replace").rsplit(":", 1)[-1][:40]
+            msg = f"more than {MAX_ELEMENTS:,} elements in one file (the cap; real OpenDS tasks have under 50,000)"
+            raise TaskError(msg, file=path, line=line, element=tag)
+
+
+def _read_capped(path: Path) -> bytes:
+    """The file's bytes, refusing files over MAX_FILE_BYTES before reading them."""
+    try:
+        with path.open("rb") as fh:
+            data = fh.read(MAX_FILE_BYTES + 1)
+    except OSError as exc:
+        raise TaskError(f"cannot read file: {exc.strerror or exc}", file=_short(path)) from exc
+    if len(data) > MAX_FILE_BYTES:
+        cap = MAX_FILE_BYTES // (1024 * 1024)
+        raise TaskError(f"file is larger than {cap} MiB (the cap; real OpenDS task files are under 4 MB)", file=path)
+    return data
+
+
+def _short(path: Path, limit: int = 200) -> str:
+    """A path for a one-line message (a hostile name may be thousands of characters)."""
+    s = str(path)
+    return s if len(s) <= limit else s[:100] + "..." + s[-60:]
+
+
 def parse_file(path: Path) -> etree._Element:
     """Parse one XML file safely and return its root element.
 
     Raises TaskError naming the file and line for unreadable or malformed XML, and for
     documents that declare entities (entity expansion is never performed).
     """
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise TaskError(f"cannot read file: {exc.strerror or exc}", file=path) from exc
+    data = _read_capped(path)
     _reject_entity_declarations(data, path)
+    _reject_too_many_elements(data, path)
     try:
         tree = etree.fromstring(data, _parser(), base_url=None).getroottree()
     except etree.XMLSyntaxError as exc:
         line = exc.lineno if exc.lineno else None
-        raise TaskError(f"malformed XML: {exc.msg}", file=path, line=line) from exc
+        msg = " ".join(str(exc.msg).split()).removesuffix(f", line {line}, column {exc.position[1]}") if line else str(exc.msg)
+        raise TaskError(f"malformed XML: {' '.join(msg.split())}", file=path, line=line) from exc
     docinfo = tree.docinfo
     dtd = docinfo.internalDTD
     if dtd is not None:

@@ -154,6 +154,7 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         a = np.asarray(actions)
         if a.shape != self.action_space.shape:
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {a.shape}")
+        _check_actions(a, ~self._autoreset)  # every shard's, before any shard steps
         jobs = [(shard, a[sl], self._autoreset[sl]) for shard, sl in zip(self.shards, self._slices)]
         # start the other shards (worker processes or pool threads), step the first one here, then collect
         collect: list[Callable[[], Any]] = []
@@ -229,6 +230,19 @@ def _shard_count(num_envs: int, threads: int | None) -> int:
 
 def _concat(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def _check_actions(a: np.ndarray, stepping: np.ndarray) -> None:
+    """Refuse a batch with a non-numeric or NaN/inf action in a stepping env, before any shard
+    steps (a later shard's error used to leave the earlier shards a step ahead)."""
+    try:
+        values = a.astype(np.float64, copy=False)
+    except (TypeError, ValueError):
+        raise ValueError(f"actions must be numbers, got dtype {a.dtype}") from None
+    bad = ~np.isfinite(values).all(axis=1) & stepping
+    if bad.any():
+        e = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"env {e}: action contains NaN or infinity: {values[e].tolist()}")
 
 
 def _renumber(message: str, offset: int) -> str:

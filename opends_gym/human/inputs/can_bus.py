@@ -24,6 +24,7 @@ from typing import Any, cast
 
 from ...extras import require
 from ...resources import example_dbc
+from ..wire import RateLimitedWarning
 from .base import InputFrame, InputStatus
 
 log = logging.getLogger(__name__)
@@ -84,6 +85,7 @@ class CanBusSource:
         self.connected = False
         self.state = "opening"
         self.problems = 0
+        self.warn = RateLimitedWarning(log)  # a bus full of bad frames logs one line per 5 s
         self.frames = 0
         self.opened = 0
         self._next_feedback_t = 0.0
@@ -139,7 +141,7 @@ class CanBusSource:
             values = message.decode(data, decode_choices=False)
         except Exception as e:
             self.problems += 1
-            log.warning("CAN bus: frame 0x%X (%s) cannot be decoded: %s", frame_id, message.name, e)
+            self.warn.warn("CAN bus: frame 0x%X (%s) cannot be decoded: %s", frame_id, message.name, e)
             return
         good: dict[str, float] = {}
         for name, v in values.items():  # type: ignore[union-attr]
@@ -152,7 +154,7 @@ class CanBusSource:
             hi = sig.maximum if sig is not None and sig.maximum is not None else math.inf
             if not math.isfinite(fv) or not lo <= fv <= hi:
                 self.problems += 1
-                log.warning("CAN bus: %s = %r is out of range [%s, %s]; ignored", name, v, lo, hi)
+                self.warn.warn("CAN bus: %s = %r is out of range [%s, %s]; ignored", name, v, lo, hi)
                 continue
             good[name] = fv
         self.frames += 1
@@ -240,7 +242,7 @@ class CanBusSource:
                 bus.send(fr, timeout=0.01)
         except Exception as e:  # a full TX queue or a value the DBC cannot hold
             self.problems += 1
-            log.warning("CAN bus: feedback not sent: %s", e)
+            self.warn.warn("CAN bus: feedback not sent: %s", e)
 
     def status(self) -> InputStatus:
         """Until the bus has opened once, the drive waits (blocking); later failures are shown."""

@@ -21,6 +21,7 @@ import queue
 from typing import Any
 
 from ..net import ReconnectingClient
+from ..wire import RateLimitedWarning
 from .base import InputFrame, InputStatus
 from .can_protocol import GatewayFramer, GatewayUpdate, parse_chunk
 
@@ -38,7 +39,8 @@ class CanGatewaySource:
             raise ValueError(f"maxSteeringAngle must be positive, not {max_steering_deg}")
         self.max_steering_deg = float(max_steering_deg)
         self.update_period_s = 1.0 / update_rate_hz if update_rate_hz and update_rate_hz > 0 else 0.05
-        self.framer = GatewayFramer()
+        self.warn = RateLimitedWarning(log)  # one per source: a flooding gateway logs one line per 5 s
+        self.framer = GatewayFramer(self.warn)
         self.problems = 0
         self.messages_applied = 0
         self._updates: queue.Queue[GatewayUpdate] = queue.Queue(MAX_PENDING)
@@ -69,12 +71,12 @@ class CanGatewaySource:
             update, problems = parse_chunk(chunk, self.max_steering_deg)
             for p in problems:
                 self.problems += 1
-                log.warning("CAN gateway: %s", p)
+                self.warn.warn("CAN gateway: %s", p)
             try:
                 self._updates.put_nowait(update)
             except queue.Full:
                 self.problems += 1
-                log.warning("CAN gateway: the simulation is not keeping up; a message was dropped")
+                self.warn.warn("CAN gateway: the simulation is not keeping up; a message was dropped")
 
     # ------------------------------------------------------------------ simulation side
     def poll(self, t_s: float) -> InputFrame:

@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 
 from lxml import etree
 
+from ..wire import RateLimitedWarning, ascii_float, ascii_int
+
 log = logging.getLogger(__name__)
 
 MAX_MESSAGE_CHARS = 10000
@@ -48,9 +50,10 @@ class GatewayUpdate:
 class GatewayFramer:
     """Cuts a byte stream into complete `<message>` chunks (see the module docstring)."""
 
-    def __init__(self) -> None:
+    def __init__(self, warn: RateLimitedWarning | None = None) -> None:
         self.buffer = ""
         self.dropped = 0
+        self.warn = warn if warn is not None else RateLimitedWarning(log)
 
     def reset(self) -> None:
         self.buffer = ""
@@ -66,12 +69,12 @@ class GatewayFramer:
             chunk, self.buffer = self.buffer[: m.end()], self.buffer[m.end() :]
             if len(chunk) > MAX_MESSAGE_CHARS:
                 self.dropped += 1
-                log.warning("CAN gateway: oversized message of %d characters ignored", len(chunk))
+                self.warn.warn("CAN gateway: oversized message of %d characters ignored", len(chunk))
                 continue
             out.append(chunk)
         if len(self.buffer) > MAX_MESSAGE_CHARS:
             self.dropped += 1
-            log.warning("CAN gateway: %d characters without a complete message ignored", len(self.buffer))
+            self.warn.warn("CAN gateway: %d characters without a complete message ignored", len(self.buffer))
             self.buffer = ""
         return out
 
@@ -108,9 +111,9 @@ def _parse(text: str) -> etree._Element | None:
 
 def _number(value: str, lo: float, hi: float) -> float:
     try:
-        v = float(value)
+        v = ascii_float(value)
     except ValueError:
-        raise ValueError("not a number") from None
+        raise ValueError("not a number (ASCII digits only)") from None
     if not math.isfinite(v) or not lo <= v <= hi:
         raise ValueError(f"out of range [{lo:g}, {hi:g}]")
     return v
@@ -118,9 +121,9 @@ def _number(value: str, lo: float, hi: float) -> float:
 
 def _integer(value: str, lo: int, hi: int) -> int:
     try:
-        v = int(value)
+        v = ascii_int(value)
     except ValueError:
-        raise ValueError("not an integer") from None
+        raise ValueError("not an integer (ASCII digits only)") from None
     if not lo <= v <= hi:
         raise ValueError(f"out of range [{lo}, {hi}]")
     return v
@@ -168,7 +171,7 @@ def _apply(u: GatewayUpdate, name: str, value: str, action: etree._Element, max_
         if len(value) > 1000:
             raise ValueError("display text longer than 1000 characters")
         try:
-            duration = float(action.get("duration", "0") or 0)
+            duration = ascii_float(action.get("duration", "0") or "0")
         except ValueError:
             duration = 0.0
         u.messages.append((value, duration if math.isfinite(duration) and duration > 0 else 0.0))

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from ...task.layer_checks import register as register_layer_check
 from ...task.model_task import DrivingTask, Pose
 from ...task.values import Rotation
 from .parse import Junction, LaneSection, OpenDriveError, ParsedOpenDrive, Road, parse_opendrive
@@ -334,3 +335,8 @@ def driver_start_pose(task: DrivingTask, od: OpenDriveMap | None) -> Pose | None
     except ValueError as e:
         raise OpenDriveError(f"driver start position: {e}", where, None, "openDrive") from e
     return Pose((x, y, z), Rotation.from_euler_deg(0.0, math.degrees(yaw), 0.0))
+
+
+# load_task and `validate` check the task's road.xodr with the same reader gym.make uses
+# (and fill its cache), so a broken file fails at load time naming file and line.
+register_layer_check("openDrive", OpenDriveMap.load)
