@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..hints import did_you_mean
+from ..sim.lane_sources import road_summary
 from ..task import TaskError, load_task
 from ..task.bundled import BUNDLED_DIR, bundled_task_names
 from ..task.summary import summarize
@@ -58,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
             failed += 1
             print(f"ERROR {target}\n      {exc}")
             continue
-        print(f"OK    {task.name:<28} {summarize(task).line()}")
+        print(f"OK    {task.name:<28} {summarize(task, *road_summary(task)).line()}")
         if args.show_warnings:
             for w in task.warnings:
                 print(f"      warning: {w}")

@@ -213,8 +213,10 @@ def _from_cardata(p: Path, task: str | Path | None) -> Drive:
     else:
         drive.notes.append("driving task not found: no ideal tracks or lanes")
         drive.analysis = {"guide": {"kind": "start_line"}, "lanes": [], "ideal_tracks": {}, "reaction_groups": {}}
-    if drive.analysis["guide"]["kind"] == "start_line":  # no lanes, no ideal track: measure from where the log starts
-        drive.analysis["guide"], why = log_reference(cols["x_m"], cols["z_m"], cols["yaw_rad"], loaded)
+    guide = drive.analysis["guide"]
+    if guide["kind"] in ("start_line", "route"):  # no lanes, no ideal track: measure from where the log starts
+        road = np.asarray(guide["polyline"], dtype=float) if guide["kind"] == "route" and guide.get("polyline") else None
+        drive.analysis["guide"], why = log_reference(cols["x_m"], cols["z_m"], cols["yaw_rad"], loaded, road)
         drive.notes.append(why)
     s, lat, lane, off = locate_many(drive.analysis["guide"], cols["x_m"], cols["z_m"])
     cols.update({"s_m": s, "lateral_m": lat, "lane_index": lane, "lane_offset_m": off})

@@ -61,11 +61,18 @@ def _start_line(x0: float, z0: float, yaw0: float) -> dict[str, Any]:
     }
 
 
-def log_reference(x: np.ndarray, z: np.ndarray, yaw: np.ndarray, task: DrivingTask | None) -> tuple[dict[str, Any], str]:
-    """The guide dict (`locate_many`'s input) anchored at the log's first position, and a note saying which."""
+def log_reference(
+    x: np.ndarray, z: np.ndarray, yaw: np.ndarray, task: DrivingTask | None, ego_road: np.ndarray | None = None
+) -> tuple[dict[str, Any], str]:
+    """The guide dict (`locate_many`'s input) anchored at the log's first position, and a note
+    saying which. Candidates: the task's ego road (`ego_road`, the route the envs follow) and
+    its traffic routes, each only where the log's first position lies on it."""
     x0, z0, yaw0 = float(x[0]), float(z[0]), float(yaw[0])
     best: tuple[float, str, Polyline] | None = None
-    for rid, pts in (route_polylines(task) if task is not None else {}).items():
+    candidates = dict(route_polylines(task)) if task is not None else {}
+    if ego_road is not None:  # after the traffic routes: on a tie the route keeps its name
+        candidates["the ego's road"] = ego_road
+    for rid, pts in candidates.items():
         keep = np.concatenate([[True], np.hypot(np.diff(pts[:, 0]), np.diff(pts[:, 1])) > 1e-9])
         if int(keep.sum()) < 2:
             continue
@@ -81,4 +88,5 @@ def log_reference(x: np.ndarray, z: np.ndarray, yaw: np.ndarray, task: DrivingTa
         return guide, "lateral position measured from the straight line through the log's first position and heading"
     guide = _start_line(x0, z0, yaw0)
     guide.update(kind="route", route=best[1], polyline=best[2].xz.tolist())
-    return guide, f"lateral position measured from the traffic route of {best[1]} (nearest the log's first position)"
+    what = best[1] if best[1] == "the ego's road" else f"the traffic route of {best[1]}"
+    return guide, f"lateral position measured from {what} (nearest the log's first position)"

@@ -215,3 +215,18 @@ def ego_road(task: DrivingTask, road: RoadModel, start: Pose) -> EgoRoad | None:
         or _from_ideal_track(task, road, start)
         or _from_traffic(task, start)
     )
+
+
+def road_summary(task: DrivingTask) -> tuple[str, int]:
+    """(where the ego's road comes from, the lanes known across it) as the envs measure lanes
+    (`guide.RoadGuide`): X-band `lanes`, a source of this module, or none (0 lanes: a line
+    to follow, lanes unknown). For `opends-gym validate`."""
+    if task.scenario.road.lanes:
+        return "lanes", len(task.scenario.road.lanes)
+    from .road import RoadModel
+
+    model = RoadModel(task)
+    road = ego_road(task, model, model.driver_start_pose() or task.start_pose)
+    if road is None:
+        return "none", 0
+    return road.source, len(road.lane_laterals_m) if road.lanes_known else 0

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 from .model_task import DrivingTask
 
@@ -30,7 +29,9 @@ class TaskSummary:
         )
 
 
-def summarize(task: DrivingTask) -> TaskSummary:
+def summarize(task: DrivingTask, road: str = "none", road_lanes: int = 0) -> TaskSummary:
+    """The counts of a loaded task; `road`, `road_lanes`: the ego's road as the simulation
+    builds it (`sim.lane_sources.road_summary`, which this layer cannot import)."""
     sc = task.scenario
     return TaskSummary(
         name=task.name,
@@ -42,19 +43,6 @@ def summarize(task: DrivingTask) -> TaskSummary:
         lanes=len(sc.road.lanes),
         ideal_tracks=len(sc.driver.ideal_tracks),
         warnings=len(task.warnings),
-        **_road(task),
+        road=road,
+        road_lanes=road_lanes,
     )
-
-
-def _road(task: DrivingTask) -> dict[str, Any]:
-    """The ego's road as the envs measure lanes on it (`sim.guide.RoadGuide`)."""
-    if task.scenario.road.lanes:
-        return {"road": "lanes", "road_lanes": len(task.scenario.road.lanes)}
-    from ..sim.lane_sources import ego_road
-    from ..sim.road import RoadModel
-
-    model = RoadModel(task)
-    road = ego_road(task, model, model.driver_start_pose() or task.start_pose)
-    if road is None:
-        return {"road": "none", "road_lanes": 0}
-    return {"road": road.source, "road_lanes": len(road.lane_laterals_m) if road.lanes_known else 0}
