@@ -131,7 +131,7 @@ class Recorded:
 
 def ground_source(task: DrivingTask) -> str:
     """'task terrain' when the scene has a terrain whose height map exists, else 'recorded height profile'."""
-    from ..sim.bullet.scene import find_asset
+    from ..task.missing_assets import find_asset
 
     for g in task.scene.geometries:
         if isinstance(g, Terrain) and find_asset(task.folder, g.height_map_key) is not None:

@@ -47,20 +47,25 @@ class MissingAsset:
     line: int | None
 
 
-def asset_exists(folder: Path, key: str) -> bool:
-    """An asset key resolves beside the task or at OpenDS's asset root (an empty key needs nothing)."""
+def find_asset(folder: Path, key: str) -> Path | None:
+    """The file an asset key names, beside the task or at OpenDS's asset root, or None."""
     if not key:
-        return True
+        return None
     for hops in ASSET_ROOT_HOPS:
         base = folder
         for _ in range(hops):
             base = base.parent
         try:
-            if (base / key).exists():
-                return True
+            if (base / key).is_file():
+                return base / key
         except (OSError, ValueError):  # a name the OS refuses is no file
             continue
-    return False
+    return None
+
+
+def asset_exists(folder: Path, key: str) -> bool:
+    """An asset key resolves beside the task or at OpenDS's asset root (an empty key needs nothing)."""
+    return not key or find_asset(folder, key) is not None
 
 
 def missing_ground(scene: Scene, folder: Path) -> list[MissingAsset]:

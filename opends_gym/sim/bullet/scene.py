@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 import pybullet as pb
 
+from ...task.missing_assets import find_asset
 from ...task.model_scene import Box, Cylinder, Model, Point, Sphere, Terrain
 from ...task.model_task import DrivingTask
 from ...task.values import Quat
@@ -48,7 +49,6 @@ MASK_STATIC = G_RAY | G_DYNAMIC | G_CAR
 MASK_DYNAMIC = G_RAY | G_STATIC | G_DYNAMIC | G_CAR
 MASK_CAR = G_STATIC | G_DYNAMIC
 RAY_MASK = G_STATIC | G_DYNAMIC
-ASSET_ROOT_HOPS = (0, 3)  # the task folder, then OpenDS's asset root (as the loader looks)
 
 
 @dataclass(frozen=True)
@@ -86,20 +86,6 @@ def quat_mul(a: Quat, b: Quat) -> Quat:
 
 def yaw_quat(yaw: float) -> Quat:
     return (0.0, math.sin(0.5 * yaw), 0.0, math.cos(0.5 * yaw))
-
-
-def find_asset(task_folder: Path, key: str) -> Path | None:
-    """An asset file beside the task or at the OpenDS asset root, or None."""
-    if not key:
-        return None
-    for hops in ASSET_ROOT_HOPS:
-        base = task_folder
-        for _ in range(hops):
-            base = base.parent
-        path = base / key
-        if path.is_file():
-            return path
-    return None
 
 
 def made_collidable_ids(task: DrivingTask) -> set[str]:
