@@ -65,6 +65,23 @@ def test_saved_policy_runs_through_the_cli(quick_run: Path, capsys: pytest.Captu
     assert out["episodes"][0]["steps"] > 10
 
 
+def test_a_checkpoint_drives_with_its_own_normaliser(quick_run: Path) -> None:
+    """A run stopped early is still usable: `--agent ppo:checkpoints/model_N_steps.zip`
+    normalises observations with the statistics saved at that checkpoint."""
+    import pickle
+
+    from opends_gym.drivers.policy import PolicyDriver
+
+    checkpoint = quick_run / "checkpoints" / "model_6000_steps.zip"
+    driver = PolicyDriver("ppo", checkpoint)
+    with (quick_run / "checkpoints" / "model_vecnormalize_6000_steps.pkl").open("rb") as f:
+        saved = pickle.load(f).obs_rms
+    with (quick_run / "model.vecnormalize.pkl").open("rb") as f:
+        final = pickle.load(f).obs_rms
+    assert driver.obs_rms is not None and np.array_equal(driver.obs_rms.mean, saved.mean)
+    assert not np.array_equal(saved.mean, final.mean)  # the statistics of step 6000, not the final ones
+
+
 def test_policy_rejects_an_env_with_other_observations(quick_run: Path) -> None:
     from opends_gym.drivers.policy import PolicyDriver
 
