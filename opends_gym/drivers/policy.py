@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import pickle
+import re
 from pathlib import Path
 from typing import Any
 
@@ -36,8 +37,14 @@ def _beside(model_path: Path, suffix: str) -> Path:
 
 
 def normalizer_path(model_path: Path) -> Path:
-    """Where `opends-gym train` saves the observation normaliser of a model."""
-    return _beside(model_path, ".vecnormalize.pkl")
+    """Where `opends-gym train` saves the observation normaliser of a model: beside it, or
+    for a checkpoint `<prefix>_<N>_steps.zip` where SB3's `CheckpointCallback` puts it
+    (`<prefix>_vecnormalize_<N>_steps.pkl`), so a checkpoint drives like a finished run."""
+    beside = _beside(model_path, ".vecnormalize.pkl")
+    match = re.fullmatch(r"(.+)_(\d+)_steps(\.zip)?", model_path.name)
+    if beside.exists() or match is None:
+        return beside
+    return model_path.with_name(f"{match[1]}_vecnormalize_{match[2]}_steps.pkl")
 
 
 def settings_path(model_path: Path) -> Path:

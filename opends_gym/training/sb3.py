@@ -6,7 +6,8 @@ observation normaliser (what `--agent ppo:PATH` loads), and the env's own metric
 final policy.
 
 Outputs in the run folder: `model.zip`, `model.vecnormalize.pkl`, `checkpoints/`,
-`monitor/` (per-episode returns), `curve.csv` (steps, mean return of the last 10
+`monitor/` (per-episode returns; `checkpoints/` hold each checkpoint's normaliser too, so a
+run can be stopped at a good checkpoint and `--agent ppo:PATH` drives it), `curve.csv` (steps, mean return of the last 10
 episodes), `evaluations.npz` (SB3's EvalCallback), `metrics.json` (final evaluation).
 """
 
@@ -83,7 +84,9 @@ def train(cfg: TrainConfig, base_dir: Path, out_dir: Path | None = None, resume:
     per_env = max(1, cfg.n_envs)
     callbacks = CallbackList(
         [
-            CheckpointCallback(max(1, cfg.checkpoint_every_steps // per_env), str(out / "checkpoints"), name_prefix="model"),
+            CheckpointCallback(
+                max(1, cfg.checkpoint_every_steps // per_env), str(out / "checkpoints"), name_prefix="model", save_vecnormalize=True
+            ),
             EvalCallback(
                 eval_env,
                 n_eval_episodes=cfg.eval_episodes,
