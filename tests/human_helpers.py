@@ -221,3 +221,13 @@ IDEAL_TRACK = (
 def reaction_test_with_ideal_track(task_copy: Any) -> Any:
     """The corpus ReactionTest with an ideal track along the road at x = 1 m."""
     return task_copy("opends-cts/ReactionTest", "scenario.xml", "<driver>", IDEAL_TRACK)
+
+
+def wait_for(cond, timeout_s: float = 5.0) -> None:  # type: ignore[no-untyped-def]
+    """Poll `cond` every 10 ms until it holds; AssertionError after `timeout_s`."""
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        if cond():
+            return
+        time.sleep(0.01)
+    raise AssertionError("timed out")

@@ -17,7 +17,7 @@ from opends_gym.human.inputs.can_protocol import parse_chunk
 from opends_gym.human.settings_server import SettingsControllerServer
 from opends_gym.human.snapshot import VehicleSnapshot
 from opends_gym.human.wire import RateLimitedWarning, ascii_float, ascii_int
-from tests.human_helpers import ScriptedGateway
+from tests.human_helpers import ScriptedGateway, wait_for
 from tests.test_human_settings_server import SPEED
 from tests.test_human_settings_server import Client as _Client
 
@@ -33,15 +33,6 @@ class Client(_Client):
             if ev is not None:
                 return ev
         raise AssertionError(f"no {name} reply within {timeout_s} s")
-
-
-def wait_for(cond, timeout_s: float = 5.0) -> None:  # type: ignore[no-untyped-def]
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if cond():
-            return
-        time.sleep(0.01)
-    raise AssertionError("timed out")
 
 
 def _closed_by_server(sock: socket.socket, timeout_s: float = 3.0) -> bytes:

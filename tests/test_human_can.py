@@ -16,7 +16,7 @@ from opends_gym.human.inputs.can_protocol import GatewayFramer, parse_chunk
 from opends_gym.human.runner import DriveSession
 from opends_gym.human.session_config import DriveConfig, parse_input_spec
 from opends_gym.human.snapshot import VehicleSnapshot
-from tests.human_helpers import ReactionTestDriver, ScriptedGateway
+from tests.human_helpers import ReactionTestDriver, ScriptedGateway, wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 DBC = ROOT / "configs" / "can_example.dbc"
@@ -24,15 +24,6 @@ DBC = ROOT / "configs" / "can_example.dbc"
 
 def msg(*actions: tuple[str, str]) -> str:
     return "<message>" + "".join(f'<action name="{n}">{v}</action>' for n, v in actions) + "</message>"
-
-
-def wait_for(cond, timeout_s: float = 5.0) -> None:  # type: ignore[no-untyped-def]
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if cond():
-            return
-        time.sleep(0.01)
-    raise AssertionError("timed out")
 
 
 # ---------------------------------------------------------------------- protocol

@@ -29,21 +29,16 @@ def registered_env_ids() -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    show_all = not (args.envs or args.tasks or args.policies or args.configs)
-    if args.tasks or show_all:
-        print("bundled tasks:")
-        for name in bundled_task_names():
-            print(f"  {name}")
-    if args.envs or show_all:
-        print("environments:")
-        for env_id in registered_env_ids():
-            print(f"  {env_id}")
-    if args.policies or show_all:
-        print("policies (--agent ALGORITHM:NAME):")
-        for name in policy_names():
-            print(f"  {name}")
-    if args.configs or show_all:
-        print("training configs (opends-gym train NAME):")
-        for name in config_names():
-            print(f"  {name}")
+    sections = (
+        (args.tasks, "bundled tasks:", bundled_task_names),
+        (args.envs, "environments:", registered_env_ids),
+        (args.policies, "policies (--agent ALGORITHM:NAME):", policy_names),
+        (args.configs, "training configs (opends-gym train NAME):", config_names),
+    )
+    show_all = not any(asked for asked, _, _ in sections)
+    for asked, title, names in sections:
+        if asked or show_all:
+            print(title)
+            for name in names():
+                print(f"  {name}")
     return 0
