@@ -71,6 +71,19 @@ def _space(space: gym.Space[Any]) -> str:
     return f"`{space!r}`"
 
 
+def _space_rows(env_id: str, default: Any, option: str, names: Any) -> list[str]:
+    """A markdown table of the space each value of `option` ("observation" or "action") gives."""
+    rows = [f"| `{option}=` | space |", "|---|---|"]
+    chosen = getattr(default.config, option)
+    for name in names:
+        env = default if name == chosen else gym.make(env_id, **{option: name}).unwrapped
+        mark = " (default)" if name == chosen else ""
+        rows.append(f"| `{name}`{mark} | {_space(getattr(env, f'{option}_space'))} |")
+        if env is not default:
+            env.close()
+    return rows
+
+
 def spaces_markdown(env_id: str) -> str:
     """Observation and action spaces of every `observation=` / `action=` choice, from the env itself."""
     from opends_gym.envs.actions import ACTION_TYPES
@@ -79,24 +92,13 @@ def spaces_markdown(env_id: str) -> str:
     default = gym.make(env_id).unwrapped
     cfg = default.config
     out = ["### Observation spaces", ""]
-    out += ["| `observation=` | space |", "|---|---|"]
-    for name in OBSERVATION_TYPES:
-        env = default if name == cfg.observation else gym.make(env_id, observation=name).unwrapped
-        mark = " (default)" if name == cfg.observation else ""
-        out.append(f"| `{name}`{mark} | {_space(env.observation_space)} |")
-        if env is not default:
-            env.close()
+    out += _space_rows(env_id, default, "observation", OBSERVATION_TYPES)
     names = getattr(default.obs_type, "names", ())
     out += ["", f"Slots of the default `{cfg.observation}` observation (SI units in the names):", ""]
     out += ["| index | name |", "|---:|---|"]
     out += [f"| {i} | `{n}` |" for i, n in enumerate(names)]
-    out += ["", "### Action spaces", "", "| `action=` | space |", "|---|---|"]
-    for name in ACTION_TYPES:
-        env = default if name == cfg.action else gym.make(env_id, action=name).unwrapped
-        mark = " (default)" if name == cfg.action else ""
-        out.append(f"| `{name}`{mark} | {_space(env.action_space)} |")
-        if env is not default:
-            env.close()
+    out += ["", "### Action spaces", ""]
+    out += _space_rows(env_id, default, "action", ACTION_TYPES)
     default.close()
     return "\n".join(out) + "\n"
 

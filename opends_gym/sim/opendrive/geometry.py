@@ -73,22 +73,23 @@ class Cubic:
     def _index(self, s: FloatArray) -> FloatArray:
         return np.clip(np.searchsorted(self.starts, s, side="right") - 1, 0, len(self.starts) - 1)
 
+    def _piece(self, s: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The coefficients (a, b, c, d) of each s's piece and the distance into it."""
+        i = self._index(s)
+        return self.coef[i].T, s - self.starts[i]
+
     def __call__(self, s: FloatArray | float) -> FloatArray:
         s = np.asarray(s, dtype=float)
         if self.empty:
             return np.zeros_like(s)
-        i = self._index(s)
-        ds = s - self.starts[i]
-        a, b, c, d = self.coef[i].T
+        (a, b, c, d), ds = self._piece(s)
         return a + ds * (b + ds * (c + ds * d))
 
     def derivative(self, s: FloatArray | float) -> FloatArray:
         s = np.asarray(s, dtype=float)
         if self.empty:
             return np.zeros_like(s)
-        i = self._index(s)
-        ds = s - self.starts[i]
-        _, b, c, d = self.coef[i].T
+        (_, b, c, d), ds = self._piece(s)
         return b + ds * (2.0 * c + ds * 3.0 * d)
 
 
