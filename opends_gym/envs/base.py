@@ -44,10 +44,11 @@ from ..task import DrivingTask
 from .actions import make_action_type
 from .config import EnvConfig, build_config
 from .observations import make_observation_type
+from .road_exit import RESET_SOURCE, LanePose, check_mode, held
 from .trace import COL, Trace
 
 LANE_KEEPING_OFFSET_M = 1.0  # |offset from lane centre| below which a sample counts for SDLP
-_X, _Z, _OFFSET = COL["x_m"], COL["z_m"], COL["lane_offset_m"]
+_X, _Z, _OFFSET, _LANE, _LAT = COL["x_m"], COL["z_m"], COL["lane_offset_m"], COL["lane_index"], COL["lateral_m"]
 
 
 class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
@@ -62,6 +63,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, not {render_mode!r}")
         self.config = build_config(self.config_class, kwargs)
+        self.on_road_exit = check_mode(self.config.on_road_exit)
         # one rendered frame per policy step: RecordVideo and the window play in real time
         self.metadata = {**type(self).metadata, "render_fps": self.config.policy_hz}
         self.render_mode = render_mode
@@ -83,6 +85,10 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         self._window: Any = None
         self._episode_over = False
         self._engine_key: bool | None = None
+        self._reset_rows: list[int] = []
+        self._reset_request = self._reset_due = False
+        self._hold_until_s = -math.inf
+        self._clear_road_exits()
 
     # ------------------------------------------------------------------ hooks
     def _make_task(self) -> DrivingTask:
@@ -110,7 +116,30 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         return float(info["progress_m"]) - 0.1 * abs(float(info["lateral_offset_m"])) - 10.0 * float(info["new_collisions"])
 
     def _task_terminated(self) -> bool:
+        """The task is over (end of track, test voided); leaving the road is `_off_road`."""
         return False
+
+    def _off_road(self) -> bool:
+        """The car has left the road (handled by `on_road_exit`)."""
+        return self._off_road_at(self.trace.last("lateral_m"))
+
+    def _off_road_at(self, lateral_m: float) -> bool:
+        """Whether a lateral position (the guide's, + left) is off the road. Default: more than
+        `off_road_margin_m` beyond the road's edges (`RoadGuide.road_edges_m`; never where no
+        road is known). Envs with their own road test override this."""
+        left, right = self.guide.road_edges_m
+        margin = self.config.off_road_margin_m
+        return lateral_m > left + margin or lateral_m < right - margin
+
+    def _after_reset_position(self) -> None:
+        """After the car was put back on its lane (task measures that integrate along the road
+        restart from the new position)."""
+
+    def _stimuli_presented(self) -> int:
+        """How many stimuli the driver was shown this episode (exposure). Default: the
+        World's `stimulus` events plus the reaction timers scored."""
+        n = sum(1 for e in self.world.events.since(0) if e.kind == "stimulus")
+        return n + len(getattr(self.world.triggers, "reactions", ()))
 
     def _task_info(self, info: dict[str, Any]) -> None:
         """Add or override numeric info keys."""
@@ -127,12 +156,14 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         self.act_type.reset()
         self.trace.clear()
         self._run = RunningLateral()
+        self._reset_rows = []  # trace rows right after a reset (no distance from the row before)
         self._event_cursor = 0
         self._reaction_cursor = 0
         self._collisions_seen = 0
         self._last_s = self.guide.locate(self.world.ego.state.x, self.world.ego.state.z).s_m
         self._episode_over = False
         self._engine_key = None
+        self._clear_road_exits()
         self._reset_task(options)
         self._record_row()
         info = self._info(progress_m=0.0, new_collisions=0, events=())
@@ -147,11 +178,16 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             controls.engine_on, self._engine_key = self._engine_key, None
         applied = controls.clipped()  # what the world gets: clipped once for the action repeat
         world = self.world
+        self._exits_this_step = 0
         for k in range(self.config.action_repeat):
+            if self._reset_request or self._reset_due:  # reset_position() or on_road_exit="recover"
+                self._reset_request = self._reset_due = False
+                self._reset_to_lane()
             self.controls = controls
-            world.step_clipped(applied)
+            world.step_clipped(held(applied) if world.t_s < self._hold_until_s - 1e-9 else applied)
             self._record_row()
             self._on_physics_step()
+            self._road_exit()
             if k == 0:
                 controls = _without_edges(controls)
                 applied = _without_edges(applied)
@@ -188,6 +224,61 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         """The ignition key turned for the next step (recordings keep it beside the action)."""
         return self._engine_key
 
+    def reset_position(self) -> None:
+        """Put the car back at rest in the centre of the lane it was last in, where it was
+        last in it, at the start of the next step, and hold it `reset_hold_s` (the experimenter's reset,
+        OpenDS's `Car.setToResetPosition`; the same reset `on_road_exit="recover"` does).
+        Counted in info `resets` and marked by a World `reset` event (`last_lane_position`)."""
+        self._reset_request = True
+
+    @property
+    def pending_reset_position(self) -> bool:
+        """`reset_position()` was asked for the next step (recordings keep it beside the action)."""
+        return self._reset_request
+
+    # ------------------------------------------------------------------ leaving the road
+    def _clear_road_exits(self) -> None:
+        self._reset_request = self._reset_due = False
+        self._lane_pose: LanePose | None = None
+        self._hold_until_s = -math.inf
+        self._was_off_road = False
+        self.road_exits = 0  # times the car left the road (each exit once)
+        self.resets = 0  # resets to the last lane position (automatic and requested)
+        self.reset_time_s = 0.0  # simulated seconds held still after resets
+        self._exits_this_step = 0
+        self._skip_distance = False
+
+    def _road_exit(self) -> None:
+        """After each physics step: remember the last lane position; count and handle exits."""
+        row = self.trace.last_row()
+        off = self._off_road()
+        if not off and row[_LANE] >= 0:
+            s = self.world.ego.state
+            self._lane_pose = LanePose(s.x, s.y, s.z, row[_OFFSET], self.guide.heading_at(self.guide.locate(s.x, s.z).s_m))
+        if off and not self._was_off_road:
+            self.road_exits += 1
+            self._exits_this_step += 1
+        self._was_off_road = off
+        if off and self.on_road_exit == "recover":
+            self._reset_due = True  # at the start of the next physics step (info and observation show where it left the road)
+
+    def _reset_to_lane(self) -> None:
+        w = self.world
+        lane_pose = self._lane_pose
+        pose = lane_pose.lane_centre_pose() if lane_pose is not None else w.start_pose
+        w.ego.teleport(pose)
+        self.resets += 1
+        hold = self.config.reset_hold_s
+        self._hold_until_s = w.t_s + hold
+        self.reset_time_s += hold
+        self._was_off_road = False
+        self._skip_distance = True  # the jump is no distance driven
+        x, _, z = pose.position_m
+        w.events.emit(w.t_s, "reset", RESET_SOURCE, x_m=x, z_m=z, yaw_rad=pose.yaw_rad, hold_s=hold, resets=self.resets)
+        self.guide.reset()
+        self._last_s = self.guide.locate(x, z).s_m
+        self._after_reset_position()
+
     def _stop_early(self) -> bool:
         return self._terminated(self.world.collisions - self._collisions_seen)
 
@@ -198,6 +289,8 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         if getattr(trig, "paused", False) and math.isinf(getattr(trig, "pause_until_s", 0.0)):
             return True  # paused "until resumed": nobody resumes an RL episode
         if self.config.terminate_on_collision and new_collisions > 0:
+            return True
+        if self.on_road_exit == "terminate" and self._off_road():
             return True
         return self._task_terminated()
 
@@ -217,6 +310,10 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         tr = self.trace
         prev = tr.last_row()
         run = self._run
+        if self._skip_distance:
+            self._skip_distance = False
+            self._reset_rows.append(tr.n)
+            prev = ()
         if prev:
             ds = math.hypot(x - prev[_X], z - prev[_Z])
             run.dist += ds
@@ -250,6 +347,8 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             "headway_s": tr.last("headway_s"),
             "ttc_s": tr.last("ttc_s"),
             "lanes_known": self.guide.lanes_known_at(self._last_s),
+            "resets": self.resets,
+            "reset_time_s": self.reset_time_s,
             "progress_m": progress_m,
             "new_collisions": new_collisions,
             "events": events,
@@ -271,7 +370,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         correct = [r for r in reactions if r.result == 1]
         out: dict[str, float] = {
             "duration_s": self.world.t_s,
-            "distance_m": float(np.sum(np.hypot(np.diff(tr.col("x_m")), np.diff(tr.col("z_m"))))) if tr.n > 1 else 0.0,
+            "distance_m": self._distance_m(),
             "mean_speed_kmh": float(np.mean(tr.col("speed_mps")) * 3.6) if tr.n else math.nan,
             "fuel_used_l": self.world.ego.powertrain.state.fuel_used_l,
             "collisions": float(self.world.collisions),
@@ -287,9 +386,31 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             "lanes_known": float(self.guide.lanes_known),
             "mean_abs_lateral_offset_m": float(np.mean(np.abs(offsets))) if tr.n else math.nan,
             "off_road_s": self._off_road_s(),
+            "stimuli_presented": float(self._stimuli_presented()),
+            "road_exits": float(self._road_exits_in_trace()),
+            "resets": float(self.resets),
+            "reset_time_s": self.reset_time_s,
         }
         out.update(self._episode_metrics())
         return out
+
+    def _road_exits_in_trace(self) -> int:
+        """Times the car left the road (from the trace, so a batch's template scores it too)."""
+        lat = self.trace.col("lateral_m")
+        if len(lat) == 0:
+            return 0
+        off = np.fromiter((self._off_road_at(float(v)) for v in lat), dtype=bool, count=len(lat))
+        return int(np.count_nonzero(off[1:] & ~off[:-1]) + off[0])
+
+    def _distance_m(self) -> float:
+        """Metres driven (the jumps of resets to the last lane position left out)."""
+        tr = self.trace
+        if tr.n < 2:
+            return 0.0
+        ds = np.hypot(np.diff(tr.col("x_m")), np.diff(tr.col("z_m")))
+        if self._reset_rows:
+            ds[np.asarray(self._reset_rows) - 1] = 0.0
+        return float(np.sum(ds))
 
     def _off_road_s(self) -> float:
         """Simulated seconds the car's reference point spent beyond its road's edges

@@ -73,6 +73,12 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
         super()._setup()
         self._signs = [objs[0] for oid, objs in self.world.objects.by_id.items() if oid.endswith("_Sign")]
 
+    def _stimuli_presented(self) -> int:
+        """The lead car's stimuli started plus the brake signs scored (a sign still being
+        timed when the episode ends is not counted)."""
+        signs = sum(1 for r in getattr(self.world.triggers, "reactions", ()) if r.group == "BrakeSign")
+        return super()._stimuli_presented() + signs
+
     def _stimulus(self) -> list[float]:
         z = self.world.ego.state.z
         visible = any(o.visible and o.position[2] < z for o in self._signs)

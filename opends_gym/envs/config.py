@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 from ..hints import meant
+from .road_exit import DEFAULT_RESET_HOLD_S
 
 T = TypeVar("T")
 
@@ -36,6 +37,9 @@ class EnvConfig:
     render_width: int = 640
     render_height: int = 360
     terminate_on_collision: bool = True
+    on_road_exit: str = "terminate"  # terminate | recover | continue (opends_gym.envs.road_exit)
+    reset_hold_s: float = DEFAULT_RESET_HOLD_S  # recover / reset_position(): seconds held still after the reset (ours; OpenDS: none)
+    off_road_margin_m: float = 1.5  # beyond the road's edges by this much counts as leaving the road
     reward_speed_weight: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
 
@@ -92,5 +96,7 @@ def _validate(cfg: Any) -> None:
     if getattr(cfg, "physics", "fast") not in ("fast", "bullet"):
         raise ValueError(f"physics must be 'fast' or 'bullet', not {cfg.physics!r}")
     _check_numbers(cfg)
+    if getattr(cfg, "reset_hold_s", 0.0) < 0.0:
+        raise ValueError(f"reset_hold_s must not be negative, not {cfg.reset_hold_s!r}")
     if getattr(cfg, "policy_hz", 1.0) > getattr(cfg, "physics_hz", 60.0):
         raise ValueError("policy_hz cannot exceed physics_hz")

@@ -221,6 +221,13 @@ class ConTReEnv(OpenDSEnv):
     def _task_terminated(self) -> bool:
         return self.world.ego.state.z <= self.end_z
 
+    def _off_road_at(self, lateral_m: float) -> bool:
+        return False  # the car drives itself along the track (the agent steers the bar)
+
+    def _stimuli_presented(self) -> int:
+        """Lights shown (answered, missed or still on)."""
+        return len(self.lights) + (1 if self.light != LIGHT_OFF else 0)
+
     def _episode_metrics(self) -> dict[str, float]:
         dev = np.asarray(self.deviations)
         correct = [rt for _, rt, r in self.lights if r == 1]

@@ -10,7 +10,8 @@ time at the physics rate, so a response is scored to the physics step.
 Adds to the observation nothing (wrap with your own stimulus channel if the agent must see
 it: `info["drt_stimulus_on"]` tells whether it is shown); adds info keys
 `drt_stimulus_on` (0/1) and, in `episode_metrics`, `drt_stimuli`, `drt_hits`,
-`drt_misses`, `drt_premature`, `drt_hit_rate`, `drt_mean_rt_s`.
+`drt_misses`, `drt_premature`, `drt_hit_rate`, `drt_mean_rt_s`; `stimuli_presented`
+(the env's exposure count) adds the DRT stimuli.
 """
 
 from __future__ import annotations
@@ -78,7 +79,9 @@ class DetectionResponseTask(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordCon
         answered = any(r >= last for r in self.responses) if self.onsets else False
         info["drt_stimulus_on"] = 1.0 if (t_now - last) < self.stimulus_s and not answered else 0.0
         if "episode_metrics" in info:
-            info["episode_metrics"].update(self.drt_metrics())
+            m = info["episode_metrics"]
+            m.update(self.drt_metrics())
+            m["stimuli_presented"] = m.get("stimuli_presented", 0.0) + m["drt_stimuli"]  # exposure: the env's and the DRT's
         return obs, float(reward), terminated, truncated, info
 
     def drt_metrics(self) -> dict[str, float]:

@@ -78,14 +78,19 @@ class LaneChangeTestEnv(OpenDSEnv):
 
     ## Episode end
     Terminated when the car reaches the end of the track (the task pauses the simulation),
-    leaves the road by more than `off_road_margin_m`, or collides; truncated after
-    `max_episode_s` (300 s; the track takes ~195 s).
+    leaves the road by more than `off_road_margin_m` (with `on_road_exit="terminate"`, the
+    default; `recover` puts the car back on its lane, `continue` drives on, see
+    `opends_gym.envs.road_exit`), or collides; truncated after `max_episode_s` (300 s; the
+    track takes ~195 s).
 
     ## Info
     The keys of `OpenDSEnv`; `mean_deviation_m` is the running MDEV against the basic
     model. `episode_metrics` adds: mdev_basic_m, mdev_adapted_m, the adapted model's
     parameters, lane_changes (signs passed), lane_changes_correct (target lane reached),
     lane_change_errors, mean_lane_change_latency_s (sign visible to start of the move),
+    the exposure (`OpenDSEnv`'s plus signs_reached: signs the car drove past;
+    stimuli_presented counts the signs revealed; after resets each stretch of road is
+    scored once, up to where the car left it),
     and per sign `sign07_latency_s`, `sign07_reached`, `sign07_timer_result` (OpenDS's
     lane-change reaction timer: 1 correct, -1 failure, -2 missed, 0 not armed).
 
@@ -168,25 +173,42 @@ class LaneChangeTestEnv(OpenDSEnv):
     def _reward(self, info: dict[str, Any]) -> float:
         r = self.config.reward_scale * self._step_reward  # type: ignore[attr-defined]
         self._step_reward = 0.0
-        if self._task_terminated():
-            r -= self.config.off_road_penalty  # type: ignore[attr-defined]
+        r -= self.config.off_road_penalty * self._exits_this_step  # type: ignore[attr-defined]
         return r - 10.0 * float(info["new_collisions"])
 
     def _task_info(self, info: dict[str, Any]) -> None:
         dist = self._prev[0] if self._prev else 0.0
         info["mean_deviation_m"] = self._area / dist if dist > 0 else 0.0
 
-    def _task_terminated(self) -> bool:
-        row = self.trace.last_row()
+    def _off_road(self) -> bool:
+        row = self.trace.last_row()  # (every physics step: no name lookups)
         return bool(row) and abs(row[_LAT]) > self._off_road_m
+
+    def _off_road_at(self, lateral_m: float) -> bool:
+        return abs(lateral_m) > self._off_road_m
+
+    def _after_reset_position(self) -> None:
+        self._prev = None  # the deviation integral restarts at the lane position
+
+    def _stimuli_presented(self) -> int:
+        """Signs revealed: the car came within `visibility_m` of them."""
+        d = self._furthest_m()
+        return sum(1 for s in self.metric_signs if d >= s.d_m - self.geometry.visibility_m)
+
+    def _furthest_m(self) -> float:
+        z = self.trace.col("z_m")
+        return float(self._start_z - np.min(z)) if len(z) else 0.0
 
     def _episode_metrics(self) -> dict[str, float]:
         tr = self.trace
         g = self.geometry
         d = float(self.world.task.start_pose.position_m[2]) - tr.col("z_m")
         y = tr.col("lateral_m")
+        if self.resets:  # score each stretch of road once: the drive up to each exit, not the re-drive after the reset
+            first = d >= np.maximum.accumulate(d)
+            d, y = d[first], y[first]
         passed = [s for s in self.metric_signs if s.d_m <= d[-1]]
-        out: dict[str, float] = {}
+        out: dict[str, float] = {"signs_reached": float(sum(1 for s in self.metric_signs if s.d_m <= self._furthest_m()))}
         fits = fit_lane_changes(d, y, passed, self.lane_laterals, g.visibility_m) if passed else []
         if len(d) > 1 and passed:
             out.update(lct_mdev(d, y, passed, self.lane_laterals, self.initial_lane, self.basic, g.visibility_m, fits))

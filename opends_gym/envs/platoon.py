@@ -76,7 +76,8 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
 
     ## Episode end
     Terminated at the end of the track (the task pauses the simulation), on a collision,
-    when the car leaves the road by more than `off_road_margin_m` (1.5 m), or, with
+    when the car leaves the road by more than `off_road_margin_m` (1.5 m; with
+    `on_road_exit="terminate"`, the default, see `opends_gym.envs.road_exit`), or, with
     `end_when_past_lead` (default), when it draws level with the lead car (overtaking
     voids the test; both count as leaving the task and cost `off_road_penalty`);
     truncated after `max_episode_s` (300 s).
@@ -154,12 +155,16 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
             float(traffic.turn_signal[fi]) if self.with_follower else 0.0,
         ]
 
-    def _task_terminated(self) -> bool:
+    def _off_road_at(self, lateral_m: float) -> bool:
         cfg: Any = self.config
         half_road = len(self.world.road.lanes) * cfg.lane_width_m / 2
-        if abs(self.trace.last("lateral_m")) > half_road + cfg.off_road_margin_m:
-            return True
-        return bool(cfg.end_when_past_lead) and self._past_lead()
+        return abs(lateral_m) > half_road + cfg.off_road_margin_m
+
+    def _task_terminated(self) -> bool:
+        return bool(self.config.end_when_past_lead) and self._past_lead()  # type: ignore[attr-defined]
+
+    def _stimuli_presented(self) -> int:
+        return len(self.platoon.state.stimuli)
 
     def _past_lead(self) -> bool:
         """The ego's centre is level with or ahead of the lead car's: overtaking it voids the test."""
@@ -170,8 +175,8 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
         cfg = self.config
         r = self._reward_acc + cfg.reward_progress_per_m * max(0.0, float(info["progress_m"]))  # type: ignore[attr-defined]
         self._reward_acc = 0.0
-        if self._task_terminated():
-            r -= cfg.off_road_penalty  # type: ignore[attr-defined]
+        left_task = self._exits_this_step + (1 if self._task_terminated() else 0)
+        r -= cfg.off_road_penalty * min(left_task, 1)  # type: ignore[attr-defined]
         results = [s.result for s in self.platoon.state.stimuli if s.result != 0]
         for res in results[self._seen_results :]:
             r += 1.0 if res == 1 else -1.0

@@ -54,12 +54,14 @@ class ReactionTestEnv(OpenDSEnv):
 
     ## Episode end
     Terminated when the task's end trigger pauses the simulation (after all 20 trials),
-    on a collision or off the road; truncated after `max_episode_s`.
+    on a collision or off the road (`on_road_exit`, see `opends_gym.envs.road_exit`);
+    truncated after `max_episode_s`.
 
     ## Info
     `OpenDSEnv`'s keys (reaction_result / reaction_time_s each time a timer scores);
     `episode_metrics` adds per reaction group (Brake, LaneChange): `<group>_n`,
-    `<group>_correct`, `<group>_failures`, `<group>_misses`, `<group>_mean_rt_s`.
+    `<group>_correct`, `<group>_failures`, `<group>_misses`, `<group>_mean_rt_s`, and the
+    exposure (`OpenDSEnv`'s; stimuli_presented counts the signs revealed).
 
     ## Version history
     v0: initial release.
@@ -113,8 +115,18 @@ class ReactionTestEnv(OpenDSEnv):
             r += cfg.reward_wrong
         return r - 10.0 * float(info["new_collisions"])
 
-    def _task_terminated(self) -> bool:
-        return abs(self.world.ego.state.x) > self.half_road + 1.5
+    def _off_road_at(self, lateral_m: float) -> bool:
+        return abs(lateral_m) > self.half_road + self.config.off_road_margin_m  # (the lanes run along Z: |lateral| = |X|)
+
+    def _reset_task(self, options: dict[str, Any] | None) -> None:
+        self._shown: set[str] = set()
+
+    def _task_info(self, info: dict[str, Any]) -> None:
+        self._shown.update(sid for sid, o in self._objs.items() if o.visible)
+
+    def _stimuli_presented(self) -> int:
+        """Signs revealed."""
+        return len(self._shown)
 
     def _episode_metrics(self) -> dict[str, float]:
         reactions = getattr(self.world.triggers, "reactions", ())

@@ -284,6 +284,8 @@ class BatchCore:
             "headway_s": self.headway.copy(),
             "ttc_s": self.ttc.copy(),
             "lanes_known": np.full(len(self.t), bool(self.guide.lanes_known)),
+            "resets": np.zeros(len(self.t), dtype=np.int64),  # (on_road_exit="terminate" only: never reset)
+            "reset_time_s": np.zeros(len(self.t)),
             "progress_m": self.progress.copy(),
             "new_collisions": self.new_collisions.copy(),
         }

@@ -73,6 +73,12 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         if kwargs.pop("render_mode", None) is not None:
             raise ValueError("the native batch does not render; use vectorization_mode='sync' to render")
         kwargs.pop("max_episode_steps", None)
+        if kwargs.get("on_road_exit", "terminate") != "terminate":
+            raise ValueError(
+                f"the native batch of {env_id} ends episodes on leaving the road (on_road_exit='terminate') only; for "
+                f"on_road_exit={kwargs['on_road_exit']!r} use gymnasium.make_vec({env_id!r}, num_envs={num_envs}, "
+                "vectorization_mode='sync')"
+            )
         template: Any = gym.make(env_id, disable_env_checker=True, **kwargs).unwrapped
         if template.config.observation != "kinematics":
             raise ValueError(f"the native batch supports the kinematics observation, not {template.config.observation!r}")

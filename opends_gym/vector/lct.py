@@ -91,6 +91,8 @@ class LctBatch(BatchCore):
             "headway_s": self.headway.copy(),
             "ttc_s": self.ttc.copy(),
             "lanes_known": np.full(n, bool(self.guide.lanes_known)),
+            "resets": np.zeros(n, dtype=np.int64),  # (on_road_exit="terminate" only: never reset)
+            "reset_time_s": np.zeros(n),
             "progress_m": progress,
             "new_collisions": new_collisions,
         }
