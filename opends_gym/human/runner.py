@@ -16,9 +16,16 @@ play and log sounds; draw one frame. Holds -- pause (toggle_pause), an instructi
 -- stop the steps, not the loop. An instruction screen is held by the runner, not by the
 World: the World closes it at once (its default), so the simulation is the agent's
 simulation and the screen costs no simulated time. Without a window nobody can read it,
-so it is not held. The drive ends when the env terminates or truncates, after
-`duration_s`, on Escape (shutdown), closing the window or Ctrl-C; the recording is
-flushed every simulated second and finished on the way out.
+so it is not held. Leaving the road or colliding never ends the drive (the env runs with
+`on_road_exit="continue"` and `terminate_on_collision=False`, as OpenDS, unless
+`env_kwargs` say otherwise): the participant steers back, or the car is put back on its
+last lane position (`reset_position`: the `reset_position` command of any source -- the
+settings server's `ResetPosition` event, the CAN `ResetPosition` signal -- or `reset_car`,
+OpenDS's RESET_CAR key R, on a task without reset points); each reset is recorded with its
+step's action and as a `reset` event (`/events`). The drive ends when the task ends (the env
+terminates) or its time limit truncates it, after `duration_s`, on Escape (shutdown),
+closing the window or Ctrl-C; the recording is flushed every simulated second and finished
+on the way out.
 """
 
 from __future__ import annotations
@@ -79,6 +86,9 @@ class DriveSession:
 
         self.config = config
         env_id, kwargs = resolve_env_id(config.target)
+        # a person's drive goes on: leaving the road or a collision never ends it (OpenDS);
+        # the car is put back by `reset_position` (key, CAN, settings server)
+        kwargs.update(on_road_exit="continue", terminate_on_collision=False)
         kwargs.update(config.env_kwargs)
         kwargs.update(physics=config.physics, physics_hz=config.physics_hz, policy_hz=config.physics_hz, action="controls")
         if config.duration_s is not None:
@@ -145,6 +155,12 @@ class DriveSession:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    def reset_position(self) -> None:
+        """Put the car back at rest on its last lane position with the next step
+        (`OpenDSEnv.reset_position`; recorded with that step's action and as a `reset` event)."""
+        log.info("car reset to its last lane position at %.3f s", self.world.t_s)
+        self.base.reset_position()
 
     def request_stop(self, reason: str = "stopped") -> None:
         """Ask the loop to end after the current step (thread-safe; signal handlers use it)."""
@@ -302,6 +318,8 @@ class DriveSession:
                 self.request_stop("shutdown key")
             elif cmd == "close_instruction_screen":
                 self.instruction = None
+            elif cmd == "reset_position" or (cmd == "reset_car" and not self.builder.reset_ids):
+                self.reset_position()
             elif cmd.startswith("reset_car"):
                 pass  # resolved into DriverControls.reset_to by the builder
             elif not self.view.command(cmd):

@@ -50,7 +50,7 @@ MAX_INTERVAL_MS = 3_600_000  # one hour; 1e308 ms overflowed the push thread's w
 MAX_CLIENTS = 16
 IDLE_TIMEOUT_S = 60.0
 # events that change the simulation (GetXMLRequest may execute remote triggers)
-CONTROL_EVENTS = frozenset({"SetVehicleControl", "SetPedestrianControl", "GetXMLRequest"})
+CONTROL_EVENTS = frozenset({"SetVehicleControl", "SetPedestrianControl", "GetXMLRequest", "ResetPosition"})
 _PARSER = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
 
 
@@ -160,6 +160,7 @@ class SettingsControllerServer:
         f = InputFrame()
         remotes: list[str] = []
         traffic: list[TrafficControl] = []
+        commands: list[str] = []
         while True:
             try:
                 kind, value = self._commands.get_nowait()
@@ -171,10 +172,13 @@ class SettingsControllerServer:
                 remotes.append(value)
             elif kind == "traffic":
                 traffic.append(value)
+            elif kind == "command":
+                commands.append(value)
         if self._ego is not None:
             f.steering, f.accelerator, f.brake = self._ego
         f.remote_triggers = tuple(remotes)
         f.traffic_controls = tuple(traffic)
+        f.commands = tuple(commands)
         return f
 
     def status(self) -> InputStatus:
@@ -257,6 +261,9 @@ class SettingsControllerServer:
         elif name == "SetVehicleControl":
             self._vehicle_control(value)
             event("UpdateVehicleControl", text=value)
+        elif name == "ResetPosition":  # ours (OpenDS resets by key or CAN): the car back on its last lane position
+            self._queue("command", "reset_position")
+            event("PositionReset")
         elif name == "SetPedestrianControl":
             raise ValueError("pedestrian control is not supported by this simulation")
         elif name == "GetXMLRequest":

@@ -256,12 +256,15 @@ class DriveRecorder:
         return self.sink is not None
 
     # ------------------------------------------------------------------ inputs
-    def log_action(self, action: Any, engine_key: bool | None = None) -> None:
+    def log_action(self, action: Any, engine_key: bool | None = None, reset_position: bool = False) -> None:
         """A policy action about to be passed to env.step() (called by `RecordDrive`), with the
-        ignition key the driver turned for that step (`OpenDSEnv.turn_engine_key`), if any."""
+        ignition key the driver turned for that step (`OpenDSEnv.turn_engine_key`), if any,
+        and whether the car is reset to its last lane position with it (`OpenDSEnv.reset_position`)."""
         msg = M.action_message(self.world.t_s, self._action_index, action)
         if engine_key is not None:
             msg["engine_key"] = bool(engine_key)
+        if reset_position:
+            msg["reset_position"] = True
         self._action_index += 1
         t_ns = M.sim_ns(self.world.t_s)
         if self.follow:

@@ -200,6 +200,8 @@ def replay(path: str | Path | Recording, *, check: bool = True, until_s: float |
                     break
                 if msg.get("engine_key") is not None:  # the ignition key turned with this action
                     env.unwrapped.turn_engine_key(bool(msg["engine_key"]))
+                if msg.get("reset_position"):  # the car was reset to its last lane position with this action
+                    env.unwrapped.reset_position()
                 _, _, terminated, truncated, _ = env.step(M.action_from_message(msg))
                 result.inputs_fed += 1
                 if terminated or truncated:

@@ -133,6 +133,10 @@ ACTION_SCHEMA: dict[str, Any] = {
         "shape": {"type": ["array", "null"]},
         "data": {"description": "the value (flattened for arrays)"},
         "engine_key": {"type": "boolean", "description": "the ignition key turned on (off) with this action (OpenDSEnv.turn_engine_key)"},
+        "reset_position": {
+            "type": "boolean",
+            "description": "the car was reset to its last lane position with this action (OpenDSEnv.reset_position)",
+        },
     },
     "required": ["t_s", "index", "kind", "data"],
 }

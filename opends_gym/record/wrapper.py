@@ -140,7 +140,9 @@ class RecordDrive(gym.Wrapper[Any, Any, Any, Any]):
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         if self.recorder is None:
             raise RuntimeError("call reset() before step()")
-        self.recorder.log_action(action, engine_key=getattr(self.env.unwrapped, "pending_engine_key", None))
+        base = self.env.unwrapped
+        reset = bool(getattr(base, "pending_reset_position", False))
+        self.recorder.log_action(action, engine_key=getattr(base, "pending_engine_key", None), reset_position=reset)
         obs, reward, terminated, truncated, info = self.env.step(action)
         if terminated or truncated:
             self._end_episode()

@@ -47,6 +47,7 @@ class CanBusMapping:
     shift_up: str = "ShiftUp"
     shift_down: str = "ShiftDown"
     reset_car: str = "ResetCar"
+    reset_position: str = "ResetPosition"
     pause: str = "PauseButton"
     button_number: str = "ButtonNumber"
     feedback_state: str = "SimVehicleState"
@@ -189,6 +190,8 @@ class CanBusSource:
                         f.shift_down = True
                     elif name == m.reset_car:
                         commands.append("reset_car")
+                    elif name == m.reset_position:
+                        commands.append("reset_position")
                     elif name == m.pause:
                         commands.append("toggle_pause")
         lv = self._levels

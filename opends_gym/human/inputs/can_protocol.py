@@ -159,8 +159,10 @@ def _apply(u: GatewayUpdate, name: str, value: str, action: etree._Element, max_
             u.commands.append("toggle_cam")
         elif value == "return":
             u.commands.append("reset_car")
+        elif value == "resetPosition":  # ours: the car back on its last lane position
+            u.commands.append("reset_position")
         else:
-            raise ValueError("unknown button (expected cs or return)")
+            raise ValueError("unknown button (expected cs, return or resetPosition)")
     elif name == "setGear":
         u.gear = _integer(value, -1, 9)
     elif name == "automaticTransmission":
