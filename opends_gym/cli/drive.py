@@ -16,7 +16,7 @@ from typing import Any
 
 from ..errors import UserError
 from ..jsonsafe import dump_json
-from .run import positive_float
+from .run import add_video_arguments, positive_float
 from .targets import parse_env_args, resolve_env_id
 
 
@@ -38,6 +38,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="keyboard | joystick | can-tcp[:HOST:PORT] | can-bus[:IFACE:CHANNEL] (repeatable; default keyboard)",
     )
     p.add_argument("--record", metavar="OUT.mcap", help="record the drive (flushed every simulated second)")
+    add_video_arguments(p)
     p.add_argument("--driver", metavar="NAME", help="driver name for the recording (default: settings.xml driverName)")
     p.add_argument("--duration", type=positive_float, metavar="SECONDS", help="end after this much simulated time")
     p.add_argument("--no-window", action="store_true", help="run the same loop without a window (scripted sessions, tests)")
@@ -81,12 +82,16 @@ def config_from_args(args: argparse.Namespace) -> Any:
     for option, path in (("--calibration", args.calibration), ("--dbc", args.dbc)):
         if path is not None and not Path(path).is_file():
             raise UserError(f"{option} {path}: no such file")
+    if args.record_video is not None and not args.record:
+        raise UserError("--record-video needs --record OUT.mcap (the images go into the recording)")
     env_id, _ = resolve_env_id(args.target)  # a misspelt id or task fails here, in one line
     env_kwargs = parse_env_args(args.env_arg, env_id)
     return DriveConfig(
         target=args.target,
         inputs=inputs,
         record_path=args.record,
+        record_video_hz=args.record_video,
+        video_format=args.video_format,
         driver=args.driver,
         duration_s=args.duration,
         window=not args.no_window,

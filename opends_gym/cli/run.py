@@ -51,6 +51,24 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
     p.add_argument("--record", default=None, metavar="PATH.mcap", help="record each episode to MCAP (never overwrites: name(2).mcap, ...)")
     p.add_argument("--record-rate", type=positive_float, default=None, metavar="HZ", help="ego state rate in recordings (default: physics)")
+    add_video_arguments(p)
+
+
+def add_video_arguments(p: argparse.ArgumentParser) -> None:
+    """`--record-video [RATE_HZ]` and `--video-format` (shared by run and drive)."""
+    p.add_argument(
+        "--record-video",
+        type=positive_float,
+        nargs="?",
+        const=VIDEO_HZ,
+        default=None,
+        metavar="RATE_HZ",
+        help=f"with --record: also record the driver's view as foxglove.CompressedImage (default rate {VIDEO_HZ:g} Hz)",
+    )
+    p.add_argument("--video-format", choices=("png", "jpeg"), default="png", help="image format of --record-video (default png)")
+
+
+VIDEO_HZ = 10.0  # --record-video without a rate
 
 
 def positive_float(text: str) -> float:
@@ -104,6 +122,8 @@ def run_episodes(args: argparse.Namespace, progress: ProgressBar | None = None) 
 
     if args.episodes < 1:
         raise UserError(f"--episodes must be at least 1, not {args.episodes}")
+    if getattr(args, "record_video", None) is not None and not getattr(args, "record", None):
+        raise UserError("--record-video needs --record OUT.mcap (the images go into the recording)")
     env_id, kwargs = resolve_env_id(args.target)
     kwargs["physics"] = args.physics
     if args.max_seconds is not None:
@@ -114,7 +134,14 @@ def run_episodes(args: argparse.Namespace, progress: ProgressBar | None = None) 
     if getattr(args, "record", None):
         from ..record import RecordDrive
 
-        env = RecordDrive(env, args.record, rate_hz=getattr(args, "record_rate", None))
+        video = getattr(args, "record_video", None)
+        env = RecordDrive(
+            env,
+            args.record,
+            rate_hz=getattr(args, "record_rate", None),
+            video_rate_hz=video,
+            video_format=getattr(args, "video_format", "png"),
+        )
     task = getattr(getattr(env.unwrapped, "task", None), "name", "")
     episodes = []
     try:

@@ -105,7 +105,14 @@ class DriveSession:
             from ..record import RecordDrive
 
             meta = {"session": "human", "driver": str(self.driver), "inputs": ",".join(str(s) for s in config.inputs)}
-            env = RecordDrive(env, config.record_path, meta=meta, flush_interval_s=1.0)
+            env = RecordDrive(
+                env,
+                config.record_path,
+                meta=meta,
+                flush_interval_s=1.0,
+                video_rate_hz=config.record_video_hz,
+                video_format=config.video_format,
+            )
             self.recorder_wrapper = env
         self.env = env
         self.sources: Sources = build_sources(config, self.world.task, joystick_backend)

@@ -61,6 +61,8 @@ class DriveConfig:
     target: str = "OpenDS/LaneChangeTest-v0"
     inputs: tuple[InputSpec, ...] = (InputSpec("keyboard"),)
     record_path: str | None = None
+    record_video_hz: float | None = None  # also record the driver's view at this rate (foxglove.CompressedImage)
+    video_format: str = "png"
     driver: str | None = None
     duration_s: float | None = None
     window: bool = True

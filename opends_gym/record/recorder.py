@@ -9,7 +9,11 @@ physics step, writes:
 * `/ego` (pose, speed, pedals, gear, rpm, fuel, lane, lateral offset, headway/TTC),
   `/traffic`, `/foxglove/ego_pose` (and `/foxglove/traffic`) every `rate_hz` (default:
   every physics step); `/foxglove/scene` at the start and whenever a model changed;
-* `/events` (every event of the World's event log) and `/reactions` (scored trials).
+* `/events` (every event of the World's event log) and `/reactions` (scored trials);
+* with `foxglove` (default), for Foxglove's 3D panel (`record.foxglove`): `/foxglove/road`
+  (road surface and lane lines, once per file), `/tf` (world -> ego and world -> vehicle_N
+  every recorded step) and, given `video_frame`, `/foxglove/driver_view` (the driver's view
+  as PNG or JPEG every 1 / `video_rate_hz` s). Replay ignores these topics.
 
 Two modes. **always** (`--record`): one file from attach to `close()`. **follow**
 (`follow_recording_actions=True`, OpenDS's behaviour): a file opens when the task's
@@ -36,6 +40,7 @@ from ..sim.controls import DriverControls
 from ..sim.guide import RoadGuide
 from ..sim.world import World
 from ..task.model_settings import REACTION_GROUP_COLOURS
+from . import foxglove as F  # noqa: N812
 from . import messages as M  # noqa: N812
 from .mcap_io import McapSink
 from .schemas import (
@@ -45,8 +50,11 @@ from .schemas import (
     EVENTS,
     FORMAT,
     FOXGLOVE_POSE,
+    FOXGLOVE_ROAD,
     FOXGLOVE_SCENE,
+    FOXGLOVE_TF,
     FOXGLOVE_TRAFFIC,
+    FOXGLOVE_VIEW,
     REACTIONS,
     TRAFFIC,
 )
@@ -148,9 +156,19 @@ class DriveRecorder:
         fsync: bool = False,
         foxglove: bool = True,
         sink_factory: SinkFactory | None = None,
+        video_frame: Callable[[], Any] | None = None,
+        video_rate_hz: float = 10.0,
+        video_format: str = "png",
     ) -> None:
         if path is None and sink_factory is None:
             raise ValueError("DriveRecorder needs a path or a sink_factory")
+        if video_frame is not None and not video_rate_hz > 0.0:
+            raise ValueError(f"video_rate_hz must be positive, not {video_rate_hz}")
+        if video_format not in F.IMAGE_FORMATS:
+            raise ValueError(f"video_format must be png or jpeg, not {video_format!r}")
+        self.video_frame = video_frame
+        self.video_format = video_format
+        self.video_every = max(1, int(round(1.0 / (world.dt_s * video_rate_hz))))
         self.world = world
         self.base_path = Path(path) if path is not None else None
         self.follow = follow_recording_actions
@@ -224,6 +242,7 @@ class DriveRecorder:
         if self.foxglove:
             self._scene_sig = None
             self._publish_scene()
+            self._write(FOXGLOVE_ROAD, M.sim_ns(self.world.t_s), F.road_scene(self.world, self.guide))
 
     def _close_segment(self) -> None:
         if self.sink is not None:
@@ -321,8 +340,11 @@ class DriveRecorder:
                 self._write(TRAFFIC, t_ns, traffic)
             if self.foxglove:
                 self._write(FOXGLOVE_POSE, t_ns, M.foxglove_pose(world))
+                self._write(FOXGLOVE_TF, t_ns, F.frame_transforms(world, traffic))
                 if traffic is not None:
                     self._write(FOXGLOVE_TRAFFIC, t_ns, M.foxglove_traffic(world, traffic))
+        if not stopping and self.video_frame is not None and world.step_count % self.video_every == 0:
+            self._write(FOXGLOVE_VIEW, t_ns, F.compressed_image(world.t_s, self.video_frame(), self.video_format))
         for ev in new_events:
             self._write(EVENTS, M.sim_ns(ev.t_s), M.event_message(ev))
         for r in new_reactions:

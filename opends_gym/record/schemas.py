@@ -3,8 +3,9 @@
 Why: an MCAP file is only self-describing if every channel names a schema. Our own
 topics get JSON schemas generated from one field table (name, type, unit) so the docs and
 the data cannot drift apart; the Foxglove topics use Foxglove's published schema names
-(`foxglove.PoseInFrame`, `foxglove.SceneUpdate`) with the JSON encoding, which is what its
-3D panel looks for.
+(`foxglove.PoseInFrame`, `foxglove.SceneUpdate`, `foxglove.FrameTransforms`,
+`foxglove.CompressedImage`) with the JSON encoding (bytes as base64 strings, as Foxglove's
+JSON schemas say), which is what its 3D and Image panels look for.
 """
 
 from __future__ import annotations
@@ -24,6 +25,10 @@ REACTIONS = "/reactions"
 FOXGLOVE_POSE = "/foxglove/ego_pose"
 FOXGLOVE_SCENE = "/foxglove/scene"
 FOXGLOVE_TRAFFIC = "/foxglove/traffic"
+FOXGLOVE_ROAD = "/foxglove/road"
+FOXGLOVE_TF = "/tf"
+FOXGLOVE_VIEW = "/foxglove/driver_view"
+EGO_FRAME = "ego"  # world -> ego on /tf; traffic cars are vehicle_<N>, N their index in /traffic's vehicles
 FRAME_ID = "world"  # OpenDS world turned Z-up: x = -Z_opends (forward at yaw 0), y = -X_opends, z = Y_opends
 
 NUM = "number"
@@ -278,6 +283,39 @@ SCENE_UPDATE_SCHEMA: dict[str, Any] = {
     "required": ["deletions", "entities"],
 }
 
+_FRAME_TRANSFORM = {
+    "title": "foxglove.FrameTransform",
+    "description": "A transform between two reference frames in 3D space",
+    "type": "object",
+    "properties": {
+        "timestamp": _TIME,
+        "parent_frame_id": {"type": "string"},
+        "child_frame_id": {"type": "string"},
+        "translation": _VEC3,
+        "rotation": _QUAT,
+    },
+    "required": ["timestamp", "parent_frame_id", "child_frame_id", "translation", "rotation"],
+}
+FRAME_TRANSFORMS_SCHEMA: dict[str, Any] = {
+    "title": "foxglove.FrameTransforms",
+    "description": "An array of FrameTransform messages",
+    "type": "object",
+    "properties": {"transforms": {"type": "array", "items": _FRAME_TRANSFORM}},
+    "required": ["transforms"],
+}
+COMPRESSED_IMAGE_SCHEMA: dict[str, Any] = {
+    "title": "foxglove.CompressedImage",
+    "description": "A compressed image",
+    "type": "object",
+    "properties": {
+        "timestamp": _TIME,
+        "frame_id": {"type": "string"},
+        "data": {"type": "string", "contentEncoding": "base64", "description": "Compressed image data"},
+        "format": {"type": "string", "description": "Image format: png or jpeg"},
+    },
+    "required": ["timestamp", "frame_id", "data", "format"],
+}
+
 # topic -> (schema name, schema)
 TOPICS: dict[str, tuple[str, dict[str, Any]]] = {
     EGO: ("opends_gym.EgoState", EGO_SCHEMA),
@@ -289,6 +327,9 @@ TOPICS: dict[str, tuple[str, dict[str, Any]]] = {
     FOXGLOVE_POSE: ("foxglove.PoseInFrame", POSE_IN_FRAME_SCHEMA),
     FOXGLOVE_SCENE: ("foxglove.SceneUpdate", SCENE_UPDATE_SCHEMA),
     FOXGLOVE_TRAFFIC: ("foxglove.SceneUpdate", SCENE_UPDATE_SCHEMA),
+    FOXGLOVE_ROAD: ("foxglove.SceneUpdate", SCENE_UPDATE_SCHEMA),
+    FOXGLOVE_TF: ("foxglove.FrameTransforms", FRAME_TRANSFORMS_SCHEMA),
+    FOXGLOVE_VIEW: ("foxglove.CompressedImage", COMPRESSED_IMAGE_SCHEMA),
 }
 
 # the state topics `replay --check` compares message by message

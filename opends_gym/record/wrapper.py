@@ -79,7 +79,9 @@ class RecordDrive(gym.Wrapper[Any, Any, Any, Any]):
     the physics rate), `follow_recording_actions` (files only between the task's
     startRecording/stopRecording, OpenDS style), `flush_interval_s` (simulated seconds
     between flushes to disk), `fsync`, `foxglove` (Foxglove topics), `meta` (extra metadata
-    strings such as the driver's name).
+    strings such as the driver's name), `video_rate_hz` (record the driver's view, rendered
+    at the env's `render_width` x `render_height`, as `foxglove.CompressedImage` at this
+    rate; None: no video) and `video_format` (png or jpeg).
     """
 
     def __init__(
@@ -93,6 +95,8 @@ class RecordDrive(gym.Wrapper[Any, Any, Any, Any]):
         fsync: bool = False,
         foxglove: bool = True,
         meta: dict[str, Any] | None = None,
+        video_rate_hz: float | None = None,
+        video_format: str = "png",
     ) -> None:
         super().__init__(env)
         _check_no_action_wrappers(env)
@@ -107,6 +111,11 @@ class RecordDrive(gym.Wrapper[Any, Any, Any, Any]):
             "foxglove": foxglove,
         }
         self.extra_meta = dict(meta or {})
+        if video_rate_hz is not None and not video_rate_hz > 0.0:
+            raise ValueError(f"video_rate_hz must be positive, not {video_rate_hz}")
+        self.video_rate_hz = video_rate_hz
+        self.video_format = video_format
+        self._view: Any = None
         self.recorder: DriveRecorder | None = None
         self.paths: list[Path] = []
         self._seed_rng: np.random.Generator | None = None
@@ -134,8 +143,20 @@ class RecordDrive(gym.Wrapper[Any, Any, Any, Any]):
         base: Any = self.env.unwrapped
         meta = {**self._description, "reset_options": options, "episode": self._episodes, "analysis_lct": lct_info(base), **self.extra_meta}
         self._episodes += 1
-        self.recorder = DriveRecorder(base.world, self.path, seed=seed, meta=meta, **self.options)  # type: ignore[arg-type]
+        video: dict[str, Any] = {}
+        if self.video_rate_hz is not None:
+            video = {"video_frame": self._driver_view, "video_rate_hz": self.video_rate_hz, "video_format": self.video_format}
+        self.recorder = DriveRecorder(base.world, self.path, seed=seed, meta=meta, **self.options, **video)  # type: ignore[arg-type]
         return obs, info
+
+    def _driver_view(self) -> Any:
+        """The driver's view of the env's World now (the env's own driver-view renderer)."""
+        base: Any = self.env.unwrapped
+        if self._view is None:
+            from ..render import make_renderer
+
+            self._view = make_renderer("driver_view", base.world)
+        return self._view.render(base.config.render_width, base.config.render_height)
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         if self.recorder is None:
