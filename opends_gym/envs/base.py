@@ -239,7 +239,9 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
     # ------------------------------------------------------------------ leaving the road
     def _clear_road_exits(self) -> None:
         self._reset_request = self._reset_due = False
-        self._lane_pose: LanePose | None = None
+        self._lane_row: tuple[float, ...] | None = None
+        self._lane_y = 0.0
+        self._off_now = False
         self._hold_until_s = -math.inf
         self._was_off_road = False
         self.road_exits = 0  # times the car left the road (each exit once)
@@ -249,29 +251,39 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         self._skip_distance = False
 
     def _road_exit(self) -> None:
-        """After each physics step: remember the last lane position; count and handle exits."""
+        """After each physics step: remember the last lane position; count and handle exits.
+        (Every physics step: the trace row and the car's height are kept, the pose is worked
+        out only when a reset needs it.)"""
         row = self.trace.last_row()
         off = self._off_road()
-        if not off and row[_LANE] >= 0:
-            s = self.world.ego.state
-            self._lane_pose = LanePose(s.x, s.y, s.z, row[_OFFSET], self.guide.heading_at(self.guide.locate(s.x, s.z).s_m))
-        if off and not self._was_off_road:
-            self.road_exits += 1
-            self._exits_this_step += 1
+        self._off_now = off
+        if off:
+            if not self._was_off_road:
+                self.road_exits += 1
+                self._exits_this_step += 1
+            if self.on_road_exit == "recover":
+                self._reset_due = True  # at the start of the next physics step (info and observation show where it left the road)
+        elif row[_LANE] >= 0:
+            self._lane_row, self._lane_y = row, self.world.ego.state.y
         self._was_off_road = off
-        if off and self.on_road_exit == "recover":
-            self._reset_due = True  # at the start of the next physics step (info and observation show where it left the road)
+
+    def _lane_pose(self) -> LanePose | None:
+        row = self._lane_row
+        if row is None:
+            return None
+        x, z = row[_X], row[_Z]
+        return LanePose(x, self._lane_y, z, row[_OFFSET], self.guide.heading_at(self.guide.locate(x, z).s_m))
 
     def _reset_to_lane(self) -> None:
         w = self.world
-        lane_pose = self._lane_pose
+        lane_pose = self._lane_pose()
         pose = lane_pose.lane_centre_pose() if lane_pose is not None else w.start_pose
         w.ego.teleport(pose)
         self.resets += 1
         hold = self.config.reset_hold_s
         self._hold_until_s = w.t_s + hold
         self.reset_time_s += hold
-        self._was_off_road = False
+        self._was_off_road = self._off_now = False
         self._skip_distance = True  # the jump is no distance driven
         x, _, z = pose.position_m
         w.events.emit(w.t_s, "reset", RESET_SOURCE, x_m=x, z_m=z, yaw_rad=pose.yaw_rad, hold_s=hold, resets=self.resets)
@@ -290,7 +302,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             return True  # paused "until resumed": nobody resumes an RL episode
         if self.config.terminate_on_collision and new_collisions > 0:
             return True
-        if self.on_road_exit == "terminate" and self._off_road():
+        if self._off_now and self.on_road_exit == "terminate":
             return True
         return self._task_terminated()
 
