@@ -201,3 +201,17 @@ def test_bad_mode_and_native_batch_are_refused_clearly() -> None:
         gym.make("OpenDS/LaneChangeTest-v0", reset_hold_s=-1.0)
     with pytest.raises(ValueError, match=r"on_road_exit='terminate'.*vectorization_mode='sync'"):
         gym.make_vec("OpenDS/LaneChangeTest-v0", num_envs=2, vectorization_mode="vector_entry_point", on_road_exit="recover")
+
+
+def test_recover_returns_to_the_lane_driven_in_not_one_crossed_on_the_way_off() -> None:
+    """Three seconds in the centre lane, then a swerve left across the left lane and off the
+    road: the reset puts the car back in the centre lane (the LCT's lane 1), where it left it."""
+    env = gym.make("OpenDS/LaneChangeTest-v0", on_road_exit="recover")
+    env.reset(seed=1)
+    for k in range(200):
+        _, _, _, _, info = env.step(np.array([0.0 if k < 30 else 0.3, 1.0], dtype=np.float32))
+        if info["resets"]:
+            break
+    assert info["resets"] == 1 and info["lane_index"] == env.unwrapped.initial_lane == 1
+    assert abs(info["lateral_offset_m"]) < 0.05 and info["speed_kmh"] < 0.5
+    env.close()

@@ -48,7 +48,8 @@ from .road_exit import RESET_SOURCE, LanePose, check_mode, held
 from .trace import COL, Trace
 
 LANE_KEEPING_OFFSET_M = 1.0  # |offset from lane centre| below which a sample counts for SDLP
-_X, _Z, _OFFSET, _LANE, _LAT = COL["x_m"], COL["z_m"], COL["lane_offset_m"], COL["lane_index"], COL["lateral_m"]
+_X, _Z, _OFFSET, _LANE, _T = COL["x_m"], COL["z_m"], COL["lane_offset_m"], COL["lane_index"], COL["t_s"]
+SETTLED_LANE_S = 1.0  # a reset puts the car back in the last lane it drove in this long (opends_gym.envs.road_exit)
 
 
 class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
@@ -240,6 +241,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
     def _clear_road_exits(self) -> None:
         self._reset_request = self._reset_due = False
         self._lane_row: tuple[float, ...] | None = None
+        self._lane_now, self._lane_since_s, self._settled_lane = -1, 0.0, -1
         self._lane_y = 0.0
         self._off_now = False
         self._hold_until_s = -math.inf
@@ -265,14 +267,25 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
                 self._reset_due = True  # at the start of the next physics step (info and observation show where it left the road)
         elif row[_LANE] >= 0:
             self._lane_row, self._lane_y = row, self.world.ego.state.y
+            lane = int(row[_LANE])
+            if lane != self._lane_now:
+                self._lane_now, self._lane_since_s = lane, row[_T]
+            elif row[_T] - self._lane_since_s >= SETTLED_LANE_S:
+                self._settled_lane = lane
         self._was_off_road = off
 
     def _lane_pose(self) -> LanePose | None:
+        """Where the car was last on a lane, moved across into the centre of the lane it last
+        drove in for `SETTLED_LANE_S` (a lane it only crossed on its way off the road is not
+        it), facing along the road."""
         row = self._lane_row
         if row is None:
             return None
         x, z = row[_X], row[_Z]
-        return LanePose(x, self._lane_y, z, row[_OFFSET], self.guide.heading_at(self.guide.locate(x, z).s_m))
+        p = self.guide.locate(x, z)
+        lane = self._settled_lane if self._settled_lane >= 0 else int(row[_LANE])
+        offset = p.lateral_m - self.guide.lane_laterals_m[lane]
+        return LanePose(x, self._lane_y, z, offset, self.guide.heading_at(p.s_m))
 
     def _reset_to_lane(self) -> None:
         w = self.world

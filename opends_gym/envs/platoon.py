@@ -167,9 +167,18 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
         return len(self.platoon.state.stimuli)
 
     def _past_lead(self) -> bool:
-        """The ego's centre is level with or ahead of the lead car's: overtaking it voids the test."""
-        d = self.platoon._distance_to(self.platoon.lead)
-        return d is not None and d < 0.0
+        """The ego's centre is level with or ahead of the lead car's: overtaking it voids the test.
+        Measured along the ego's heading (`on_road_exit="terminate"`, as the native batch) or,
+        where the car may leave the road and come back, along the road: a car spun round
+        beside the road has not passed the lead."""
+        if self.on_road_exit == "terminate":
+            d = self.platoon._distance_to(self.platoon.lead)
+            return d is not None and d < 0.0
+        traffic = self.world.traffic
+        assert traffic is not None
+        lead = traffic.positions[traffic.index_of(self.platoon.lead)]
+        s = self.world.ego.state
+        return self.guide.locate(float(lead[0]), float(lead[2])).s_m - self.guide.locate(s.x, s.z).s_m < 0.0
 
     def _reward(self, info: dict[str, Any]) -> float:
         cfg = self.config

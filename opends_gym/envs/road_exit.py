@@ -11,14 +11,17 @@ which places it at a pose at rest (`Car.setPosition` zeroes the velocity).
 Modes (`EnvConfig.on_road_exit`):
 
 * `terminate` (default, for RL): the episode ends on leaving the road, as before.
-* `recover` (the study runner's default): the car is put back at rest in the centre of the
-  lane it was last in, at the point where it was last on that lane, facing along the road,
-  and held still (brake on) for `reset_hold_s` simulated seconds. OpenDS has no hold (the
+* `recover` (the study runner's default): the car is put back at rest at the point where
+  it was last on a lane, in the centre of the lane it last drove in for 1 s (not one it
+  only crossed on its way off the road), facing along the road, and held still (brake on)
+  for `reset_hold_s` simulated seconds. OpenDS has no hold (the
   car may drive off at once after `Car.setPosition`); ours defaults to 2 s so that leaving
   the road always costs time and a policy cannot use resets as a shortcut.
 * `continue`: nothing happens; the car may drive on off the road.
 
 The same reset is `OpenDSEnv.reset_position()` (human sessions: key, CAN, settings server).
+Traffic is not moved: in the Three-Vehicle Platoon the follower car may run into the car
+held after a reset.
 """
 
 from __future__ import annotations
