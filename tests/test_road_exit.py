@@ -215,3 +215,22 @@ def test_recover_returns_to_the_lane_driven_in_not_one_crossed_on_the_way_off() 
     assert info["resets"] == 1 and info["lane_index"] == env.unwrapped.initial_lane == 1
     assert abs(info["lateral_offset_m"]) < 0.05 and info["speed_kmh"] < 0.5
     env.close()
+
+
+def test_a_recorded_episode_with_resets_replays_exactly(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from opends_gym.record import RecordDrive, read_recording
+    from opends_gym.record.replay import replay
+
+    env = RecordDrive(gym.make("OpenDS/LaneChangeTest-v0", on_road_exit="recover", max_episode_s=12.0), tmp_path / "r.mcap")
+    env.reset(seed=4)
+    while True:
+        _, _, terminated, truncated, info = env.step(np.array([0.2, 1.0], dtype=np.float32))
+        if terminated or truncated:
+            break
+    env.close()
+    assert info["episode_metrics"]["resets"] >= 2
+    marks = [e for e in read_recording(env.paths[-1]).topic("/events") if e["kind"] == "reset"]
+    assert len(marks) == info["episode_metrics"]["resets"]
+    check = replay(env.paths[-1])
+    assert check.ok, check.mismatch
+    check.close()
