@@ -32,7 +32,9 @@ of a number put in for that metric. The mechanisms:
 * **Control**: lane keeping by the rule driver's Stanley law (`steer_gain`) on a perceived
   lateral position with a slowly varying error (`lateral_noise_m`, correlation time
   `lateral_noise_tau_s`) and motor noise (`steer_noise`); lane changes along a smooth
-  (half-cosine) path lasting `lane_change_s` for one lane; speed and car following by the
+  (half-cosine) path lasting `lane_change_s` for one lane (a sign-cued change ends by
+  `FINISH_AFTER_SIGN_M` past the sign); while the eyes are away the held wheel wanders (the
+  motor noise accumulates, uncorrected, until the eyes return); speed and car following by the
   rule driver's controllers with `speed_gain` and the participant's `time_headway_s`.
 
 The rule driver (`rule.py`) stays the perfect reference; this is the human one.
@@ -60,6 +62,7 @@ MANOEUVRE_OFFSET_M = 0.5  # a lane change is under way while the plan is this fa
 FINISH_AFTER_SIGN_M = 40.0
 PRESS_HOLD_S = 0.15  # how long a button is held down
 STANDSTILL_GAP_M = 2.0
+BRAKE_NEED = 0.02  # the speed controller calls for the brake below this pedal
 VISUAL_DRT = ("visual", "remote", "rdrt", "hdrt", "head-mounted")
 
 
@@ -197,6 +200,10 @@ class ParticipantDriver:
         self._drt_due: list[float] = []
         self._press_until = -math.inf
         self._plan: tuple[float, float, float, float] | None = None  # from, to, t0, duration
+        self._foot_on_brake = False
+        self._brake_pending: tuple[float, float] | None = None  # (accelerator released, brake reached)
+        self._last_pedal = 0.0
+        self._drift = 0.0
 
     @property
     def glances(self) -> list[tuple[float, float]]:
@@ -289,10 +296,12 @@ class ParticipantDriver:
         else:
             intent = replace(intent, reaction=press)
         noise = float(self.rng.normal(0.0, p.steer_noise))
-        intent = replace(intent, steering=max(-1.0, min(1.0, intent.steering + noise)))
+        # with the eyes away the held wheel wanders: the motor noise accumulates unseen
+        self._drift = self._drift + noise if off else 0.0
+        intent = replace(intent, steering=max(-1.0, min(1.0, intent.steering + noise + self._drift)))
         return to_action(env, intent)
 
-    _CHANNELS = ("target_lateral_m", "brake_hard", "brake_to_mps", "press_reaction")
+    _CHANNELS = ("target_lateral_m", "press_reaction")
 
     def _stimuli(self, now: Percept, t: float, off: bool) -> None:
         """Schedule a response to each change of a forward-view stimulus the eyes see."""
@@ -310,9 +319,7 @@ class ParticipantDriver:
                 continue
             if ch == "press_reaction" and not value:
                 continue
-            brake = ch in ("brake_hard", "brake_to_mps") and bool(value)
-            movement = self.params.foot_s if brake else self.params.press_s if ch == "press_reaction" else 0.0
-            r = self._respond(t, movement, recognise=brake and not self.instructed)
+            r = self._respond(t, self.params.press_s if ch == "press_reaction" else 0.0)
             if r is not None:
                 self._pending[ch] = (value, r[0], r[1])
         for ch, (value, _, due) in list(self._pending.items()):
@@ -354,7 +361,7 @@ class ParticipantDriver:
 
     def _seen(self, road: Percept, t: float) -> Percept:
         """The road percept with the stimuli the driver has responded to."""
-        seen = replace(road, **{ch: self._ack.get(ch, getattr(road, ch)) for ch in self._CHANNELS if ch != "press_reaction"})
+        seen = replace(road, target_lateral_m=self._ack.get("target_lateral_m", road.target_lateral_m))
         if seen.lead is not None and seen.follow_gap_m is not None:
             seen = replace(seen, follow_gap_m=STANDSTILL_GAP_M + self.params.time_headway_s * max(seen.lead.speed_mps, 0.0))
         return seen
@@ -386,9 +393,25 @@ class ParticipantDriver:
         return a + (b - a) * 0.5 * (1.0 - math.cos(math.pi * u)), (b - a) * 0.5 * math.pi * math.sin(math.pi * u) / dur
 
     def _pedal(self, p: Percept, t: float) -> float:
-        pedal = self.rule._pedal(p)
-        for ch in ("brake_hard", "brake_to_mps"):
-            pend = self._pending.get(ch)
-            if pend is not None and bool(pend[0]) and t + self._dt >= pend[1]:
-                pedal = min(pedal, 0.0)  # selection done: the foot leaves the accelerator
-        return pedal
+        """The rule driver's speed control, except that braking is a discrete response: when
+        the controller calls for the brake (a brake light, a brake sign, a closing gap), the
+        foot stays where it was until selection ends, leaves the accelerator, and reaches the
+        brake `foot_s` later. An event the driver was not told to expect (`instructed=False`)
+        needs `recognise_s` more (Green 2000)."""
+        raw = self.rule._pedal(p)
+        if raw >= -BRAKE_NEED:
+            self._foot_on_brake = False
+            self._brake_pending = None
+            self._last_pedal = max(raw, 0.0)
+            return self._last_pedal
+        if self._foot_on_brake:
+            return raw
+        if self._brake_pending is None:
+            r = self._respond(t, self.params.foot_s, recognise=not self.instructed)
+            self._brake_pending = r if r is not None else (t, t + self.params.foot_s)
+        release, due = self._brake_pending
+        if t + self._dt >= due:
+            self._foot_on_brake = True
+            self._brake_pending = None
+            return raw
+        return 0.0 if t + self._dt >= release else self._last_pedal

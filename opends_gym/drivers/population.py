@@ -92,7 +92,7 @@ DISTRIBUTIONS: dict[str, Dist] = {
     "detect_s": Dist("lognormal", 0.12, 0.02, 0.07, 0.25, _SRC_DRT),
     "select_s": Dist("lognormal", 0.17, 0.045, 0.08, 0.40, _SRC_DRT),
     "press_s": Dist("lognormal", 0.08, 0.015, 0.04, 0.15, _SRC_DRT),
-    "foot_s": Dist("lognormal", 0.30, 0.06, 0.15, 0.55, _SRC_GREEN),
+    "foot_s": Dist("lognormal", 0.35, 0.07, 0.18, 0.65, _SRC_GREEN),
     "recognise_s": Dist("lognormal", 0.50, 0.15, 0.15, 1.20, "fitted: unexpected brake PRT ~1.25 s vs 0.70-0.75 s expected (Green 2000)"),
     "rt_cv": Dist("normal", 0.25, 0.05, 0.10, 0.40, "assumed: RT distributions' CV of ~0.2-0.3 (Kosinski 2013 review)"),
     "sensory_memory_s": Dist("normal", 0.30, 0.05, 0.15, 0.50, "assumed: iconic/echoic persistence of a few hundred ms"),
@@ -111,8 +111,8 @@ DISTRIBUTIONS: dict[str, Dist] = {
     "task_episode_s": Dist("lognormal", 8.0, 2.0, 3.0, 15.0, "assumed"),
     "task_gap_s": Dist("lognormal", 4.0, 1.0, 1.5, 8.0, "assumed"),
     "manual_op_s": Dist("lognormal", 0.15, 0.04, 0.05, 0.30, "assumed"),
-    "cog_busy": Dist("normal", 0.40, 0.10, 0.10, 0.70, "fitted: DRT RT +90-135 ms under a 1-back task (Young, Hsieh & Seaman 2013)"),
-    "cog_op_s": Dist("lognormal", 0.35, 0.08, 0.15, 0.70, "fitted: as cog_busy"),
+    "cog_busy": Dist("normal", 0.32, 0.08, 0.05, 0.60, "fitted: DRT RT +90-135 ms under a 1-back task (Young, Hsieh & Seaman 2013)"),
+    "cog_op_s": Dist("lognormal", 0.60, 0.15, 0.25, 1.20, "fitted: as cog_busy"),
 }
 
 
