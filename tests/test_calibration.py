@@ -86,9 +86,8 @@ def test_every_literature_row_has_a_source_and_a_check() -> None:
 def test_population_matches_the_literature(sim: dict[tuple[str, str], list[dict[str, float]]], key: str) -> None:
     c = compare(sim, key)
     r = c.row
-    assert c.ok, (
-        f"{key}: model {c.value:.3f} (SD {c.sd:.3f}, d {c.d:.2f}) vs published [{r.low}, {r.high}] (SD [{r.sd_low}, {r.sd_high}], d [{r.d_low}, {r.d_high}])"
-    )
+    published = f"[{r.low}, {r.high}] (SD [{r.sd_low}, {r.sd_high}], d [{r.d_low}, {r.d_high}])"
+    assert c.ok, f"{key}: model {c.value:.3f} (SD {c.sd:.3f}, d {c.d:.2f}) vs published {published}"
 
 
 def test_glances_only_under_visual_manual_load_and_last_as_published(sim: dict[tuple[str, str], list[dict[str, float]]]) -> None:
@@ -126,10 +125,10 @@ def test_participant_spec_drives_like_the_agent_interface() -> None:
 
 def test_driver_constructed_on_an_env_acts_and_lists_glances() -> None:
     env = DetectionResponseTask(gym.make("OpenDS/LaneChangeTest-v0", action="continuous_buttons", signs=2))
-    obs, info = env.reset(seed=0)
+    obs, _ = env.reset(seed=0)
     driver = ParticipantDriver(env, draw_participant(2), "visual_manual", seed=0)
     for _ in range(400):
-        obs, _, term, trunc, info = env.step(driver.act(obs))
+        obs, _, term, trunc, _ = env.step(driver.act(obs))
         if term or trunc:
             break
     assert driver.glances and all(0.0 <= s < e for s, e in driver.glances)
