@@ -100,7 +100,7 @@ DISTRIBUTIONS: dict[str, Dist] = {
     "lateral_noise_m": Dist("lognormal", 0.20, 0.06, 0.06, 0.45, "fitted: SDLP ~0.2 m attentive (Verster & Roth 2011)"),
     "lateral_noise_tau_s": Dist("normal", 2.0, 0.4, 1.0, 3.5, "assumed"),
     "steer_noise": Dist("lognormal", 0.002, 0.0008, 0.0005, 0.006, "assumed"),
-    "lane_change_s": Dist("lognormal", 4.6, 1.2, 2.5, 9.0, "Toledo & Zohar 2007: mean 4.6 s (unverified); between-driver SD assumed"),
+    "lane_change_s": Dist("lognormal", 4.6, 1.5, 2.5, 10.0, "Toledo & Zohar 2007: mean 4.6 s (unverified); between-driver SD assumed"),
     "speed_gain": Dist("normal", 1.0, 0.15, 0.6, 1.5, "assumed"),
     "time_headway_s": Dist("lognormal", 1.32, 0.45, 0.6, 3.0, "freeway followers: mean 1.32 s, SD 0.52 s (semi-Poisson headways)"),
     "scan_per_min": Dist("normal", 6.0, 2.0, 1.0, 12.0, "assumed: mirror/instrument glances a few per minute"),
