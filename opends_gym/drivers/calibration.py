@@ -81,11 +81,14 @@ def _brake(stimuli: int) -> gym.Env[Any, Any]:
 
 
 def _platoon(length_m: float) -> gym.Env[Any, Any]:
+    # one stimulus, at the end: the drive before it is pure car following and lane keeping
     return gym.make("OpenDS/ThreeVehiclePlatoon-v0", stimuli=1, lead_in_m=length_m, lead_out_m=100.0)
 
 
 def _headway(env: gym.Env[Any, Any]) -> float:
-    """Mean time headway (front to front) once following has settled (after 20 s)."""
+    """Mean time headway (front to front) once following has settled (after 20 s). The
+    platoon runs free car following (`keep_band=False`): the lead adapts its speed only
+    outside 20-50 m."""
     tr = env.unwrapped.trace  # type: ignore[attr-defined]
     t, h, v = tr.col("t_s"), tr.col("headway_s"), tr.col("speed_mps")
     ok = (t > 20.0) & np.isfinite(h) & (v > 5.0)
@@ -173,7 +176,7 @@ def runs(short: bool = False) -> dict[str, Run]:
         "lct_visual_drt": _runner(lambda: _lct(signs), _lct_read, drt_modality="visual"),
         "brake_expected": _runner(lambda: _brake(brake_n), brake_rt),
         "brake_unexpected": _runner(lambda: _brake(brake_n), brake_rt, instructed=False),
-        "platoon": _runner(lambda: _platoon(platoon_m), lane_keeping),
+        "platoon": _runner(lambda: _platoon(platoon_m), lane_keeping, keep_band=False),
         "lane_change": _runner(lambda: _lct(signs, visibility_m=250.0), lane_change),
     }
 

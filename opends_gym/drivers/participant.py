@@ -35,7 +35,8 @@ of a number put in for that metric. The mechanisms:
   (half-cosine) path lasting `lane_change_s` for one lane (a sign-cued change ends by
   `FINISH_AFTER_SIGN_M` past the sign); while the eyes are away the held wheel wanders (the
   motor noise accumulates, uncorrected, until the eyes return); speed and car following by the
-  rule driver's controllers with `speed_gain` and the participant's `time_headway_s`.
+  rule driver's controllers with `speed_gain` and the participant's `time_headway_s` (in a
+  platoon task, clipped to the task's distance band unless `keep_band=False`).
 
 The rule driver (`rule.py`) stays the perfect reference; this is the human one.
 """
@@ -62,7 +63,10 @@ MANOEUVRE_OFFSET_M = 0.5  # a lane change is under way while the plan is this fa
 FINISH_AFTER_SIGN_M = 40.0
 PRESS_HOLD_S = 0.15  # how long a button is held down
 STANDSTILL_GAP_M = 2.0
-BRAKE_NEED = 0.02  # the speed controller calls for the brake below this pedal
+BRAKE_NEED = 0.02
+# a platoon task's band (20-35 m in the TVPT) spans its centre +-25 %: a participant told to
+# keep it follows at its own time headway clipped to that span
+BAND_SHARE = 0.25  # the speed controller calls for the brake below this pedal
 VISUAL_DRT = ("visual", "remote", "rdrt", "hdrt", "head-mounted")
 
 
@@ -124,6 +128,7 @@ class ParticipantDriver:
         *,
         instructed: bool = True,
         drt_modality: str | None = None,
+        keep_band: bool = True,
     ) -> None:
         if load not in LOADS:
             raise ValueError(f"unknown load {load!r}; use one of {', '.join(LOADS)}")
@@ -134,6 +139,7 @@ class ParticipantDriver:
         self.params = params
         self.load = load
         self.instructed = instructed
+        self.keep_band = keep_band
         self.drt_modality = drt_modality
         self.name = f"participant:{params.id}:{load}"
         self.env: Any = env
@@ -363,7 +369,10 @@ class ParticipantDriver:
         """The road percept with the stimuli the driver has responded to."""
         seen = replace(road, target_lateral_m=self._ack.get("target_lateral_m", road.target_lateral_m))
         if seen.lead is not None and seen.follow_gap_m is not None:
-            seen = replace(seen, follow_gap_m=STANDSTILL_GAP_M + self.params.time_headway_s * max(seen.lead.speed_mps, 0.0))
+            gap = STANDSTILL_GAP_M + self.params.time_headway_s * max(seen.lead.speed_mps, 0.0)
+            if self.keep_band:  # told to keep the task's distance band: the preference within it
+                gap = min(max(gap, (1.0 - BAND_SHARE) * seen.follow_gap_m), (1.0 + BAND_SHARE) * seen.follow_gap_m)
+            seen = replace(seen, follow_gap_m=gap)
         return seen
 
     def _steer(self, p: Percept, t: float) -> float:

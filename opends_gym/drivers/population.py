@@ -96,7 +96,7 @@ DISTRIBUTIONS: dict[str, Dist] = {
     "recognise_s": Dist("lognormal", 0.50, 0.15, 0.15, 1.20, "fitted: unexpected brake PRT ~1.25 s vs 0.70-0.75 s expected (Green 2000)"),
     "rt_cv": Dist("normal", 0.25, 0.05, 0.10, 0.40, "assumed: RT distributions' CV of ~0.2-0.3 (Kosinski 2013 review)"),
     "sensory_memory_s": Dist("normal", 0.30, 0.05, 0.15, 0.50, "assumed: iconic/echoic persistence of a few hundred ms"),
-    "steer_gain": Dist("normal", 1.0, 0.15, 0.6, 1.5, "assumed: +-15 % around the rule driver's Stanley gains"),
+    "steer_gain": Dist("normal", 0.9, 0.1, 0.6, 1.1, "assumed: at most the rule driver's gains (higher oscillates)"),
     "lateral_noise_m": Dist("lognormal", 0.20, 0.06, 0.06, 0.45, "fitted: SDLP ~0.2 m attentive (Verster & Roth 2011)"),
     "lateral_noise_tau_s": Dist("normal", 2.0, 0.4, 1.0, 3.5, "assumed"),
     "steer_noise": Dist("lognormal", 0.002, 0.0008, 0.0005, 0.006, "assumed"),
