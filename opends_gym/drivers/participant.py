@@ -214,7 +214,7 @@ class ParticipantDriver:
     @property
     def glances(self) -> list[tuple[float, float]]:
         """(start_s, end_s) of each off-road glance so far (one still going ends now)."""
-        if self._off and self._last_t is not None:
+        if self._off and self._last_t is not None and self._last_t > self._off_since:
             return [*self._closed, (self._off_since, self._last_t)]
         return list(self._closed)
 
