@@ -61,6 +61,10 @@ MANOEUVRE_OFFSET_M = 0.5  # a lane change is under way while the plan is this fa
 # be in the new lane at the sign (ISO 26022's basic normative path is there 10 m after it);
 # an assumption, not a measured value
 FINISH_AFTER_SIGN_M = 40.0
+# a lane change the driver is timed on (OpenDS's LaneChangeReactionTimer, which also wants a
+# minimum steering angle) is made swiftly: at most this long per lane (an assumption; the rule
+# driver's reaction change is 20 m per lane, 1.2 s at 60 km/h)
+REACTION_LANE_CHANGE_S = 2.0
 PRESS_HOLD_S = 0.15  # how long a button is held down
 STANDSTILL_GAP_M = 2.0
 BRAKE_NEED = 0.02
@@ -386,6 +390,8 @@ class ParticipantDriver:
             dur = self._jit(self.params.lane_change_s) * math.sqrt(max(lanes, 0.05))
             if p.sign_distance_m is not None:  # a deadline: the sign
                 dur = min(dur, (p.sign_distance_m + FINISH_AFTER_SIGN_M) / max(p.speed_mps, 1.0))
+            elif p.lane_change_pending:  # a timed reaction (OpenDS reaction test): a swift change
+                dur = min(dur, REACTION_LANE_CHANGE_S * math.sqrt(max(lanes, 0.05)))
             self._plan = (here, target, t, dur)
         lat, slope_t = self._plan_at(t)
         heading = math.atan2(slope_t, max(p.speed_mps, 1.0))
