@@ -185,6 +185,11 @@ def _drive_block(
     kwargs.pop("task", None)  # DriveConfig.target names it
     recording = folder / "recordings" / f"{block.stem}.mcap"
     recording.parent.mkdir(parents=True, exist_ok=True)
+    if recording.exists():  # an attempt that did not finish (quit or crash): kept aside, never overwritten
+        k = 1
+        while recording.with_name(f"{block.stem}.incomplete-{k}.mcap").exists():
+            k += 1
+        recording.rename(recording.with_name(f"{block.stem}.incomplete-{k}.mcap"))
     config = DriveConfig(
         target=task.target,
         inputs=inputs,
