@@ -77,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     print(f"{study.name}: {written['trials']} trials, {written['rows']} rows in {written['run_s']:.1f} s")
+    print("agents: " + ", ".join(f"{c} = {a}" for c, a in written["agents"].items()) + " (participant 1's)")
     for key in ("table_csv", "table_parquet", "summary", "report"):
         print(f"wrote {written[key]}")
     return 0

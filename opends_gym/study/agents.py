@@ -58,7 +58,12 @@ class StudyParticipant:
 def make_trial_agent(spec: str, participants: int, seed: int) -> Any:
     """`spec` -> agent; `participant:ID[:LOAD]` draws from the study's population when the model is installed."""
     name, _, rest = spec.partition(":")
-    if name == "participant" and population_available():
+    if name == "participant" and not population_available():
+        raise ValueError(
+            "the virtual participant model (opends_gym.drivers.population) is not installed; give the condition an"
+            " 'agent:' or the study 'stand_in_agents:' (e.g. distracted:moderate)"
+        )
+    if name == "participant":
         index_text, _, load = rest.partition(":")
         index = int(index_text)
         return StudyParticipant(population(participants, seed)[index], load or "baseline")

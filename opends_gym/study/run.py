@@ -39,12 +39,13 @@ def run_virtual(
     write_rows(out / VIRTUAL_ROWS, rows)
     run_s = time.perf_counter() - started
     _write_participants(study, out)
-    written = finish(study, out, run_s)
-    written.update(trials=len(trials), rows=len(rows), run_s=run_s)
+    agents = {t.condition: t.agent for t in trials if t.participant == 0}  # who drove (participant 0's spec)
+    written = finish(study, out, run_s, {"agents": agents, "workers": workers, "cluster": cluster})
+    written.update(trials=len(trials), rows=len(rows), run_s=run_s, agents=agents)
     return written
 
 
-def finish(study: Study, out: Path, run_s: float | None = None) -> dict[str, Any]:
+def finish(study: Study, out: Path, run_s: float | None = None, meta: dict[str, Any] | None = None) -> dict[str, Any]:
     """Rebuild table, summary and report from every row file in `out`."""
     from .report import write_report
 
@@ -63,7 +64,8 @@ def finish(study: Study, out: Path, run_s: float | None = None) -> dict[str, Any
     )
     summary_csv = _write_summary(out, effects)
     with (out / "summary.json").open("w", encoding="utf-8") as f:
-        dump_json({"study": study.name, "reference": study.reference, "run_s": run_s, "effects": [e.as_dict() for e in effects]}, f)
+        head = {"study": study.name, "reference": study.reference, "participants": study.participants, "seed": study.seed}
+        dump_json({**head, "run_s": run_s, **(meta or {}), "effects": [e.as_dict() for e in effects]}, f)
     report = write_report(out / "report.html", study, table, effects, run_s)
     return {"table_csv": csv_path, "table_parquet": parquet_path, "summary": summary_csv, "report": report, "effects": effects}
 
