@@ -53,7 +53,9 @@ def _number(v: Any) -> float:
 def _env_for(trial: Trial) -> gym.Env[Any, Any]:
     env = _ENVS.get(trial.key)
     if env is None:
-        import opends_gym  # noqa: F401 (registers the ids in a fresh worker)
+        from ..envs.registration import register_envs
+
+        register_envs()  # a fresh worker process has not registered the ids
 
         try:
             env = gym.make(trial.env_id, **dict(trial.env_args))
