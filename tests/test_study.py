@@ -145,3 +145,9 @@ def test_human_condition_order_is_a_balanced_latin_square(tmp_path: Path) -> Non
     study = load_study(write(tmp_path, TINY))
     assert [b.condition for b in plan_blocks(study, "P01")] == ["attentive", "heavy"]
     assert [b.condition for b in plan_blocks(study, "P02")] == ["heavy", "attentive"]
+
+
+def test_ray_gives_the_same_table_as_the_process_pool(tiny_runs: tuple[Path, Path], tmp_path: Path) -> None:
+    study = write(tmp_path, TINY + "ray: true\n")
+    assert main(["study", str(study), "--out", str(tmp_path / "ray"), "--no-progress"]) == 0
+    assert (tmp_path / "ray" / "table.csv").read_bytes() == (tiny_runs[0] / "table.csv").read_bytes()

@@ -143,15 +143,25 @@ def _run_ray(
     from ..extras import require
 
     ray = require("cluster", "ray", "running a study on Ray")
-    if not ray.is_initialized():
-        ray.init(address=cluster, ignore_reinit_error=True, include_dashboard=False, log_to_driver=False)
-    remote = ray.remote(run_chunk)
-    refs = [remote.remote(part, participants, seed) for part in parts]
-    results = []
-    for k, ref in enumerate(refs):
-        results.append(ray.get(ref))
-        if progress is not None:
-            progress(k + 1, len(parts))
+    if cluster is not None and not cluster.strip():
+        raise UserError("--cluster: give the Ray address (ray://HOST:PORT, or auto)")
+    started = not ray.is_initialized()
+    if started:
+        try:
+            ray.init(address=cluster, ignore_reinit_error=True, include_dashboard=False, log_to_driver=False)
+        except (ConnectionError, ValueError) as e:
+            raise UserError(f"--cluster {cluster}: cannot connect to Ray: {e}") from None
+    try:
+        remote = ray.remote(run_chunk)
+        refs = [remote.remote(part, participants, seed) for part in parts]
+        results = []
+        for k, ref in enumerate(refs):
+            results.append(ray.get(ref))
+            if progress is not None:
+                progress(k + 1, len(parts))
+    finally:
+        if started:  # leave no Ray of ours running in the caller's process
+            ray.shutdown()
     return results
 
 
