@@ -151,3 +151,11 @@ def test_ray_gives_the_same_table_as_the_process_pool(tiny_runs: tuple[Path, Pat
     study = write(tmp_path, TINY + "ray: true\n")
     assert main(["study", str(study), "--out", str(tmp_path / "ray"), "--no-progress"]) == 0
     assert (tmp_path / "ray" / "table.csv").read_bytes() == (tiny_runs[0] / "table.csv").read_bytes()
+
+
+@pytest.mark.parametrize("name", ["lct_load", "brake", "drt"])
+def test_the_shipped_example_studies_load_by_name(name: str) -> None:
+    study = load_study(name)
+    assert study.path.name == f"{name}.yaml" and study.reference == "baseline"
+    loads = {c.load for c in study.conditions}
+    assert loads <= {"baseline", "visual_manual", "cognitive"} and loads <= set(study.stand_in_agents)

@@ -16,7 +16,7 @@ from typing import Any
 
 import yaml
 
-from ..envs.registration import resolve_env_id
+from ..envs.registration import lookup_env_id, resolve_env_id
 from ..errors import UserError
 from ..hints import closest
 
@@ -166,10 +166,13 @@ def _kind_names(kinds: tuple[type, ...]) -> str:
 def load_study(path: str | Path, participants: int | None = None) -> Study:
     """Read and check STUDY.yaml (`participants` overrides the file's count)."""
     p = Path(path)
+    if not p.exists():
+        p = bundled_study(str(path)) or p
     try:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise UserError(f"{p}: no such study file") from None
+        names = ", ".join(bundled_study_names())
+        raise UserError(f"{p}: no such study file (shipped examples: {names})") from None
     except IsADirectoryError:
         raise UserError(f"{p}: is a folder; give the STUDY.yaml file") from None
     try:
@@ -225,6 +228,20 @@ def load_study(path: str | Path, participants: int | None = None) -> Study:
     )
 
 
+def bundled_study_names() -> list[str]:
+    from ..resources import configs_dir
+
+    return sorted(f.stem for f in (configs_dir() / "studies").glob("*.yaml"))
+
+
+def bundled_study(name: str) -> Path | None:
+    """A shipped example study by name (`lct_load`, `brake`, `drt`), or None."""
+    from ..resources import configs_dir
+
+    path = configs_dir() / "studies" / f"{Path(name).stem}.yaml"
+    return path if Path(name).stem == name and path.is_file() else None
+
+
 def _hint(name: str, choices: list[str]) -> str:
     match = closest(name, choices)
     return f"; did you mean {match}?" if match else ""
@@ -277,6 +294,9 @@ def _tasks(top: _Where) -> tuple[TaskSpec, ...]:
     for name, _, where in _entries(top, "tasks"):
         where.check_keys(TASK_KEYS)
         target = where.get("env", str, name)
+        local = where.path.parent / target  # a task folder next to STUDY.yaml
+        if lookup_env_id(target) is None and not Path(target).is_absolute() and local.exists():
+            target = str(local)
         try:
             env_id, base = resolve_env_id(target)
         except Exception as e:  # a task that does not load
