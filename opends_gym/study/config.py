@@ -171,8 +171,8 @@ def load_study(path: str | Path, participants: int | None = None) -> Study:
     try:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
-        names = ", ".join(bundled_study_names())
-        raise UserError(f"{p}: no such study file (shipped examples: {names})") from None
+        shipped = ", ".join(bundled_study_names())
+        raise UserError(f"{p}: no such study file (shipped examples: {shipped})") from None
     except IsADirectoryError:
         raise UserError(f"{p}: is a folder; give the STUDY.yaml file") from None
     try:
