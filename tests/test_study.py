@@ -159,3 +159,15 @@ def test_the_shipped_example_studies_load_by_name(name: str) -> None:
     assert study.path.name == f"{name}.yaml" and study.reference == "baseline"
     loads = {c.load for c in study.conditions}
     assert loads <= {"baseline", "visual_manual", "cognitive"} and loads <= set(study.stand_in_agents)
+
+
+def test_on_road_exit_goes_only_to_envs_that_have_the_option(tmp_path: Path) -> None:
+    from opends_gym.study.config import env_fields
+    from opends_gym.study.design import env_args_for, expand
+
+    study = load_study(write(tmp_path, TINY.replace("seed: 3", "seed: 3\non_road_exit: recover")))
+    task, cond = study.tasks[0], study.conditions[0]
+    assert env_args_for(study, task, cond, {"on_road_exit"})["on_road_exit"] == "recover"
+    assert "on_road_exit" not in env_args_for(study, task, cond, {"policy_hz"})
+    has_option = "on_road_exit" in env_fields(task.env_id)  # before and after envs gain the option
+    assert all(("on_road_exit", "recover") in t.env_args for t in expand(study)) == has_option

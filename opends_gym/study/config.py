@@ -367,15 +367,26 @@ def _drt(where: _Where) -> DrtSpec | None:
 
 
 def env_fields(env_id: str) -> set[str]:
-    """The option names `gym.make(env_id, ...)` accepts (its config dataclass), without building it."""
+    """The option names `gym.make(env_id, ...)` accepts, without building it: its config dataclass's
+    fields, its constructor's named parameters and the registration's kwargs (empty: not known)."""
     import gymnasium as gym
 
-    entry = gym.spec(env_id).entry_point
+    spec = gym.spec(env_id)
+    entry = spec.entry_point
     if isinstance(entry, str):
         module, _, name = entry.partition(":")
         entry = getattr(importlib.import_module(module), name)
     cls = getattr(entry, "config_class", None)
-    return {f.name for f in dataclasses.fields(cls)} if cls is not None else set()
+    names = {f.name for f in dataclasses.fields(cls)} if cls is not None else set()
+    params: list[inspect.Parameter] = []
+    if callable(entry):
+        try:
+            params = list(inspect.signature(entry).parameters.values())
+        except (TypeError, ValueError):  # a builtin without a signature
+            pass
+    named = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    names |= {p.name for p in params if p.kind in named and p.name != "self"}
+    return names | set(spec.kwargs)
 
 
 def _power(top: _Where) -> PowerSpec:
