@@ -6,6 +6,7 @@ have, a condition without an agent) must stop it before the first episode, point
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import importlib
 import inspect
@@ -380,10 +381,8 @@ def env_fields(env_id: str) -> set[str]:
     names = {f.name for f in dataclasses.fields(cls)} if cls is not None else set()
     params: list[inspect.Parameter] = []
     if callable(entry):
-        try:
+        with contextlib.suppress(TypeError, ValueError):  # a builtin without a signature
             params = list(inspect.signature(entry).parameters.values())
-        except (TypeError, ValueError):  # a builtin without a signature
-            pass
     named = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
     names |= {p.name for p in params if p.kind in named and p.name != "self"}
     return names | set(spec.kwargs)
