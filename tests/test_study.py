@@ -171,3 +171,19 @@ def test_on_road_exit_goes_only_to_envs_that_have_the_option(tmp_path: Path) -> 
     assert "on_road_exit" not in env_args_for(study, task, cond, {"policy_hz"})
     has_option = "on_road_exit" in env_fields(task.env_id)  # before and after envs gain the option
     assert all(("on_road_exit", "recover") in t.env_args for t in expand(study)) == has_option
+
+
+@pytest.mark.parametrize(("key", "goes_on"), [("K_RETURN", True), ("K_ESCAPE", False)])
+def test_the_instruction_page_waits_for_return_and_escape_ends_the_session(
+    monkeypatch: pytest.MonkeyPatch, key: str, goes_on: bool
+) -> None:
+    import pygame
+
+    from opends_gym.study.instructions import show_instructions
+
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    pygame.display.init()
+    pygame.display.set_mode((8, 8))
+    pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=getattr(pygame, key)))  # the person's key press
+    assert show_instructions("Block 1 of 2", "Count backwards in sevens.", window=True, auto_advance=False, size=(320, 200)) is goes_on
+    assert show_instructions("Block 1 of 2", "headless", window=False, auto_advance=False) is True

@@ -24,7 +24,10 @@ def show_instructions(title: str, text: str, *, window: bool, auto_advance: bool
         return True
     import pygame
 
-    pygame.init()
+    pygame.display.init()
+    pygame.font.init()
+    pygame.joystick.init()
+    sticks = [pygame.joystick.Joystick(k) for k in range(pygame.joystick.get_count())]  # opened: their buttons send events
     screen = pygame.display.set_mode(size)
     pygame.display.set_caption(f"opends-gym study: {title}")
     font = pygame.font.SysFont(None, 40)
@@ -49,4 +52,5 @@ def show_instructions(title: str, text: str, *, window: bool, auto_advance: bool
                     return True
             time.sleep(1 / 30)
     finally:
+        del sticks
         pygame.display.quit()
