@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..extras import require
-from .analysis import Effect
+from .analysis import Effect, power_at
 
 EFFECT_COLUMNS = (
     ("source", "source"),
@@ -56,15 +56,17 @@ def _cells(e: Effect) -> list[str]:
     ]
 
 
-def figure(group: Any, conditions: list[str], reference: str, title: str) -> str:
-    """Per-participant means by condition (dots, box) and the paired differences: a base64 PNG."""
+def figure(group: Any, conditions: list[str], reference: str, title: str, power: Any = None, seed: int = 0) -> str:
+    """Per-participant means by condition (dots, box), the paired differences and, given the
+    study's power settings, the simulated power against the number of participants: a base64 PNG."""
     matplotlib = require("study", "matplotlib", "the study report")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     cells = group.groupby(["participant", "condition"])["value"].mean().unstack("condition")
     present = [c for c in conditions if c in cells.columns]
-    fig, (left, right) = plt.subplots(1, 2, figsize=(9, 3.2), dpi=90)
+    fig, axes = plt.subplots(1, 3 if power is not None else 2, figsize=(13 if power is not None else 9, 3.2), dpi=90)
+    left, right = axes[0], axes[1]
     rng = np.random.default_rng(0)
     data = [cells[c].dropna().to_numpy(float) for c in present]
     left.boxplot(data, showfliers=False)
@@ -82,11 +84,31 @@ def figure(group: Any, conditions: list[str], reference: str, title: str) -> str
     right.set_xlabel("paired difference")
     if len(present) > 1:
         right.legend(fontsize=7)
+    if power is not None:
+        _power_panel(axes[2], cells, present, reference, power, seed)
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
     plt.close(fig)
     return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _power_panel(ax: Any, cells: Any, present: list[str], reference: str, power: Any, seed: int) -> None:
+    """Simulated power (the summary's method) at n = 2 .. max_n on a log grid, per condition."""
+    ns = np.unique(np.geomspace(2, power.max_n, 12).astype(int))
+    for c in present:
+        if c == reference:
+            continue
+        both = cells[[reference, c]].dropna()
+        diff = (both[c] - both[reference]).to_numpy(float)
+        if len(diff) < 2:
+            continue
+        ax.plot(ns, [power_at(diff, int(n), power.alpha, power.simulations, seed) for n in ns], marker=".", label=c)
+    ax.axhline(power.target, color="k", lw=0.8, ls="--")
+    ax.set_xscale("log")
+    ax.set_ylim(0, 1.02)
+    ax.set_xlabel("participants")
+    ax.set_ylabel(f"power (alpha {power.alpha})")
 
 
 def write_report(path: Path, study: Any, table: Any, effects: list[Effect], runtime_s: float | None) -> Path:
@@ -114,7 +136,7 @@ def write_report(path: Path, study: Any, table: Any, effects: list[Effect], runt
     finite = table[np.isfinite(table["value"].to_numpy(float))]
     for (source, task, metric), group in finite.groupby(["source", "task", "metric"], sort=False):
         title = f"{task}: {metric} ({source})"
-        png = figure(group, conditions, study.reference, title)
+        png = figure(group, conditions, study.reference, title, study.power, study.seed)
         parts.append(f"<h3>{html.escape(title)}</h3><img alt='{html.escape(title)}' src='data:image/png;base64,{png}'>")
     parts.append("</body></html>")
     path.write_text("\n".join(parts), encoding="utf-8")
