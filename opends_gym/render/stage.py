@@ -1,0 +1,404 @@
+"""`Stage`: a World's Panda3D scene graph, built once, with only transforms updated per frame.
+
+Why: image observations need thousands of frames per second, so nothing is rebuilt per
+step. The road (every source `RoadLayout` knows: OpenDS lanes, OpenDRIVE, the LCT bands,
+Gen A/B waypoint roads, the ego's start connector) becomes static meshes; scene models,
+traffic cars, pedestrians, traffic lights and the ego car are nodes built on first sight
+whose pose, visibility and lamp colours `sync()` copies from the World.
+
+Ground layers (sky, grass, asphalt, markings) are drawn first in a fixed order without
+depth test or write: no z-fighting between grass, road and paint at any distance. Objects
+are drawn over them with depth; models whose top lies below the ground are not drawn.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import meshes
+from . import palette as pal
+from .engine import panda
+from .road_layout import DASH_M, MARK_HALF_W_M, PERIOD_M, RoadLayout
+from .scene import BLINK_HZ, LAMPS_BY_STATE, LIGHT_HOUSING_M, LIGHT_POLE_M, WorldScene, base_y
+from .styles import Part, car_parts
+
+MODEL_MAP_ENV = "OPENDS_GYM_MODEL_MAP"
+SKY_RADIUS_M = 1500.0
+GRASS_RINGS = [(r, pal.blend(pal.GRASS, pal.GRASS_FAR, r / 400.0)) for r in (4.0, 10.0, 20.0, 40.0, 80.0, 160.0, 400.0, 1000.0, 1900.0)]
+BAND_PIECE_M = 18.0  # long flat quads are cut into pieces (software clipping stays exact near the eye)
+BAND_HALF_LENGTH_M = 1080.0  # the LCT's endless straight lanes: a 2 km piece that follows the viewer
+BURIED_TRAFFIC_M = 5.0  # traffic parked this far below the ego is not drawn (init_drive parks pedestrians at -50 m)
+SUN_DIR = (-0.45, -0.38, -0.8)  # Panda3D (x, y, z) direction the sunlight travels
+ORDER_SKY, ORDER_GRASS, ORDER_ROAD, ORDER_MARK = 0, 1, 2, 3
+
+
+def _rgba(c: tuple[int, int, int] | tuple[float, ...]) -> tuple[float, float, float, float]:
+    return (c[0] / 255.0, c[1] / 255.0, c[2] / 255.0, 1.0)
+
+
+def load_model_map(path: str | os.PathLike[str] | None) -> dict[str, str]:
+    """{OpenDS model key or glob: glTF/BAM/EGG file} from a JSON file (relative files are next to it)."""
+    if path is None:
+        path = os.environ.get(MODEL_MAP_ENV) or None
+        if path is None:
+            return {}
+    p = Path(path)
+    try:
+        raw = json.loads(p.read_text())
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{p}: model map is not a readable JSON object: {e}") from None
+    if not isinstance(raw, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in raw.items()):
+        raise ValueError(f"{p}: model map must map OpenDS model keys to file paths (strings)")
+    return {k: str((p.parent / v) if not Path(v).is_absolute() else Path(v)) for k, v in raw.items()}
+
+
+class Stage:
+    """The scene graph of one World (see the module docstring)."""
+
+    def __init__(self, world: Any, show_triggers: bool = False, model_map: str | os.PathLike[str] | dict[str, str] | None = None) -> None:
+        p3d = panda()
+        self.world = world
+        self.scene = WorldScene(world, show_triggers=show_triggers)
+        self.road = RoadLayout(world)
+        self.model_map = model_map if isinstance(model_map, dict) else load_model_map(model_map)
+        self.root = p3d.NodePath("world")
+        self.root.setTwoSided(True)
+        self.root.setTransparency(p3d.TransparencyAttrib.MNone)
+        self.ground = self.root.attachNewNode("ground")
+        self.ground.setLightOff(1)
+        self.objects = self.root.attachNewNode("objects")
+        self._lights()
+        # (the fog's depth pass hides the sky: it is infinitely far)
+        self.sky = self._ground_layer(meshes.sky_node("sky", SKY_RADIUS_M, pal.SKY_HORIZON, pal.SKY_ZENITH), ORDER_SKY)
+        self.grass = self._ground_layer(meshes.disc_node("grass", GRASS_RINGS), ORDER_GRASS)
+        self.road_np = self.ground.attachNewNode("road")
+        self._build_road()
+        self._scene_nodes: dict[int, Any] = {}
+        self._scene_state: dict[int, tuple[Any, ...]] = {}
+        self._traffic: dict[int, CarNode | Any] = {}
+        self._traffic_state: dict[int, tuple[Any, ...]] = {}
+        self._lights_nodes = [TrafficLightNode(self.objects, p) for p in self.scene.lights]
+        self.ego = CarNode(self.objects, car_parts(*self._ego_size(), pal.EGO))
+        self._light_objects = {p.object_id for p in self.scene.lights if p.object_id}
+
+    # ------------------------------------------------------------------ building
+    def _lights(self) -> None:
+        p3d = panda()
+        amb = p3d.AmbientLight("ambient")
+        amb.setColor((0.62, 0.62, 0.64, 1.0))
+        sun = p3d.DirectionalLight("sun")
+        sun.setColor((0.5, 0.5, 0.46, 1.0))
+        sun.setDirection(p3d.LVector3(*SUN_DIR))
+        self.ambient = self.root.attachNewNode(amb)
+        self.sun = self.root.attachNewNode(sun)
+        self.objects.setLight(self.ambient)
+        self.objects.setLight(self.sun)
+
+    def _ground_layer(self, node: Any, order: int, parent: Any = None) -> Any:
+        np_ = (parent or self.ground).attachNewNode(node)
+        np_.setBin("background", order)
+        np_.setDepthTest(False)
+        np_.setDepthWrite(False)
+        return np_
+
+    def _build_road(self) -> None:
+        road = self.road
+        marks: list[np.ndarray] = []
+        for i, r in enumerate(road.ribbons):
+            self._ground_layer(meshes.strip_node(f"ribbon{i}", r.left, r.right, r.color), ORDER_ROAD, parent=self.road_np)
+            for pts, dashed in r.marks:
+                lines = np.concatenate([pts[:-1], pts[1:]], axis=1)
+                if dashed:
+                    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+                    lines = lines[(0.5 * (s[:-1] + s[1:])) % PERIOD_M < DASH_M]
+                if len(lines):
+                    marks.append(lines)
+        if marks:
+            q = meshes.line_quads_xz(np.concatenate(marks), MARK_HALF_W_M)
+            node = meshes.flat_quads_node("marks", q, np.tile(np.asarray(pal.MARKING, np.float32), (len(q), 1)))
+            self._ground_layer(node, ORDER_MARK, parent=self.road_np)
+        self.bands = None
+        if road.bands:
+            lo, hi = road.band_x
+            L = BAND_HALF_LENGTH_M
+            self.bands = self.ground.attachNewNode("bands")
+            z = np.arange(-L, L, BAND_PIECE_M)
+            quad = np.stack([np.stack([np.full_like(z, lo), z], 1), np.stack([np.full_like(z, hi), z], 1),
+                             np.stack([np.full_like(z, hi), z + BAND_PIECE_M], 1), np.stack([np.full_like(z, lo), z + BAND_PIECE_M], 1)], 1)
+            colors = np.tile(np.asarray(pal.ASPHALT, np.float32), (len(quad), 1))
+            self._ground_layer(meshes.flat_quads_node("band", quad, colors), ORDER_ROAD, parent=self.bands)
+            lines = []
+            k = np.arange(-L, L, PERIOD_M)
+            for e, dashed in road.band_marks:
+                if dashed:
+                    lines.append(np.stack([np.full_like(k, e), k, np.full_like(k, e), k + DASH_M], axis=1))
+                else:
+                    lines.append(np.stack([np.full_like(z, e), z, np.full_like(z, e), z + BAND_PIECE_M], axis=1))
+            q = meshes.line_quads_xz(np.concatenate(lines), MARK_HALF_W_M)
+            node = meshes.flat_quads_node("band-marks", q, np.tile(np.asarray(pal.MARKING, np.float32), (len(q), 1)))
+            self._ground_layer(node, ORDER_MARK, parent=self.bands)
+
+    def _ego_size(self) -> tuple[float, float, float]:
+        box = self.world.ego_obb()
+        return box.hx, box.hz, self.world.ego.spec.height_m
+
+    # ------------------------------------------------------------------ per frame
+    def sync(self, cam_x: float, cam_y: float, cam_z: float, include_ego: bool) -> None:
+        """Copy the World's current state into the scene graph for a camera at (x, y, z)."""
+        w = self.world
+        ground_y = w.ego.state.y
+        self.ground.setZ(ground_y)
+        self.sky.setPos(cam_x, -cam_z, cam_y - ground_y)
+        self.grass.setPos(cam_x, -cam_z, 0.0)
+        if self.bands is not None:
+            self.bands.setY(-round(cam_z / PERIOD_M) * PERIOD_M)
+        blink_on = math.floor(w.t_s * 2.0 * BLINK_HZ) % 2 == 0
+        self._sync_scene(ground_y)
+        self._sync_traffic(ground_y, blink_on)
+        for node in self._lights_nodes:
+            node.sync(self.scene, w)
+        if include_ego:
+            box = w.ego_obb()
+            inputs = w.ego.inputs
+            signal = {"left": 1, "right": 2, "both": 3}.get(str(inputs.turn_signal), 0)
+            self.ego.show()
+            self.ego.sync(box.cx, w.ego.state.y, box.cz, box.yaw, inputs.brake > 0.02, signal, blink_on)
+        else:
+            self.ego.hide()
+
+    def _sync_scene(self, ground_y: float) -> None:
+        show_triggers = self.scene.show_triggers
+        for o in self.world.objects.objects:
+            if o.id in self._light_objects:
+                continue
+            seen = o.visible and not o.is_trigger or (o.is_trigger and show_triggers)
+            if seen and not o.is_trigger and base_y(o) + 2 * o.half[1] < ground_y:
+                seen = False  # buried under the ground the view draws (as OpenDS's terrain would hide it)
+            key = o.index
+            node = self._scene_nodes.get(key)
+            if not seen:
+                if node is not None and self._scene_state.get(key, (False,))[0]:
+                    node.hide()
+                    self._scene_state[key] = (False,)
+                continue
+            state = (True, o.position, o.yaw, o.scale)
+            if self._scene_state.get(key) == state:
+                continue
+            parts = self.scene.parts(o)
+            if node is None or self._scene_state.get(key, (None, None, None, None))[3] != o.scale:
+                if node is not None:
+                    node.removeNode()
+                node = self._scene_nodes[key] = self._object_node(o, parts)
+            y = base_y(o)
+            node.show()
+            node.setPosHpr(o.position[0], -o.position[2], y, math.degrees(o.yaw), 0.0, 0.0)
+            self._scene_state[key] = state
+
+    def _object_node(self, o: Any, parts: tuple[Part, ...]) -> Any:
+        p3d = panda()
+        model = self.scene.models[o.index] if 0 <= o.index < len(self.scene.models) else None
+        key = (model.key if model is not None else "") or ""
+        custom = self._custom_model(key, o)
+        if custom is not None:
+            return custom
+        node = self.objects.attachNewNode(meshes.boxes_node(f"obj{o.index}", object_parts(key, parts, o)))
+        if o.is_trigger:
+            node.setRenderModeWireframe()
+            node.setLightOff(1)
+        for p in parts:
+            if p.label or "sign" in key.lower():
+                from .sign_textures import face_texture
+
+                tex = face_texture(p.label, p.color, p.hx / max(0.5 * (p.y1 - p.y0), 1e-3), key)
+                board = meshes.textured_board_node("face", p.hx, p.y0, p.y1, p.hz, tex)
+                board.reparentTo(node)
+                board.setLightOff(1)
+                board.setPos(p.dx, -p.dz, 0.0)
+                break
+        del p3d
+        return node
+
+    def _custom_model(self, key: str, o: Any) -> Any:
+        """The user's own model for this OpenDS key (exact key or glob), fitted to the object's box."""
+        if not self.model_map or not key:
+            return None
+        path = self.model_map.get(key) or next((v for k, v in self.model_map.items() if fnmatch.fnmatch(key, k)), None)
+        if path is None:
+            return None
+        p3d = panda()
+        loader = p3d.Loader.getGlobalPtr()
+        node = loader.loadSync(p3d.Filename.fromOsSpecific(path))
+        if node is None:
+            raise ValueError(f"model map: cannot load {path!r} for {key!r}")
+        np_ = self.objects.attachNewNode("custom")
+        model = np_.attachNewNode(node)
+        lo, hi = model.getTightBounds() or (p3d.LPoint3(0, 0, 0), p3d.LPoint3(1, 1, 1))
+        size = hi - lo
+        hx, hy, hz = o.half
+        sx, sy, sz = (2 * hx / max(size[0], 1e-6), 2 * hz / max(size[1], 1e-6), 2 * hy / max(size[2], 1e-6))
+        model.setScale(sx, sy, sz)
+        model.setPos(-(lo[0] + hi[0]) * 0.5 * sx, -(lo[1] + hi[1]) * 0.5 * sy, -lo[2] * sz)
+        return np_
+
+    def _sync_traffic(self, ground_y: float, blink_on: bool) -> None:
+        tr = self.world.traffic
+        if tr is None or not len(getattr(tr, "ids", ())):
+            return
+        pos = tr.positions
+        for i in range(len(tr.ids)):
+            node = self._traffic.get(i)
+            enabled = bool(tr.enabled[i]) and pos[i][1] > ground_y - BURIED_TRAFFIC_M
+            if node is None:
+                if not enabled:
+                    continue
+                hx, hz = (float(v) for v in tr.half_extents[i])
+                if bool(tr.is_car[i]):
+                    height = 1.45 if hz < 4.0 else 3.2
+                    node = CarNode(self.objects, car_parts(hx, hz, height, pal.TRAFFIC_BODIES[i % len(pal.TRAFFIC_BODIES)]))
+                else:
+                    node = PedestrianNode(self.objects, i)
+                self._traffic[i] = node
+            if not enabled:
+                node.hide()
+                continue
+            node.show()
+            node.sync(float(pos[i][0]), float(pos[i][1]), float(pos[i][2]), float(tr.yaw[i]), bool(tr.brake_light[i]), int(tr.turn_signal[i]), blink_on)
+
+
+def object_parts(key: str, parts: tuple[Part, ...], o: Any) -> tuple[Part, ...]:
+    """Our own low-poly looks for model kinds `styles.parts_for` draws as one box: trees and buildings."""
+    k = key.lower()
+    hx, hy, hz = o.half
+    if "tree" in k:
+        trunk = Part(0.0, 0.0, 0.0, 0.35 * 2 * hy, 0.12 * hx, 0.12 * hz, (100, 70, 40))
+        crown = Part(0.0, 0.0, 0.3 * 2 * hy, 2 * hy, hx, hz, (45, 110, 45))
+        return (trunk, crown)
+    if "house" in k or "building" in k:
+        walls = Part(0.0, 0.0, 0.0, 0.75 * 2 * hy, hx, hz, (205, 195, 175))
+        roof = Part(0.0, 0.0, 0.75 * 2 * hy, 2 * hy, 1.05 * hx, 1.05 * hz, (150, 60, 45))
+        return (walls, roof)
+    return parts
+
+
+class CarNode:
+    """A car: body, cabin, wheels, headlights, brake lights and four turn signals."""
+
+    def __init__(self, parent: Any, parts: tuple[Part, ...]) -> None:
+        body = parts[0]
+        hx, hz, height = body.hx, body.hz, parts[-1].y1
+        wheel_r = 0.18 * height + 0.05
+        wheels = tuple(
+            Part(sx * (hx - 0.12), sz * 0.68 * hz, 0.0, 2 * wheel_r, 0.12, wheel_r, (25, 25, 25)) for sx in (-1, 1) for sz in (-1, 1)
+        )
+        self.np = parent.attachNewNode(meshes.boxes_node("car", (*parts, *wheels), bottom=True))
+        lamp_y = 0.45 * height
+        brake = [(s * (hx - 0.3), lamp_y, hz + 0.02, 0.0, 1.0, 0.2, 0.08) for s in (-1.0, 1.0)]
+        head = [(s * (hx - 0.3), lamp_y, -hz - 0.02, 0.0, -1.0, 0.2, 0.08) for s in (-1.0, 1.0)]
+        self.brake = self._lamps("brake", brake)
+        self.head = self._lamps("head", head)
+        self.head.setColor(_rgba((235, 235, 215)))
+        self.signals = []
+        for side in (-1.0, 1.0):
+            pts = [(side * (hx - 0.06), lamp_y, end * (hz + 0.02), 0.0, end, 0.06, 0.06) for end in (1.0, -1.0)]
+            self.signals.append(self._lamps("signal", pts))
+        self._state: tuple[Any, ...] = ()
+        self._lamp_state: tuple[Any, ...] = ()
+        self._shown = True
+
+    def _lamps(self, name: str, rows: list[tuple[float, ...]]) -> Any:
+        node = self.np.attachNewNode(meshes.lamps_node(name, rows))  # type: ignore[arg-type]
+        node.setLightOff(1)
+        return node
+
+    def show(self) -> None:
+        if not self._shown:
+            self.np.show()
+            self._shown = True
+
+    def hide(self) -> None:
+        if self._shown:
+            self.np.hide()
+            self._shown = False
+
+    def sync(self, x: float, y: float, z: float, yaw: float, brake: bool, signal: int, blink_on: bool) -> None:
+        pose = (x, y, z, yaw)
+        if pose != self._state:
+            self.np.setPosHpr(x, -z, y, math.degrees(yaw), 0.0, 0.0)
+            self._state = pose
+        lamps = (brake, signal if blink_on else 0)
+        if lamps != self._lamp_state:
+            self.brake.setColor(_rgba(pal.BRAKE_ON if brake else pal.BRAKE_OFF))
+            for bit, node in zip((1, 2), self.signals):
+                node.setColor(_rgba(pal.SIGNAL_ON if lamps[1] & bit else pal.SIGNAL_OFF))
+            self._lamp_state = lamps
+
+
+class PedestrianNode(CarNode):
+    """A person: legs, torso, arms and head (pedestrians have no lamps)."""
+
+    CLOTHES = ((60, 70, 120), (120, 50, 50), (60, 100, 60), (90, 90, 90))
+
+    def __init__(self, parent: Any, i: int) -> None:
+        c = self.CLOTHES[i % len(self.CLOTHES)]
+        parts = (
+            Part(-0.1, 0.0, 0.0, 0.85, 0.08, 0.1, (40, 40, 55)),
+            Part(0.1, 0.0, 0.0, 0.85, 0.08, 0.1, (40, 40, 55)),
+            Part(0.0, 0.0, 0.85, 1.45, 0.2, 0.12, c),
+            Part(-0.27, 0.0, 0.9, 1.42, 0.06, 0.07, c),
+            Part(0.27, 0.0, 0.9, 1.42, 0.06, 0.07, c),
+            Part(0.0, 0.0, 1.48, 1.72, 0.11, 0.11, (225, 185, 150)),
+        )
+        self.np = parent.attachNewNode(meshes.boxes_node("pedestrian", parts))
+        self._state = ()
+        self._shown = True
+
+    def sync(self, x: float, y: float, z: float, yaw: float, brake: bool, signal: int, blink_on: bool) -> None:
+        pose = (x, y, z, yaw)
+        if pose != self._state:
+            self.np.setPosHpr(x, -z, y, math.degrees(yaw), 0.0, 0.0)
+            self._state = pose
+
+
+class TrafficLightNode:
+    """A pole and housing with red, yellow and green lamps on all four sides, lit by the light's phase."""
+
+    def __init__(self, parent: Any, placement: Any) -> None:
+        self.placement = placement
+        top = LIGHT_POLE_M
+        parts = (
+            Part(0.0, 0.0, 0.0, top, 0.07, 0.07, pal.METAL),
+            Part(0.0, 0.0, top, top + LIGHT_HOUSING_M, 0.2, 0.2, pal.LIGHT_HOUSING),
+        )
+        self.np = parent.attachNewNode(meshes.boxes_node("traffic-light", parts))
+        self.np.setPosHpr(placement.x, -placement.z, placement.y, math.degrees(placement.yaw), 0.0, 0.0)
+        self.lamps = []
+        for j in range(3):
+            y = top + LIGHT_HOUSING_M * (0.8 - 0.3 * j)
+            rows = []
+            for side in range(4):
+                a = side * 0.5 * math.pi
+                nx, nz = math.sin(a), math.cos(a)
+                rows.append((0.21 * nx, y, 0.21 * nz, nx, nz, 0.12, 0.12))
+            node = self.np.attachNewNode(meshes.lamps_node("lamp", rows))  # type: ignore[arg-type]
+            node.setLightOff(1)
+            self.lamps.append(node)
+        self._state = ""
+
+    def sync(self, scene: WorldScene, world: Any) -> None:
+        from .scene import light_state
+
+        p = self.placement
+        state = light_state(world, p.light_id, scene._initial.get(p.light_id, "off"))
+        if state == self._state:
+            return
+        on = LAMPS_BY_STATE.get(state, (False, False, False))
+        for lit, node, color in zip(on, self.lamps, (pal.LAMP_RED, pal.LAMP_YELLOW, pal.LAMP_GREEN)):
+            node.setColor(_rgba(color if lit else pal.LAMP_DARK))
+        self._state = state
