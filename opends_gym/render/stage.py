@@ -40,7 +40,8 @@ ORDER_SKY, ORDER_GRASS, ORDER_ROAD, ORDER_MARK = 0, 1, 2, 3
 
 
 def _rgba(c: tuple[int, int, int] | tuple[float, ...]) -> tuple[float, float, float, float]:
-    return (c[0] / 255.0, c[1] / 255.0, c[2] / 255.0, 1.0)
+    """0..255 to 0..1, a little over each level so renderers that truncate keep the exact value."""
+    return (min(1.0, (c[0] + 0.1) / 255.0), min(1.0, (c[1] + 0.1) / 255.0), min(1.0, (c[2] + 0.1) / 255.0), 1.0)
 
 
 def load_model_map(path: str | os.PathLike[str] | None) -> dict[str, str]:
@@ -299,14 +300,14 @@ class CarNode:
         )
         self.np = parent.attachNewNode(meshes.boxes_node("car", (*parts, *wheels), bottom=True))
         lamp_y = 0.45 * height
-        brake = [(s * (hx - 0.3), lamp_y, hz + 0.02, 0.0, 1.0, 0.2, 0.08) for s in (-1.0, 1.0)]
-        head = [(s * (hx - 0.3), lamp_y, -hz - 0.02, 0.0, -1.0, 0.2, 0.08) for s in (-1.0, 1.0)]
+        brake = [(s * (hx - 0.3), lamp_y, hz + 0.04, 0.0, 1.0, 0.2, 0.08) for s in (-1.0, 1.0)]
+        head = [(s * (hx - 0.3), lamp_y, -hz - 0.04, 0.0, -1.0, 0.2, 0.08) for s in (-1.0, 1.0)]
         self.brake = self._lamps("brake", brake)
         self.head = self._lamps("head", head)
         self.head.setColor(_rgba((235, 235, 215)))
         self.signals = []
         for side in (-1.0, 1.0):
-            pts = [(side * (hx - 0.06), lamp_y, end * (hz + 0.02), 0.0, end, 0.06, 0.06) for end in (1.0, -1.0)]
+            pts = [(side * (hx - 0.06), lamp_y, end * (hz + 0.04), 0.0, end, 0.06, 0.06) for end in (1.0, -1.0)]
             self.signals.append(self._lamps("signal", pts))
         self._state: tuple[Any, ...] = ()
         self._lamp_state: tuple[Any, ...] = ()
@@ -385,7 +386,7 @@ class TrafficLightNode:
             for side in range(4):
                 a = side * 0.5 * math.pi
                 nx, nz = math.sin(a), math.cos(a)
-                rows.append((0.21 * nx, y, 0.21 * nz, nx, nz, 0.12, 0.12))
+                rows.append((0.25 * nx, y, 0.25 * nz, nx, nz, 0.12, 0.12))
             node = self.np.attachNewNode(meshes.lamps_node("lamp", rows))  # type: ignore[arg-type]
             node.setLightOff(1)
             self.lamps.append(node)
