@@ -110,8 +110,10 @@ class Offscreen:
     def rgb(self) -> np.ndarray:
         """The last frame as a writable uint8 (height, width, 3), top row first."""
         raw = np.frombuffer(memoryview(self.color.getRamImage()), np.uint8)
-        bgr = raw.reshape(self.height, self.width, -1)
-        return bgr[::-1, :, 2::-1].copy()
+        bgr = raw.reshape(self.height, self.width, -1)[::-1]
+        out = np.empty((self.height, self.width, 3), np.uint8)
+        out[..., 0], out[..., 1], out[..., 2] = bgr[..., 2], bgr[..., 1], bgr[..., 0]  # (three plane copies beat one strided copy)
+        return out
 
     def bgra_bytes(self) -> Any:
         """The last frame's raw bytes (BGRA or BGR, bottom row first) for a fast blit."""

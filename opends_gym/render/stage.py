@@ -31,8 +31,8 @@ from .styles import Part, car_parts
 
 MODEL_MAP_ENV = "OPENDS_GYM_MODEL_MAP"
 SKY_RADIUS_M = 1500.0
-GRASS_RINGS = [(r, pal.blend(pal.GRASS, pal.GRASS_FAR, r / 400.0)) for r in (4.0, 10.0, 20.0, 40.0, 80.0, 160.0, 400.0, 1000.0, 1900.0)]
-BAND_PIECE_M = 18.0  # long flat quads are cut into pieces (software clipping stays exact near the eye)
+GRASS_RINGS = [(r, pal.blend(pal.GRASS, pal.GRASS_FAR, r / 400.0)) for r in (8.0, 30.0, 100.0, 400.0, 1900.0)]
+DASHES_M = 306.0  # dashes further than this are below a pixel wide at 1920x1080: left out (low-poly LOD)
 BAND_HALF_LENGTH_M = 1080.0  # the LCT's endless straight lanes: a 2 km piece that follows the viewer
 BURIED_TRAFFIC_M = 5.0  # traffic parked this far below the ego is not drawn (init_drive parks pedestrians at -50 m)
 SUN_DIR = (-0.45, -0.38, -0.8)  # Panda3D (x, y, z) direction the sunlight travels
@@ -42,6 +42,16 @@ ORDER_SKY, ORDER_GRASS, ORDER_ROAD, ORDER_MARK = 0, 1, 2, 3
 def _rgba(c: tuple[int, int, int] | tuple[float, ...]) -> tuple[float, float, float, float]:
     """0..255 to 0..1, a little over each level so renderers that truncate keep the exact value."""
     return (min(1.0, (c[0] + 0.1) / 255.0), min(1.0, (c[1] + 0.1) / 255.0), min(1.0, (c[2] + 0.1) / 255.0), 1.0)
+
+
+def band_breaks(first_m: float = 6.0, growth: float = 1.35) -> tuple[np.ndarray, np.ndarray]:
+    """Piece ends (z0, z1) along an endless band: short pieces near the viewer (exact software
+    clipping at the near plane), longer ones further away (few triangles)."""
+    out = [0.0, first_m]
+    while out[-1] < BAND_HALF_LENGTH_M:
+        out.append(min(BAND_HALF_LENGTH_M, out[-1] + first_m * growth ** len(out)))
+    edges = np.concatenate([-np.asarray(out[:0:-1]), np.asarray(out)])
+    return edges[:-1], edges[1:]
 
 
 def load_model_map(path: str | os.PathLike[str] | None) -> dict[str, str]:
@@ -77,8 +87,8 @@ class Stage:
         self.objects = self.root.attachNewNode("objects")
         self._lights()
         # (the fog's depth pass hides the sky: it is infinitely far)
-        self.sky = self._ground_layer(meshes.sky_node("sky", SKY_RADIUS_M, pal.SKY_HORIZON, pal.SKY_ZENITH), ORDER_SKY)
-        self.grass = self._ground_layer(meshes.disc_node("grass", GRASS_RINGS), ORDER_GRASS)
+        self.sky = self._ground_layer(meshes.sky_node("sky", SKY_RADIUS_M, pal.SKY_HORIZON, pal.SKY_ZENITH, segments=16), ORDER_SKY)
+        self.grass = self._ground_layer(meshes.disc_node("grass", GRASS_RINGS, segments=20), ORDER_GRASS)
         self.road_np = self.ground.attachNewNode("road")
         self._build_road()
         self._scene_nodes: dict[int, Any] = {}
@@ -88,6 +98,8 @@ class Stage:
         self._lights_nodes = [TrafficLightNode(self.objects, p) for p in self.scene.lights]
         self.ego = CarNode(self.objects, car_parts(*self._ego_size(), pal.EGO))
         self._light_objects = {p.object_id for p in self.scene.lights if p.object_id}
+        self._watched = [o for o in world.objects.objects if o.id not in self._light_objects and (show_triggers or not o.is_trigger)]
+        self._scene_sig: tuple[Any, ...] = ()
 
     # ------------------------------------------------------------------ building
     def _lights(self) -> None:
@@ -127,21 +139,20 @@ class Stage:
             self._ground_layer(node, ORDER_MARK, parent=self.road_np)
         self.bands = None
         if road.bands:
-            lo, hi = road.band_x
-            L = BAND_HALF_LENGTH_M
             self.bands = self.ground.attachNewNode("bands")
-            z = np.arange(-L, L, BAND_PIECE_M)
-            quad = np.stack([np.stack([np.full_like(z, lo), z], 1), np.stack([np.full_like(z, hi), z], 1),
-                             np.stack([np.full_like(z, hi), z + BAND_PIECE_M], 1), np.stack([np.full_like(z, lo), z + BAND_PIECE_M], 1)], 1)
+            lo, hi = road.band_x
+            z0, z1 = band_breaks()
+            quad = np.stack([np.stack([np.full_like(z0, lo), z0], 1), np.stack([np.full_like(z0, hi), z0], 1),
+                             np.stack([np.full_like(z0, hi), z1], 1), np.stack([np.full_like(z0, lo), z1], 1)], 1)  # fmt: skip
             colors = np.tile(np.asarray(pal.ASPHALT, np.float32), (len(quad), 1))
             self._ground_layer(meshes.flat_quads_node("band", quad, colors), ORDER_ROAD, parent=self.bands)
             lines = []
-            k = np.arange(-L, L, PERIOD_M)
+            k = np.arange(-DASHES_M, DASHES_M, PERIOD_M)
             for e, dashed in road.band_marks:
                 if dashed:
                     lines.append(np.stack([np.full_like(k, e), k, np.full_like(k, e), k + DASH_M], axis=1))
                 else:
-                    lines.append(np.stack([np.full_like(z, e), z, np.full_like(z, e), z + BAND_PIECE_M], axis=1))
+                    lines.append(np.stack([np.full_like(z0, e), z0, np.full_like(z0, e), z1], axis=1))
             q = meshes.line_quads_xz(np.concatenate(lines), MARK_HALF_W_M)
             node = meshes.flat_quads_node("band-marks", q, np.tile(np.asarray(pal.MARKING, np.float32), (len(q), 1)))
             self._ground_layer(node, ORDER_MARK, parent=self.bands)
@@ -175,10 +186,13 @@ class Stage:
             self.ego.hide()
 
     def _sync_scene(self, ground_y: float) -> None:
+        objs = self._watched
+        sig = ([o.visible for o in objs], [o.position for o in objs], [o.yaw for o in objs], [o.scale for o in objs], ground_y)
+        if sig == self._scene_sig:
+            return  # nothing moved, appeared or disappeared since the last frame (the usual case)
+        self._scene_sig = sig
         show_triggers = self.scene.show_triggers
-        for o in self.world.objects.objects:
-            if o.id in self._light_objects:
-                continue
+        for o in objs:
             seen = o.visible and not o.is_trigger or (o.is_trigger and show_triggers)
             if seen and not o.is_trigger and base_y(o) + 2 * o.half[1] < ground_y:
                 seen = False  # buried under the ground the view draws (as OpenDS's terrain would hide it)
@@ -192,14 +206,12 @@ class Stage:
             state = (True, o.position, o.yaw, o.scale)
             if self._scene_state.get(key) == state:
                 continue
-            parts = self.scene.parts(o)
             if node is None or self._scene_state.get(key, (None, None, None, None))[3] != o.scale:
                 if node is not None:
                     node.removeNode()
-                node = self._scene_nodes[key] = self._object_node(o, parts)
-            y = base_y(o)
+                node = self._scene_nodes[key] = self._object_node(o, self.scene.parts(o))
             node.show()
-            node.setPosHpr(o.position[0], -o.position[2], y, math.degrees(o.yaw), 0.0, 0.0)
+            node.setPosHpr(o.position[0], -o.position[2], base_y(o), math.degrees(o.yaw), 0.0, 0.0)
             self._scene_state[key] = state
 
     def _object_node(self, o: Any, parts: tuple[Part, ...]) -> Any:
