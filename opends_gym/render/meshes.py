@@ -98,8 +98,13 @@ _CORNERS = np.asarray([[c for c in f[:4]] for f in _FACES], dtype=np.float32)  #
 _NORMALS = np.asarray([f[4] for f in _FACES], dtype=np.float32)  # (6, 3)
 
 
+SUN_LOCAL = np.array([0.45, 0.8, 0.38]) / np.linalg.norm([0.45, 0.8, 0.38])  # towards the sun, in the object's frame
+AMBIENT, DIFFUSE = 0.62, 0.38
+
+
 def boxes_node(name: str, parts: tuple[Part, ...] | list[Part], bottom: bool = False) -> Any:
-    """Upright boxes in an object's local frame (x right, z back, y up from its base), lit by normals."""
+    """Upright boxes in an object's local frame (x right, z back, y up from its base), shaded by a
+    sun baked into the vertex colours (flat, deterministic, and no lighting cost per frame)."""
     faces = 6 if bottom else 5
     verts, norms, cols = [], [], []
     for p in parts:
@@ -107,7 +112,8 @@ def boxes_node(name: str, parts: tuple[Part, ...] | list[Part], bottom: bool = F
         half = np.array([p.hx, 0.5 * (p.y1 - p.y0), p.hz], np.float32)
         verts.append((centre + _CORNERS[:faces] * half).reshape(-1, 3))
         norms.append(np.repeat(_NORMALS[:faces], 4, axis=0))
-        cols.append(np.tile(np.asarray(p.color, np.float32), (faces * 4, 1)))
+        shade = AMBIENT + DIFFUSE * np.clip(_NORMALS[:faces] @ SUN_LOCAL, 0.0, 1.0)
+        cols.append(np.repeat(np.asarray(p.color, np.float32)[None, :] * shade[:, None], 4, axis=0))
     if not verts:
         return panda().GeomNode(name)
     v = np.concatenate(verts)
@@ -193,7 +199,7 @@ def textured_board_node(name: str, hx: float, y0: float, y1: float, hz: float, t
     front = [(-hx, y0, -z), (hx, y0, -z), (hx, y1, -z), (-hx, y1, -z)]
     back = [(hx, y0, z), (-hx, y0, z), (-hx, y1, z), (hx, y1, z)]
     v = to_panda_xyz(np.asarray(front + back, np.float32))
-    uv = np.tile(np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32), (2, 1))
+    uv = np.tile(np.array([[1, 0], [0, 0], [0, 1], [1, 1]], np.float32), (2, 1))  # read the right way round from either side
     node = geom_node(name, v, np.full((8, 3), 255.0, np.float32), _quads_to_tris(2), uv=uv)
     np_ = p3d.NodePath(node)
     np_.setTexture(texture, 1)

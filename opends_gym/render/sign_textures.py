@@ -22,7 +22,7 @@ _CACHE: dict[tuple[str, RGB, int], Any] = {}
 
 
 def face_image(label: str, color: RGB, aspect: float, key: str = "") -> np.ndarray:
-    """The sign face as uint8 (TEX_H, width, 3), top row first."""
+    """The sign face as uint8 (TEX_H, power-of-two width, 3), top row first."""
     pg = _pg.pygame()
     h = TEX_H
     w = int(max(32, min(1024, round(h * max(aspect, 0.25)))))
@@ -44,7 +44,8 @@ def face_image(label: str, color: RGB, aspect: float, key: str = "") -> np.ndarr
         scale = min(0.86 * w / img.get_width(), 0.78 * h / img.get_height())
         img = pg.transform.smoothscale_by(img, scale)
         s.blit(img, img.get_rect(center=(w // 2, h // 2)))
-    return _pg.to_array(s)
+    tex_w = 1 << max(5, (w - 1).bit_length())  # a power-of-two texture (the software renderer needs one), stretched back by the UVs
+    return _pg.to_array(pg.transform.smoothscale(s, (tex_w, h)))
 
 
 def face_texture(label: str, color: RGB, aspect: float, key: str = "") -> Any:

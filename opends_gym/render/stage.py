@@ -111,8 +111,7 @@ class Stage:
         sun.setDirection(p3d.LVector3(*SUN_DIR))
         self.ambient = self.root.attachNewNode(amb)
         self.sun = self.root.attachNewNode(sun)
-        self.objects.setLight(self.ambient)
-        self.objects.setLight(self.sun)
+        self.objects.setLightOff(1)  # our meshes carry baked shading; the user's own models get the lights
 
     def _ground_layer(self, node: Any, order: int, parent: Any = None) -> Any:
         np_ = (parent or self.ground).attachNewNode(node)
@@ -215,7 +214,6 @@ class Stage:
             self._scene_state[key] = state
 
     def _object_node(self, o: Any, parts: tuple[Part, ...]) -> Any:
-        p3d = panda()
         model = self.scene.models[o.index] if 0 <= o.index < len(self.scene.models) else None
         key = (model.key if model is not None else "") or ""
         custom = self._custom_model(key, o)
@@ -225,17 +223,14 @@ class Stage:
         if o.is_trigger:
             node.setRenderModeWireframe()
             node.setLightOff(1)
-        for p in parts:
-            if p.label or "sign" in key.lower():
-                from .sign_textures import face_texture
+        boards = [p for p in parts if p.label] or ([parts[-1]] if "sign" in key.lower() and len(parts) > 1 else [])
+        for p in boards[:1]:
+            from .sign_textures import face_texture
 
-                tex = face_texture(p.label, p.color, p.hx / max(0.5 * (p.y1 - p.y0), 1e-3), key)
-                board = meshes.textured_board_node("face", p.hx, p.y0, p.y1, p.hz, tex)
-                board.reparentTo(node)
-                board.setLightOff(1)
-                board.setPos(p.dx, -p.dz, 0.0)
-                break
-        del p3d
+            tex = face_texture(p.label, p.color, p.hx / max(0.5 * (p.y1 - p.y0), 1e-3), key)
+            board = meshes.textured_board_node("face", p.hx, p.y0, p.y1, p.hz, tex)
+            board.reparentTo(node)
+            board.setPos(p.dx, -p.dz, 0.0)
         return node
 
     def _custom_model(self, key: str, o: Any) -> Any:
@@ -251,6 +246,8 @@ class Stage:
         if node is None:
             raise ValueError(f"model map: cannot load {path!r} for {key!r}")
         np_ = self.objects.attachNewNode("custom")
+        np_.setLight(self.ambient, 2)
+        np_.setLight(self.sun, 2)
         model = np_.attachNewNode(node)
         lo, hi = model.getTightBounds() or (p3d.LPoint3(0, 0, 0), p3d.LPoint3(1, 1, 1))
         size = hi - lo
