@@ -93,6 +93,7 @@ class Stage:
         self._build_road()
         self._scene_nodes: dict[int, Any] = {}
         self._scene_state: dict[int, tuple[Any, ...]] = {}
+        self._scene_scale: dict[int, tuple[float, float, float]] = {}
         self._traffic: dict[int, CarNode | Any] = {}
         self._traffic_state: dict[int, tuple[Any, ...]] = {}
         self._lights_nodes = [TrafficLightNode(self.objects, p) for p in self.scene.lights]
@@ -205,10 +206,11 @@ class Stage:
             state = (True, o.position, o.yaw, o.scale)
             if self._scene_state.get(key) == state:
                 continue
-            if node is None or self._scene_state.get(key, (None, None, None, None))[3] != o.scale:
+            if node is None or self._scene_scale.get(key) != o.scale:
                 if node is not None:
                     node.removeNode()
                 node = self._scene_nodes[key] = self._object_node(o, self.scene.parts(o))
+                self._scene_scale[key] = o.scale
             node.show()
             node.setPosHpr(o.position[0], -o.position[2], base_y(o), math.degrees(o.yaw), 0.0, 0.0)
             self._scene_state[key] = state
