@@ -75,7 +75,11 @@ def probes(world: Any, viewer: Any, width: int, height: int) -> dict[str, tuple[
         s = world.ego.state
         out["marking"] = (*project((edge, s.y, s.z - 25.0)), pal.MARKING)
     s = world.ego.state
-    signs = [o for o in world.objects.objects if o.visible and "sign" in _key(world, o) and math.hypot(o.position[0] - s.x, o.position[2] - s.z) < 80.0]
+    signs = [
+        o
+        for o in world.objects.objects
+        if o.visible and "sign" in _key(world, o) and math.hypot(o.position[0] - s.x, o.position[2] - s.z) < 80.0
+    ]
     if signs:
         s = world.ego.state
         o = min(signs, key=lambda o: math.hypot(o.position[0] - s.x, o.position[2] - s.z))

@@ -20,12 +20,16 @@ SCRIPT = r"""
 import json, sys
 sys.path.insert(0, "docs")
 import gen_screenshots as g
+W, H = int(sys.argv[1]), int(sys.argv[2])
 out = {}
 for name in ("LaneChangeTest", "ThreeVehiclePlatoon", "init_drive"):
-    frame, probes = g.shoot(name, %d, %d)
-    out[name] = {k: [x, y, list(c), frame[max(0, int(y) - 3): int(y) + 4, max(0, int(x) - 3): int(x) + 4].tolist()] for k, (x, y, c) in probes.items()}
+    frame, probes = g.shoot(name, W, H)
+    out[name] = {}
+    for k, (x, y, c) in probes.items():
+        patch = frame[max(0, int(y) - 3) : int(y) + 4, max(0, int(x) - 3) : int(x) + 4]
+        out[name][k] = [x, y, list(c), patch.tolist()]
 print(json.dumps(out))
-""" % (W, H)
+"""
 
 
 def _near(patch: list, color: list[int], tol: int) -> bool:
@@ -35,7 +39,7 @@ def _near(patch: list, color: list[int], tol: int) -> bool:
 
 def test_window_pixels_at_projected_points(xvfb_display: str) -> None:  # noqa: F811
     env = {**os.environ, "DISPLAY": xvfb_display, "SDL_VIDEODRIVER": "x11", "SDL_AUDIODRIVER": "dummy", "PYTHONPATH": str(ROOT)}
-    proc = subprocess.run([sys.executable, "-c", SCRIPT], env=env, cwd=ROOT, capture_output=True, text=True, timeout=240)
+    proc = subprocess.run([sys.executable, "-c", SCRIPT, str(W), str(H)], env=env, cwd=ROOT, capture_output=True, text=True, timeout=240)
     assert proc.returncode == 0, proc.stderr[-3000:]
     out = json.loads(proc.stdout.strip().splitlines()[-1])
     lct, tvpt, od = out["LaneChangeTest"], out["ThreeVehiclePlatoon"], out["init_drive"]

@@ -141,7 +141,7 @@ class DriverViewRenderer:
         main = views[0][1]
         self.stage.sync(main.x, main.y, main.z, include_ego=not all(self.inside_car(c) for _, c in views))
         for node, (vp, cam) in zip(self._cams, views):
-            x, y, w, h = pixel_rect(width, height, vp)
+            _, _, w, h = pixel_rect(width, height, vp)
             self._place(node, cam, w, h)
         target.render()
         frame = target.rgb()
@@ -208,7 +208,7 @@ class DriverViewRenderer:
                 node = colour_cam.attachNewNode(p3d.Camera(f"depth{k}", colour_cam.node().getLens()))
                 self._depth.region(*vp, camera=node, sort=k)
         ts = p3d.TextureStage.getDefault()
-        for (vp, cam), colour_cam in zip(views, self._cams):
+        for (_, cam), colour_cam in zip(views, self._cams):
             node = colour_cam.getChild(0)
             m = p3d.Mat4(0, 0, 0, 0, 1.0 / cam.far, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1)
             state = p3d.RenderState.make(
@@ -224,12 +224,12 @@ class DriverViewRenderer:
             node.node().setCameraMask(bits)
         self._depth.render()
         rgb = self._depth.rgb().astype(np.int64)
-        i = rgb[..., 0] * 16 + rgb[..., 1] // 16
-        depth = np.empty(i.shape)
+        level: np.ndarray = rgb[..., 0] * 16 + rgb[..., 1] // 16
+        depth = np.empty(level.shape)
         for vp, cam in views:
             x, y, w, h = pixel_rect(width, height, vp)
-            depth[y : y + h, x : x + w] = (i[y : y + h, x : x + w] + 0.5) * (cam.far / DEPTH_LEVELS)
-        depth[i >= DEPTH_LEVELS - 1] = np.inf
+            depth[y : y + h, x : x + w] = (level[y : y + h, x : x + w] + 0.5) * (cam.far / DEPTH_LEVELS)
+        depth[level >= DEPTH_LEVELS - 1] = np.inf
         return depth
 
     @staticmethod

@@ -59,13 +59,13 @@ def pipe_name() -> str:
 def graphics_pipe() -> Any:
     """The process's graphics pipe (made once; every renderer shares it)."""
     name = pipe_name()
-    pipe = _STATE.get(("pipe", name))
+    pipe = _STATE.get("pipe:" + name)
     if pipe is None:
         p3d = panda()
         pipe = p3d.GraphicsPipeSelection.getGlobalPtr().makeModulePipe(PIPES[name])
         if pipe is None:
             raise RuntimeError(f"Panda3D graphics pipe {PIPES[name]!r} is not available here (set {PIPE_ENV}=tinydisplay)")
-        _STATE[("pipe", name)] = pipe
+        _STATE["pipe:" + name] = pipe
     return pipe
 
 

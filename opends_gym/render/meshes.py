@@ -10,6 +10,7 @@ coordinates (Y up, -Z forward); they are turned into Panda3D's (x, -z, y) here.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -120,7 +121,7 @@ def boxes_node(name: str, parts: tuple[Part, ...] | list[Part], bottom: bool = F
     return geom_node(name, to_panda_xyz(v), np.concatenate(cols), _quads_to_tris(len(v) // 4), to_panda_xyz(np.concatenate(norms)))
 
 
-def lamps_node(name: str, lamps: list[tuple[float, float, float, float, float, float, float]]) -> Any:
+def lamps_node(name: str, lamps: Sequence[tuple[float, ...]]) -> Any:
     """Flat lamp quads (x, y, z, nx, nz, half_w, half_h) in local coordinates, white (coloured by setColor)."""
     verts = []
     for x, y, z, nx, nz, hw, hh in lamps:
@@ -182,7 +183,9 @@ def sky_node(name: str, radius: float, horizon: RGB, zenith: RGB, top_elev_rad: 
     for e in elev:
         t = min(1.0, max(0.0, float(e) / top_elev_rad))
         col = np.asarray(horizon, np.float32) * (1 - t) + np.asarray(zenith, np.float32) * t
-        verts.append(np.stack([radius * math.cos(e) * np.cos(a), radius * math.cos(e) * np.sin(a), np.full_like(a, radius * math.sin(e))], 1))
+        verts.append(
+            np.stack([radius * math.cos(e) * np.cos(a), radius * math.cos(e) * np.sin(a), np.full_like(a, radius * math.sin(e))], 1)
+        )
         cols.append(np.tile(col, (segments, 1)))
     tris = []
     for k in range(len(elev) - 1):

@@ -17,6 +17,7 @@ import fnmatch
 import json
 import math
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -146,14 +147,14 @@ class Stage:
                              np.stack([np.full_like(z0, hi), z1], 1), np.stack([np.full_like(z0, lo), z1], 1)], 1)  # fmt: skip
             colors = np.tile(np.asarray(pal.ASPHALT, np.float32), (len(quad), 1))
             self._ground_layer(meshes.flat_quads_node("band", quad, colors), ORDER_ROAD, parent=self.bands)
-            lines = []
+            band_lines: list[np.ndarray] = []
             k = np.arange(-DASHES_M, DASHES_M, PERIOD_M)
             for e, dashed in road.band_marks:
                 if dashed:
-                    lines.append(np.stack([np.full_like(k, e), k, np.full_like(k, e), k + DASH_M], axis=1))
+                    band_lines.append(np.stack([np.full_like(k, e), k, np.full_like(k, e), k + DASH_M], axis=1))
                 else:
-                    lines.append(np.stack([np.full_like(z0, e), z0, np.full_like(z0, e), z1], axis=1))
-            q = meshes.line_quads_xz(np.concatenate(lines), MARK_HALF_W_M)
+                    band_lines.append(np.stack([np.full_like(z0, e), z0, np.full_like(z0, e), z1], axis=1))
+            q = meshes.line_quads_xz(np.concatenate(band_lines), MARK_HALF_W_M)
             node = meshes.flat_quads_node("band-marks", q, np.tile(np.asarray(pal.MARKING, np.float32), (len(q), 1)))
             self._ground_layer(node, ORDER_MARK, parent=self.bands)
 
@@ -193,7 +194,7 @@ class Stage:
         self._scene_sig = sig
         show_triggers = self.scene.show_triggers
         for o in objs:
-            seen = o.visible and not o.is_trigger or (o.is_trigger and show_triggers)
+            seen = (o.visible and not o.is_trigger) or (o.is_trigger and show_triggers)
             if seen and not o.is_trigger and base_y(o) + 2 * o.half[1] < ground_y:
                 seen = False  # buried under the ground the view draws (as OpenDS's terrain would hide it)
             key = o.index
@@ -281,7 +282,15 @@ class Stage:
                 node.hide()
                 continue
             node.show()
-            node.sync(float(pos[i][0]), float(pos[i][1]), float(pos[i][2]), float(tr.yaw[i]), bool(tr.brake_light[i]), int(tr.turn_signal[i]), blink_on)
+            node.sync(
+                float(pos[i][0]),
+                float(pos[i][1]),
+                float(pos[i][2]),
+                float(tr.yaw[i]),
+                bool(tr.brake_light[i]),
+                int(tr.turn_signal[i]),
+                blink_on,
+            )
 
 
 def object_parts(key: str, parts: tuple[Part, ...], o: Any) -> tuple[Part, ...]:
@@ -324,8 +333,8 @@ class CarNode:
         self._lamp_state: tuple[Any, ...] = ()
         self._shown = True
 
-    def _lamps(self, name: str, rows: list[tuple[float, ...]]) -> Any:
-        node = self.np.attachNewNode(meshes.lamps_node(name, rows))  # type: ignore[arg-type]
+    def _lamps(self, name: str, rows: Sequence[tuple[float, ...]]) -> Any:
+        node = self.np.attachNewNode(meshes.lamps_node(name, rows))
         node.setLightOff(1)
         return node
 
@@ -398,7 +407,7 @@ class TrafficLightNode:
                 a = side * 0.5 * math.pi
                 nx, nz = math.sin(a), math.cos(a)
                 rows.append((0.25 * nx, y, 0.25 * nz, nx, nz, 0.12, 0.12))
-            node = self.np.attachNewNode(meshes.lamps_node("lamp", rows))  # type: ignore[arg-type]
+            node = self.np.attachNewNode(meshes.lamps_node("lamp", rows))
             node.setLightOff(1)
             self.lamps.append(node)
         self._state = ""

@@ -15,11 +15,10 @@ particle filters; we keep their meaning, not their pixels:
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from dataclasses import dataclass
 
 from . import palette as pal
 
@@ -35,6 +34,7 @@ class Fog:
 
     def amount(self, depth: np.ndarray) -> np.ndarray:
         return 1.0 - np.exp(-self.density_per_m * np.maximum(depth, 0.0))
+
 
 MAX_PARTICLES = 900
 REF_AREA_PX = 1280 * 720
