@@ -98,10 +98,9 @@ class ViewComposer:
         w, h = surface.get_size()
         screens = self.screen_views(w, h)
         mirrors = [(name, *self.mirror_view(w, h, name)) for name in self.mirrors()] if self.view.camera_mode == "ego" else []
-        frame = self.view.render_views(w, h, [*screens, *((vp, cam) for _, vp, cam in mirrors)])
-        frame = self.view._precipitate(frame, [vp for vp, _ in screens])
+        self.view.blit_views(surface, [*screens, *((vp, cam) for _, vp, cam in mirrors)])
+        self.view.precipitate_on(surface, [vp for vp, _ in screens])
         pg = _pg.pygame()
-        surface.blit(_pg.from_array(frame), (0, 0))
         for _, vp, _cam in mirrors:
             x, y, rw, rh = pixel_rect(w, h, vp)
             pg.draw.rect(surface, (25, 25, 25), pg.Rect(x, y, rw, rh).inflate(max(4, rw // 20), max(4, rh // 10)), max(2, rw // 40))

@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from . import _pg
+from . import _pg, meshes
 from .camera import OPENDS_VFOV_DEG, Camera
 from .engine import Offscreen, panda
-from .stage import Stage
+from .stage import ORDER_SKY, Stage
 from .weather import Fog, Precipitation, fog_for, weather_of
 
 CAMERA_MODES = ("ego", "chase", "static_back", "top")
@@ -28,7 +28,10 @@ EYE_BACK_M, EYE_LEFT_M, EYE_HEIGHT_M = 0.25, 0.35, 1.2
 CHASE = {"chase": (7.0, 2.8, math.radians(-10.0)), "static_back": (12.0, 4.5, math.radians(-14.0))}
 TOP_HEIGHT_M = 45.0
 WIDE_ASPECT = 16.0 / 9.0
-INSIDE_BIT, OUTSIDE_BIT, DEPTH_BIT = 1, 2, 3  # camera masks: the ego car is hidden from cameras sitting in it
+# camera masks: the ego car shows only to cameras outside it, the grass disc only to the depth
+# pass, camera k's background card only to camera k (a node shows to a camera sharing a shown bit)
+INSIDE_BIT, OUTSIDE_BIT, DEPTH_BIT, CARD_BIT0 = 1, 2, 3, 8
+CARD_DIST_M = 100.0  # where a background card hangs in front of its camera (between near and far)
 DEPTH_LEVELS = 4096  # the depth pass encodes eye depth in 12 bits over the far distance (red: high, green: low bits)
 Viewport = tuple[float, float, float, float]  # left, right, bottom, top (fractions from the bottom-left)
 FULL: Viewport = (0.0, 1.0, 0.0, 1.0)
@@ -137,18 +140,35 @@ class DriverViewRenderer:
 
     def render_views(self, width: int, height: int, views: Sequence[tuple[Viewport, Camera]]) -> np.ndarray:
         """One frame with each camera in its viewport (later viewports on top), fogged; no rain or snow."""
-        target = self._prepare(width, height, views)
-        main = views[0][1]
-        self.stage.sync(main.x, main.y, main.z, include_ego=not all(self.inside_car(c) for _, c in views))
-        for node, (vp, cam) in zip(self._cams, views):
-            _, _, w, h = pixel_rect(width, height, vp)
-            self._place(node, cam, w, h)
-        target.render()
+        target = self._draw_views(width, height, views)
         frame = target.rgb()
         fog = fog_for(weather_of(self.world)) if self.weather else None
         if fog is not None:
             self._fog(frame, self._depth_pass(width, height, views), views, fog)
         return frame
+
+    def blit_views(self, surface: Any, views: Sequence[tuple[Viewport, Camera]]) -> None:
+        """`render_views` onto a pygame surface; without fog the frame goes there straight from
+        Panda3D's buffer (no numpy copy: what keeps a 1280x720 window fast)."""
+        pg = _pg.pygame()
+        w, h = surface.get_size()
+        if self.weather and fog_for(weather_of(self.world)) is not None:
+            surface.blit(_pg.from_array(self.render_views(w, h, views)), (0, 0))
+            return
+        target = self._draw_views(w, h, views)
+        fmt = {4: "BGRA", 3: "BGR"}[target.components()]
+        img = pg.image.frombuffer(target.bgra_bytes(), (w, h), fmt)
+        surface.blit(pg.transform.flip(img, False, True), (0, 0))
+
+    def _draw_views(self, width: int, height: int, views: Sequence[tuple[Viewport, Camera]]) -> Offscreen:
+        target = self._prepare(width, height, views)
+        main = views[0][1]
+        self.stage.sync(main.x, main.y, main.z, include_ego=not all(self.inside_car(c) for _, c in views))
+        for k, (node, (vp, cam)) in enumerate(zip(self._cams, views)):
+            _, _, w, h = pixel_rect(width, height, vp)
+            self._place(k, node, cam, w, h)
+        target.render()
+        return target
 
     def _prepare(self, width: int, height: int, views: Sequence[tuple[Viewport, Camera]]) -> Offscreen:
         layout = (width, height, tuple(vp for vp, _ in views))
@@ -164,6 +184,8 @@ class DriverViewRenderer:
         for node in self._cams:
             node.removeNode()
         self._cams = []
+        self._cards: list[Any] = []
+        self._card_keys: list[tuple[Any, ...]] = []
         if self._depth is not None:
             self._depth.close()
             self._depth = None
@@ -173,20 +195,41 @@ class DriverViewRenderer:
             node = self.stage.root.attachNewNode(cam_node)
             self._target.region(*vp, camera=node, sort=k)
             self._cams.append(node)
-        self.stage.ego.np.hide(p3d.BitMask32.bit(INSIDE_BIT))
-        self.stage.sky.hide(p3d.BitMask32.bit(DEPTH_BIT))
+            self._cards.append(None)
+            self._card_keys.append(())
+        everyone = p3d.BitMask32.allOn()
+        self.stage.ego.np.hide(everyone)
+        self.stage.ego.np.show(p3d.BitMask32.bit(OUTSIDE_BIT))
+        self.stage.grass.hide(everyone)
+        self.stage.grass.show(p3d.BitMask32.bit(DEPTH_BIT))
         self._layout = layout
         return self._target
 
-    def _place(self, node: Any, cam: Camera, w: int, h: int) -> None:
+    def _place(self, k: int, node: Any, cam: Camera, w: int, h: int) -> None:
         p3d = panda()
         lens = node.node().getLens()
+        focal = cam.focal_px(w, h)
         lens.setFilmSize(w, h)
-        lens.setFocalLength(cam.focal_px(w, h))
+        lens.setFocalLength(focal)
         lens.setNearFar(cam.near, cam.far)
-        node.node().setCameraMask(p3d.BitMask32.bit(INSIDE_BIT if self.inside_car(cam) else OUTSIDE_BIT))
+        mask = p3d.BitMask32.bit(INSIDE_BIT if self.inside_car(cam) else OUTSIDE_BIT) | p3d.BitMask32.bit(CARD_BIT0 + k)
+        node.node().setCameraMask(mask)
         node.setPosHpr(cam.x, -cam.z, cam.y, math.degrees(cam.yaw), math.degrees(cam.pitch), 0.0)
         node.setSx(-1.0 if cam.mirror else 1.0)
+        eye_height = max(cam.y - self.world.ego.state.y, 0.05)
+        key = (w, h, round(focal, 3), round(cam.pitch, 4), round(eye_height, 3))
+        if key != self._card_keys[k]:  # the sky-and-grass card: rebuilt only when the lens, pitch or eye height change
+            if self._cards[k] is not None:
+                self._cards[k].removeNode()
+            card = node.attachNewNode(meshes.background_node(f"background{k}", w, h, focal, cam.pitch, eye_height, CARD_DIST_M))
+            card.setBin("background", ORDER_SKY)
+            card.setDepthTest(False)
+            card.setDepthWrite(False)
+            card.setLightOff(1)
+            card.hide(p3d.BitMask32.allOn())
+            card.show(p3d.BitMask32.bit(CARD_BIT0 + k))
+            self._cards[k] = card
+            self._card_keys[k] = key
 
     def _depth_pass(self, width: int, height: int, views: Sequence[tuple[Viewport, Camera]]) -> np.ndarray:
         """Eye depth in metres per pixel (inf where the sky is): the scene drawn again with each
@@ -195,6 +238,7 @@ class DriverViewRenderer:
         p3d = panda()
         if self._depth is None:
             self._depth = Offscreen(width, height, clear=(1.0, 1.0, 0.0))
+            self._depth_cams: list[Any] = []
             ramp = p3d.Texture("depth-ramp")
             i = np.arange(DEPTH_LEVELS)
             rgb = np.stack([i // 16, (i % 16) * 16, np.zeros_like(i)], axis=1).astype(np.uint8)
@@ -207,9 +251,9 @@ class DriverViewRenderer:
             for k, ((vp, _), colour_cam) in enumerate(zip(views, self._cams)):
                 node = colour_cam.attachNewNode(p3d.Camera(f"depth{k}", colour_cam.node().getLens()))
                 self._depth.region(*vp, camera=node, sort=k)
+                self._depth_cams.append(node)
         ts = p3d.TextureStage.getDefault()
-        for (_, cam), colour_cam in zip(views, self._cams):
-            node = colour_cam.getChild(0)
+        for (_, cam), colour_cam, node in zip(views, self._cams, self._depth_cams):
             m = p3d.Mat4(0, 0, 0, 0, 1.0 / cam.far, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1)
             state = p3d.RenderState.make(
                 p3d.TextureAttrib.make(self._ramp),
@@ -220,7 +264,8 @@ class DriverViewRenderer:
                 10000,
             )
             node.node().setInitialState(state)
-            bits = colour_cam.node().getCameraMask() | p3d.BitMask32.bit(DEPTH_BIT)
+            inside = colour_cam.node().getCameraMask() & p3d.BitMask32.bit(INSIDE_BIT)
+            bits = p3d.BitMask32.bit(DEPTH_BIT) | (inside if inside.getWord() else p3d.BitMask32.bit(OUTSIDE_BIT))
             node.node().setCameraMask(bits)
         self._depth.render()
         rgb = self._depth.rgb().astype(np.int64)
@@ -243,9 +288,15 @@ class DriverViewRenderer:
         weather = weather_of(self.world) if self.weather else {}
         if not any(weather.get(k, -1.0) > 0 for k in ("raining_percent", "snowing_percent")):
             return frame
-        h, w = frame.shape[:2]
         surface = _pg.from_array(frame).copy()
-        for vp in viewports:
-            sub = surface.subsurface(pixel_rect(w, h, vp))
-            self.precipitation.draw(sub, weather, self.world.t_s)
+        self.precipitate_on(surface, viewports)
         return _pg.to_array(surface)
+
+    def precipitate_on(self, surface: Any, viewports: Sequence[Viewport]) -> None:
+        """Rain streaks and snow flakes (screen space, simulation time) over each viewport."""
+        weather = weather_of(self.world) if self.weather else {}
+        if not any(weather.get(k, -1.0) > 0 for k in ("raining_percent", "snowing_percent")):
+            return
+        w, h = surface.get_size()
+        for vp in viewports:
+            self.precipitation.draw(surface.subsurface(pixel_rect(w, h, vp)), weather, self.world.t_s)

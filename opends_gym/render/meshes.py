@@ -207,3 +207,41 @@ def textured_board_node(name: str, hx: float, y0: float, y1: float, hz: float, t
     np_ = p3d.NodePath(node)
     np_.setTexture(texture, 1)
     return np_
+
+
+def background_rows(height: int, focal_px: float, pitch: float, eye_height_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Screen rows (from the top, pixels) and their sky or grass colour for a camera at `pitch`
+    looking over flat ground `eye_height_m` below: the sky blends from the horizon colour to the
+    zenith by elevation, the grass from near to far by the ground's distance (400 m)."""
+    from . import palette as pal
+
+    horizon = 0.5 * height + focal_px * math.tan(pitch) if abs(pitch) < 1.5 else (-1e9 if pitch < 0 else 1e9)
+    rows = np.unique(np.concatenate([np.linspace(0.0, height, 25), [0.0, height]]))
+    rows = rows[(rows < horizon - 0.5) | (rows > horizon + 0.5)]
+    if 0.0 < horizon < height:
+        rows = np.sort(np.concatenate([rows, [horizon - 1e-3, horizon + 1e-3]]))
+    a = (0.5 * height - rows) / focal_px
+    dy = math.sin(pitch) + a * math.cos(pitch)  # world-up part of each row's ray
+    with np.errstate(divide="ignore"):
+        depth = np.where(dy < -1e-9, eye_height_m / -dy * np.sqrt(1.0 + a * a), np.inf)
+    sky = np.isinf(depth)
+    t_far = np.clip(np.where(sky, 1.0, depth / 400.0), 0.0, 1.0)[:, None]
+    ground = np.asarray(pal.GRASS, float) * (1 - t_far) + np.asarray(pal.GRASS_FAR, float) * t_far
+    elev = np.clip((np.arctan(a) + pitch) / 0.6, 0.0, 1.0)[:, None]
+    sky_col = np.asarray(pal.SKY_HORIZON, float) * (1 - elev) + np.asarray(pal.SKY_ZENITH, float) * elev
+    return rows, np.where(sky[:, None], sky_col, ground)
+
+
+def background_node(name: str, width: int, height: int, focal_px: float, pitch: float, eye_height_m: float, dist: float) -> Any:
+    """A card filling a camera's view at `dist` (in the camera's own frame) painted with `background_rows`."""
+    rows, cols = background_rows(height, focal_px, pitch, eye_height_m)
+    n = len(rows)
+    half_w = (0.5 * width + 2.0) / focal_px * dist
+    z = (0.5 * height - rows) / focal_px * dist
+    v = np.zeros((2 * n, 3), np.float32)
+    v[0::2, 0], v[1::2, 0] = -half_w, half_w
+    v[:, 1] = dist
+    v[0::2, 2] = v[1::2, 2] = z
+    k = np.arange(n - 1, dtype=np.uint32)[:, None] * 2
+    tris = np.concatenate([k + np.array([0, 1, 3], np.uint32), k + np.array([0, 3, 2], np.uint32)])
+    return geom_node(name, v, np.repeat(cols.astype(np.float32), 2, axis=0), tris)

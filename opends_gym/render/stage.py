@@ -6,7 +6,7 @@ Gen A/B waypoint roads, the ego's start connector) becomes static meshes; scene 
 traffic cars, pedestrians, traffic lights and the ego car are nodes built on first sight
 whose pose, visibility and lamp colours `sync()` copies from the World.
 
-Ground layers (sky, grass, asphalt, markings) are drawn first in a fixed order without
+Ground layers (the cameras' sky-and-grass cards, asphalt, markings) are drawn first in a fixed order without
 depth test or write: no z-fighting between grass, road and paint at any distance. Objects
 are drawn over them with depth; models whose top lies below the ground are not drawn.
 """
@@ -31,7 +31,6 @@ from .scene import BLINK_HZ, LAMPS_BY_STATE, LIGHT_HOUSING_M, LIGHT_POLE_M, Worl
 from .styles import Part, car_parts
 
 MODEL_MAP_ENV = "OPENDS_GYM_MODEL_MAP"
-SKY_RADIUS_M = 1500.0
 GRASS_RINGS = [(r, pal.blend(pal.GRASS, pal.GRASS_FAR, r / 400.0)) for r in (8.0, 30.0, 100.0, 400.0, 1900.0)]
 DASHES_M = 306.0  # dashes further than this are below a pixel wide at 1920x1080: left out (low-poly LOD)
 BAND_HALF_LENGTH_M = 1080.0  # the LCT's endless straight lanes: a 2 km piece that follows the viewer
@@ -85,10 +84,11 @@ class Stage:
         self.root.setTransparency(p3d.TransparencyAttrib.MNone)
         self.ground = self.root.attachNewNode("ground")
         self.ground.setLightOff(1)
+        self.background = self.root.attachNewNode("backgrounds")  # the cameras' cards hang under their cameras
         self.objects = self.root.attachNewNode("objects")
         self._lights()
-        # (the fog's depth pass hides the sky: it is infinitely far)
-        self.sky = self._ground_layer(meshes.sky_node("sky", SKY_RADIUS_M, pal.SKY_HORIZON, pal.SKY_ZENITH, segments=16), ORDER_SKY)
+        # sky and grass: each camera carries a background card (driver_view); the grass disc is
+        # drawn only in the fog's depth pass, where the ground's distance matters
         self.grass = self._ground_layer(meshes.disc_node("grass", GRASS_RINGS, segments=20), ORDER_GRASS)
         self.road_np = self.ground.attachNewNode("road")
         self._build_road()
@@ -168,7 +168,6 @@ class Stage:
         w = self.world
         ground_y = w.ego.state.y
         self.ground.setZ(ground_y)
-        self.sky.setPos(cam_x, -cam_z, cam_y - ground_y)
         self.grass.setPos(cam_x, -cam_z, 0.0)
         if self.bands is not None:
             self.bands.setY(-round(cam_z / PERIOD_M) * PERIOD_M)
