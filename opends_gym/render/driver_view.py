@@ -5,7 +5,10 @@ no display and no GPU. The World's scene graph (`stage.Stage`) is rendered offsc
 Panda3D (`engine`); several cameras can share one frame as display regions (screens,
 mirrors). Fog is applied from the depth buffer with OpenDS's visibility (`weather`), rain
 and snow go on top. Camera modes follow OpenDS's `cameraMode`: ego (driver's eye), chase
-(behind and above), static_back (further back), top (straight down, car pointing up).
+(behind and above), static_back (further back), top (straight down, car pointing up),
+outside (a fixed camera at the settings' `outsideCamPosition` that follows the car with its
+gaze). The settings' `frustumNear`/`frustumFar` set the lens's clipping planes, and
+`showHood` puts the bonnet in the driver's view.
 """
 
 from __future__ import annotations
@@ -17,12 +20,13 @@ from typing import Any
 import numpy as np
 
 from . import _pg, meshes
-from .camera import OPENDS_VFOV_DEG, Camera
+from .camera import OPENDS_FAR_M, OPENDS_VFOV_DEG, Camera
 from .engine import Offscreen, panda
 from .stage import ORDER_SKY, Stage
 from .weather import Fog, Precipitation, fog_for, weather_of
 
-CAMERA_MODES = ("ego", "chase", "static_back", "top")
+CAMERA_MODES = ("ego", "chase", "static_back", "top", "outside")
+OUTSIDE_OFFSET_M = (12.0, 4.0, 6.0)  # outside camera without `outsideCamPosition`: right, up, back of the start pose
 # driver's eye relative to the car's reference point: behind it, left of centre, above the ground
 EYE_BACK_M, EYE_LEFT_M, EYE_HEIGHT_M = 0.25, 0.35, 1.2
 CHASE = {"chase": (7.0, 2.8, math.radians(-10.0)), "static_back": (12.0, 4.5, math.radians(-14.0))}
@@ -75,6 +79,11 @@ class DriverViewRenderer:
         self.vfov_deg = vfov_deg
         self.weather = weather
         self.stage = Stage(world, show_triggers=show_triggers, model_map=model_map)
+        settings = getattr(getattr(world, "task", None), "settings", None)
+        self._general = getattr(settings, "general", None)
+        self._near: float | None = getattr(self._general, "frustum_near_m", None)
+        self._far: float | None = getattr(self._general, "frustum_far_m", None)
+        self.show_hood = bool(getattr(self._general, "show_hood", False))
         self.scene = self.stage.scene
         self.precipitation = Precipitation()
         self._target: Offscreen | None = None
@@ -103,16 +112,34 @@ class DriverViewRenderer:
         s = self.world.ego.state
         mode = mode or self.camera_mode
         vfov = vfov_rad or (math.radians(self.vfov_deg) if self.vfov_deg else default_vfov_rad(width, height))
+        if mode == "outside" and eye_offset is None:
+            x, y, z = self.outside_position()
+            dx, dy, dz = s.x - x, s.y + 0.8 - y, s.z - z
+            yaw, pitch = math.atan2(-dx, -dz), math.atan2(dy, math.hypot(dx, dz))
+            return Camera(x, y, z, yaw, pitch, vfov, hfov_rad, self._near or 0.5, self._far or OPENDS_FAR_M, mirror=mirror)
         fx, fz = -math.sin(s.yaw), -math.cos(s.yaw)
         rx, rz = math.cos(s.yaw), -math.sin(s.yaw)
         if mode == "ego" or eye_offset is not None:
             right, up, back = eye_offset if eye_offset is not None else (-EYE_LEFT_M, EYE_HEIGHT_M, EYE_BACK_M)
             x, y, z = s.x + right * rx - back * fx, s.y + up, s.z + right * rz - back * fz
-            return Camera(x, y, z, s.yaw + yaw_offset, pitch, vfov, hfov_rad, 0.3, mirror=mirror)
+            return Camera(x, y, z, s.yaw + yaw_offset, pitch, vfov, hfov_rad, self._near or 0.3, self._far or OPENDS_FAR_M, mirror=mirror)
         if mode == "top":
-            return Camera(s.x, s.y + TOP_HEIGHT_M, s.z, s.yaw + yaw_offset, -0.5 * math.pi, vfov, hfov_rad, 1.0, mirror=mirror)
+            top = s.y + TOP_HEIGHT_M
+            return Camera(s.x, top, s.z, s.yaw + yaw_offset, -0.5 * math.pi, vfov, hfov_rad, 1.0, self._far or OPENDS_FAR_M, mirror=mirror)
         back, up, tilt = CHASE[mode]
-        return Camera(s.x - back * fx, s.y + up, s.z - back * fz, s.yaw + yaw_offset, tilt + pitch, vfov, hfov_rad, 0.5, mirror=mirror)
+        x, y, z, yaw = s.x - back * fx, s.y + up, s.z - back * fz, s.yaw + yaw_offset
+        return Camera(x, y, z, yaw, tilt + pitch, vfov, hfov_rad, self._near or 0.5, self._far or OPENDS_FAR_M, mirror=mirror)
+
+    def outside_position(self) -> tuple[float, float, float]:
+        """The outside camera's fixed place: `outsideCamPosition`, else beside the start pose."""
+        pos = getattr(self._general, "outside_cam_position", None)
+        if pos is not None and None not in (pos.x, pos.y, pos.z):
+            return (float(pos.x), float(pos.y), float(pos.z))
+        start = self.world.start_pose
+        x, y, z = start.position_m
+        yaw = start.yaw_rad
+        right, up, back = OUTSIDE_OFFSET_M
+        return (x + right * math.cos(yaw) + back * math.sin(yaw), y + up, z - right * math.sin(yaw) + back * math.cos(yaw))
 
     def inside_car(self, cam: Camera) -> bool:
         """True for a camera sitting in the ego car (the driver's eye, a mirror): the ego is not drawn for it."""
@@ -200,6 +227,8 @@ class DriverViewRenderer:
         everyone = p3d.BitMask32.allOn()
         self.stage.ego.np.hide(everyone)
         self.stage.ego.np.show(p3d.BitMask32.bit(OUTSIDE_BIT))
+        if self.show_hood:
+            self.stage.hood.show(p3d.BitMask32.bit(INSIDE_BIT))
         self.stage.grass.hide(everyone)
         self.stage.grass.show(p3d.BitMask32.bit(DEPTH_BIT))
         self._layout = layout

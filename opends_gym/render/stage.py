@@ -99,6 +99,12 @@ class Stage:
         self._traffic_state: dict[int, tuple[Any, ...]] = {}
         self._lights_nodes = [TrafficLightNode(self.objects, p) for p in self.scene.lights]
         self.ego = CarNode(self.objects, car_parts(*self._ego_size(), pal.EGO))
+        hx, hz, height = self._ego_size()
+        body = car_parts(hx, hz, height, pal.EGO)[0]  # the bonnet, for OpenDS's `showHood` (driver_view shows it)
+        self.hood = self.objects.attachNewNode(
+            meshes.boxes_node("hood", (Part(0.0, -0.72 * hz, body.y0, body.y1, hx, 0.28 * hz, pal.EGO),))
+        )
+        self.hood.hide(panda().BitMask32.allOn())
         self._light_objects = {p.object_id for p in self.scene.lights if p.object_id}
         self._watched = [o for o in world.objects.objects if o.id not in self._light_objects and (show_triggers or not o.is_trigger)]
         self._scene_sig: tuple[Any, ...] = ()
@@ -176,8 +182,9 @@ class Stage:
         self._sync_traffic(ground_y, blink_on)
         for node in self._lights_nodes:
             node.sync(self.scene, w)
+        box = w.ego_obb()
+        self.hood.setPosHpr(box.cx, -box.cz, w.ego.state.y, math.degrees(box.yaw), 0.0, 0.0)
         if include_ego:
-            box = w.ego_obb()
             inputs = w.ego.inputs
             signal = {"left": 1, "right": 2, "both": 3}.get(str(inputs.turn_signal), 0)
             self.ego.show()
