@@ -90,7 +90,7 @@ def test_model_map_swaps_an_opends_model_for_the_users_file(tmp_path: Path) -> N
     magenta = lambda f: ((f[..., 0] > 120) & (f[..., 2] > 120) & (f[..., 1] < 60)).sum()  # noqa: E731
     assert magenta(plain) == 0 and magenta(mapped) > 20
     (tmp_path / "bad.json").write_text("[1, 2]")
-    with pytest.raises(ValueError, match="bad.json: model map must map"):
+    with pytest.raises(ValueError, match=r"bad\.json: model map must map"):
         make_renderer("driver_view", world, model_map=tmp_path / "bad.json")
 
 

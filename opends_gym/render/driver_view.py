@@ -213,6 +213,7 @@ class DriverViewRenderer:
         self._cams = []
         self._cards: list[Any] = []
         self._card_keys: list[tuple[Any, ...]] = []
+        self._lens_keys: list[tuple[Any, ...]] = []
         if self._depth is not None:
             self._depth.close()
             self._depth = None
@@ -224,6 +225,7 @@ class DriverViewRenderer:
             self._cams.append(node)
             self._cards.append(None)
             self._card_keys.append(())
+            self._lens_keys.append(())
         everyone = p3d.BitMask32.allOn()
         self.stage.ego.np.hide(everyone)
         self.stage.ego.np.show(p3d.BitMask32.bit(OUTSIDE_BIT))
@@ -236,15 +238,17 @@ class DriverViewRenderer:
 
     def _place(self, k: int, node: Any, cam: Camera, w: int, h: int) -> None:
         p3d = panda()
-        lens = node.node().getLens()
         focal = cam.focal_px(w, h)
-        lens.setFilmSize(w, h)
-        lens.setFocalLength(focal)
-        lens.setNearFar(cam.near, cam.far)
-        mask = p3d.BitMask32.bit(INSIDE_BIT if self.inside_car(cam) else OUTSIDE_BIT) | p3d.BitMask32.bit(CARD_BIT0 + k)
-        node.node().setCameraMask(mask)
-        node.setPosHpr(cam.x, -cam.z, cam.y, math.degrees(cam.yaw), math.degrees(cam.pitch), 0.0)
-        node.setSx(-1.0 if cam.mirror else 1.0)
+        inside = self.inside_car(cam)
+        lens_key = (w, h, focal, cam.near, cam.far, inside, cam.mirror)
+        if lens_key != self._lens_keys[k]:  # (a lens change makes Panda3D recompute its matrices: only when needed)
+            lens = node.node().getLens()
+            lens.setFilmSize(w, h)
+            lens.setFocalLength(focal)
+            lens.setNearFar(cam.near, cam.far)
+            node.node().setCameraMask(p3d.BitMask32.bit(INSIDE_BIT if inside else OUTSIDE_BIT) | p3d.BitMask32.bit(CARD_BIT0 + k))
+            self._lens_keys[k] = lens_key
+        node.setPosHprScale(cam.x, -cam.z, cam.y, math.degrees(cam.yaw), math.degrees(cam.pitch), 0.0, -1.0 if cam.mirror else 1.0, 1.0, 1.0)
         eye_height = max(cam.y - self.world.ego.state.y, 0.05)
         key = (w, h, round(focal, 3), round(cam.pitch, 4), round(eye_height, 3))
         if key != self._card_keys[k]:  # the sky-and-grass card: rebuilt only when the lens, pitch or eye height change
