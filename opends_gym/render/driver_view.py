@@ -229,6 +229,7 @@ class DriverViewRenderer:
         everyone = p3d.BitMask32.allOn()
         self.stage.ego.np.hide(everyone)
         self.stage.ego.np.show(p3d.BitMask32.bit(OUTSIDE_BIT))
+        self.stage.show_hood = self.show_hood
         if self.show_hood:
             self.stage.hood.show(p3d.BitMask32.bit(INSIDE_BIT))
         self.stage.grass.hide(everyone)
@@ -248,7 +249,9 @@ class DriverViewRenderer:
             lens.setNearFar(cam.near, cam.far)
             node.node().setCameraMask(p3d.BitMask32.bit(INSIDE_BIT if inside else OUTSIDE_BIT) | p3d.BitMask32.bit(CARD_BIT0 + k))
             self._lens_keys[k] = lens_key
-        node.setPosHprScale(cam.x, -cam.z, cam.y, math.degrees(cam.yaw), math.degrees(cam.pitch), 0.0, -1.0 if cam.mirror else 1.0, 1.0, 1.0)
+        node.setPosHprScale(
+            cam.x, -cam.z, cam.y, math.degrees(cam.yaw), math.degrees(cam.pitch), 0.0, -1.0 if cam.mirror else 1.0, 1.0, 1.0
+        )
         eye_height = max(cam.y - self.world.ego.state.y, 0.05)
         key = (w, h, round(focal, 3), round(cam.pitch, 4), round(eye_height, 3))
         if key != self._card_keys[k]:  # the sky-and-grass card: rebuilt only when the lens, pitch or eye height change
@@ -300,6 +303,7 @@ class DriverViewRenderer:
             inside = colour_cam.node().getCameraMask() & p3d.BitMask32.bit(INSIDE_BIT)
             bits = p3d.BitMask32.bit(DEPTH_BIT) | (inside if inside.getWord() else p3d.BitMask32.bit(OUTSIDE_BIT))
             node.node().setCameraMask(bits)
+        self.stage.place_grass()
         self._depth.render()
         rgb = self._depth.rgb().astype(np.int64)
         level: np.ndarray = rgb[..., 0] * 16 + rgb[..., 1] // 16

@@ -105,6 +105,10 @@ class Stage:
             meshes.boxes_node("hood", (Part(0.0, -0.72 * hz, body.y0, body.y1, hx, 0.28 * hz, pal.EGO),))
         )
         self.hood.hide(panda().BitMask32.allOn())
+        self.show_hood = False
+        self._ground_y: float | None = None
+        self._band_y: float | None = None
+        self._cam = (0.0, 0.0)
         self._light_objects = {p.object_id for p in self.scene.lights if p.object_id}
         self._watched = [o for o in world.objects.objects if o.id not in self._light_objects and (show_triggers or not o.is_trigger)]
         self._scene_sig: tuple[Any, ...] = ()
@@ -173,24 +177,31 @@ class Stage:
         """Copy the World's current state into the scene graph for a camera at (x, y, z)."""
         w = self.world
         ground_y = w.ego.state.y
-        self.ground.setZ(ground_y)
-        self.grass.setPos(cam_x, -cam_z, 0.0)
+        if ground_y != self._ground_y:
+            self.ground.setZ(ground_y)
+            self._ground_y = ground_y
+        self._cam = (cam_x, cam_z)
         if self.bands is not None:
-            self.bands.setY(-round(cam_z / PERIOD_M) * PERIOD_M)
+            band_y = -round(cam_z / PERIOD_M) * PERIOD_M
+            if band_y != self._band_y:
+                self.bands.setY(band_y)
+                self._band_y = band_y
         blink_on = math.floor(w.t_s * 2.0 * BLINK_HZ) % 2 == 0
         self._sync_scene(ground_y)
         self._sync_traffic(ground_y, blink_on)
         for node in self._lights_nodes:
             node.sync(self.scene, w)
-        box = w.ego_obb()
-        self.hood.setPosHpr(box.cx, -box.cz, w.ego.state.y, math.degrees(box.yaw), 0.0, 0.0)
-        if include_ego:
+        if include_ego or self.show_hood:  # (the ego shows only to cameras outside it: driver_view's masks)
+            box = w.ego_obb()
+            if self.show_hood:
+                self.hood.setPosHpr(box.cx, -box.cz, ground_y, math.degrees(box.yaw), 0.0, 0.0)
             inputs = w.ego.inputs
             signal = {"left": 1, "right": 2, "both": 3}.get(str(inputs.turn_signal), 0)
-            self.ego.show()
-            self.ego.sync(box.cx, w.ego.state.y, box.cz, box.yaw, inputs.brake > 0.02, signal, blink_on)
-        else:
-            self.ego.hide()
+            self.ego.sync(box.cx, ground_y, box.cz, box.yaw, inputs.brake > 0.02, signal, blink_on)
+
+    def place_grass(self) -> None:
+        """Centre the grass disc (drawn only by the fog's depth pass) under the last camera."""
+        self.grass.setPos(self._cam[0], -self._cam[1], 0.0)
 
     def _sync_scene(self, ground_y: float) -> None:
         objs = self._watched
