@@ -22,7 +22,7 @@ import numpy as np
 from . import _pg, meshes
 from .camera import OPENDS_FAR_M, OPENDS_VFOV_DEG, Camera
 from .engine import Offscreen, panda
-from .stage import ORDER_SKY, Stage
+from .stage import CARD_BIT0, DEPTH_BIT, INSIDE_BIT, ORDER_SKY, OUTSIDE_BIT, Stage
 from .weather import Fog, Precipitation, fog_for, weather_of
 
 CAMERA_MODES = ("ego", "chase", "static_back", "top", "outside")
@@ -32,9 +32,6 @@ EYE_BACK_M, EYE_LEFT_M, EYE_HEIGHT_M = 0.25, 0.35, 1.2
 CHASE = {"chase": (7.0, 2.8, math.radians(-10.0)), "static_back": (12.0, 4.5, math.radians(-14.0))}
 TOP_HEIGHT_M = 45.0
 WIDE_ASPECT = 16.0 / 9.0
-# camera masks: the ego car shows only to cameras outside it, the grass disc only to the depth
-# pass, camera k's background card only to camera k (a node shows to a camera sharing a shown bit)
-INSIDE_BIT, OUTSIDE_BIT, DEPTH_BIT, CARD_BIT0 = 1, 2, 3, 8
 CARD_DIST_M = 100.0  # where a background card hangs in front of its camera (between near and far)
 DEPTH_LEVELS = 4096  # the depth pass encodes eye depth in 12 bits over the far distance (red: high, green: low bits)
 Viewport = tuple[float, float, float, float]  # left, right, bottom, top (fractions from the bottom-left)
@@ -226,14 +223,9 @@ class DriverViewRenderer:
             self._cards.append(None)
             self._card_keys.append(())
             self._lens_keys.append(())
-        everyone = p3d.BitMask32.allOn()
-        self.stage.ego.np.hide(everyone)
-        self.stage.ego.np.show(p3d.BitMask32.bit(OUTSIDE_BIT))
         self.stage.show_hood = self.show_hood
         if self.show_hood:
             self.stage.hood.show(p3d.BitMask32.bit(INSIDE_BIT))
-        self.stage.grass.hide(everyone)
-        self.stage.grass.show(p3d.BitMask32.bit(DEPTH_BIT))
         self._layout = layout
         return self._target
 

@@ -103,7 +103,7 @@ SUN_LOCAL = np.array([0.45, 0.8, 0.38]) / np.linalg.norm([0.45, 0.8, 0.38])  # t
 AMBIENT, DIFFUSE = 0.62, 0.38
 
 
-def boxes_node(name: str, parts: tuple[Part, ...] | list[Part], bottom: bool = False) -> Any:
+def boxes_node(name: str, parts: tuple[Part, ...] | list[Part], bottom: bool = False, shade: bool = True) -> Any:
     """Upright boxes in an object's local frame (x right, z back, y up from its base), shaded by a
     sun baked into the vertex colours (flat, deterministic, and no lighting cost per frame)."""
     faces = 6 if bottom else 5
@@ -113,8 +113,8 @@ def boxes_node(name: str, parts: tuple[Part, ...] | list[Part], bottom: bool = F
         half = np.array([p.hx, 0.5 * (p.y1 - p.y0), p.hz], np.float32)
         verts.append((centre + _CORNERS[:faces] * half).reshape(-1, 3))
         norms.append(np.repeat(_NORMALS[:faces], 4, axis=0))
-        shade = AMBIENT + DIFFUSE * np.clip(_NORMALS[:faces] @ SUN_LOCAL, 0.0, 1.0)
-        cols.append(np.repeat(np.asarray(p.color, np.float32)[None, :] * shade[:, None], 4, axis=0))
+        light = AMBIENT + DIFFUSE * np.clip(_NORMALS[:faces] @ SUN_LOCAL, 0.0, 1.0) if shade else np.ones(faces)
+        cols.append(np.repeat(np.asarray(p.color, np.float32)[None, :] * light[:, None], 4, axis=0))
     if not verts:
         return panda().GeomNode(name)
     v = np.concatenate(verts)

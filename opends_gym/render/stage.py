@@ -36,7 +36,38 @@ DASHES_M = 306.0  # dashes further than this are below a pixel wide at 1920x1080
 BAND_HALF_LENGTH_M = 1080.0  # the LCT's endless straight lanes: a 2 km piece that follows the viewer
 BURIED_TRAFFIC_M = 5.0  # traffic parked this far below the ego is not drawn (init_drive parks pedestrians at -50 m)
 SUN_DIR = (-0.45, -0.38, -0.8)  # Panda3D (x, y, z) direction the sunlight travels
-ORDER_SKY, ORDER_GRASS, ORDER_ROAD, ORDER_MARK = 0, 1, 2, 3
+ORDER_SKY, ORDER_GRASS, ORDER_ROAD, ORDER_MARK, ORDER_TRACK = 0, 1, 2, 3, 4
+# camera masks (a node shows to a camera that has one of the node's shown bits): the ego shows to
+# cameras outside it and to the map, the grass disc only to the fog's depth pass, map symbols
+# (wide lines, ideal tracks, lamps seen from above, traffic-light discs) only to the map, and
+# camera k's background card only to camera k
+INSIDE_BIT, OUTSIDE_BIT, DEPTH_BIT, MAP_BIT, CARD_BIT0 = 1, 2, 3, 4, 8
+MAP_LINE_PX = 1.2  # map lines are at least this wide (thinner ones would miss pixel centres)
+LIGHT_DISC_M = 0.6
+MAP_FOOTPRINT_M = 0.6  # half size: a sign board seen from above is a few centimetres thin
+MAP_LIGHT_COLORS = {
+    (True, False, False): pal.LAMP_RED,
+    (False, True, False): pal.LAMP_YELLOW,
+    (False, False, True): pal.LAMP_GREEN,
+    (True, True, False): pal.LAMP_YELLOW,
+    (True, True, True): pal.LAMP_YELLOW,
+}
+
+
+def bits(*names: int) -> Any:
+    """A camera or show mask of the given bits."""
+    p3d = panda()
+    mask = p3d.BitMask32()
+    for b in names:
+        mask |= p3d.BitMask32.bit(b)
+    return mask
+
+
+def only_for(node: Any, *names: int) -> Any:
+    """Show `node` only to cameras with one of these bits."""
+    node.hide(panda().BitMask32.allOn())
+    node.show(bits(*names))
+    return node
 
 
 def _rgba(c: tuple[int, int, int] | tuple[float, ...]) -> tuple[float, float, float, float]:
@@ -104,8 +135,13 @@ class Stage:
         self.hood = self.objects.attachNewNode(
             meshes.boxes_node("hood", (Part(0.0, -0.72 * hz, body.y0, body.y1, hx, 0.28 * hz, pal.EGO),))
         )
-        self.hood.hide(panda().BitMask32.allOn())
+        only_for(self.hood, INSIDE_BIT)
+        self.hood.hide(panda().BitMask32.allOn())  # until driver_view asks for it (showHood)
+        only_for(self.ego.np, OUTSIDE_BIT, MAP_BIT)
+        only_for(self.grass, DEPTH_BIT)
         self.show_hood = False
+        self._map_key: tuple[float, bool] | None = None
+        self._map_nodes: list[Any] = []
         self._ground_y: float | None = None
         self._band_y: float | None = None
         self._cam = (0.0, 0.0)
@@ -144,11 +180,13 @@ class Stage:
                     lines = lines[(0.5 * (s[:-1] + s[1:])) % PERIOD_M < DASH_M]
                 if len(lines):
                     marks.append(lines)
+        self.ribbon_lines = np.concatenate(marks) if marks else np.zeros((0, 4))
         if marks:
             q = meshes.line_quads_xz(np.concatenate(marks), MARK_HALF_W_M)
             node = meshes.flat_quads_node("marks", q, np.tile(np.asarray(pal.MARKING, np.float32), (len(q), 1)))
             self._ground_layer(node, ORDER_MARK, parent=self.road_np)
         self.bands = None
+        self.band_lines = np.zeros((0, 4))
         if road.bands:
             self.bands = self.ground.attachNewNode("bands")
             lo, hi = road.band_x
@@ -164,9 +202,33 @@ class Stage:
                     band_lines.append(np.stack([np.full_like(k, e), k, np.full_like(k, e), k + DASH_M], axis=1))
                 else:
                     band_lines.append(np.stack([np.full_like(z0, e), z0, np.full_like(z0, e), z1], axis=1))
-            q = meshes.line_quads_xz(np.concatenate(band_lines), MARK_HALF_W_M)
+            self.band_lines = np.concatenate(band_lines)
+            q = meshes.line_quads_xz(self.band_lines, MARK_HALF_W_M)
             node = meshes.flat_quads_node("band-marks", q, np.tile(np.asarray(pal.MARKING, np.float32), (len(q), 1)))
             self._ground_layer(node, ORDER_MARK, parent=self.bands)
+
+    def map_symbols(self, scale_px_per_m: float, ideal_tracks: bool) -> None:
+        """(Re)build the map's wide lane lines and ideal tracks for a scale (at least `MAP_LINE_PX` wide)."""
+        key = (round(max(MARK_HALF_W_M, 0.5 * MAP_LINE_PX / scale_px_per_m), 3), ideal_tracks)
+        if key == self._map_key:
+            return
+        for node in self._map_nodes:
+            node.removeNode()
+        self._map_nodes = []
+        half_w = key[0]
+        white = np.asarray(pal.MARKING, np.float32)
+        for lines, parent in ((self.ribbon_lines, self.road_np), (self.band_lines, self.bands)):
+            if len(lines) and parent is not None:
+                q = meshes.line_quads_xz(lines, half_w)
+                node = self._ground_layer(meshes.flat_quads_node("map-marks", q, np.tile(white, (len(q), 1))), ORDER_MARK, parent=parent)
+                self._map_nodes.append(only_for(node, MAP_BIT))
+        if ideal_tracks and self.road.tracks:
+            lines = np.concatenate([np.concatenate([xz[:-1], xz[1:]], axis=1) for xz in self.road.tracks if len(xz) > 1])
+            q = meshes.line_quads_xz(lines, 0.5 * MAP_LINE_PX / scale_px_per_m)
+            cyan = np.tile(np.asarray(pal.IDEAL_TRACK, np.float32), (len(q), 1))
+            node = self._ground_layer(meshes.flat_quads_node("ideal-tracks", q, cyan), ORDER_TRACK, parent=self.road_np)
+            self._map_nodes.append(only_for(node, MAP_BIT))
+        self._map_key = key
 
     def _ego_size(self) -> tuple[float, float, float]:
         box = self.world.ego_obb()
@@ -239,7 +301,13 @@ class Stage:
         custom = self._custom_model(key, o)
         if custom is not None:
             return custom
-        node = self.objects.attachNewNode(meshes.boxes_node(f"obj{o.index}", object_parts(key, parts, o)))
+        node = self.objects.attachNewNode(meshes.boxes_node(f"obj{o.index}", object_parts(key, parts, o), shade=not o.is_trigger))
+        if parts and not o.is_trigger:  # on the map: the widest part's footprint, never thinner than MAP_FOOTPRINT_M
+            p = max(parts, key=lambda q: q.hx * q.hz)
+            hx, hz = max(p.hx, MAP_FOOTPRINT_M), max(p.hz, MAP_FOOTPRINT_M)
+            quad = np.array([[[p.dx - hx, p.dz - hz], [p.dx + hx, p.dz - hz], [p.dx + hx, p.dz + hz], [p.dx - hx, p.dz + hz]]], np.float32)
+            top = max(q.y1 for q in parts) + 0.05
+            only_for(node.attachNewNode(meshes.flat_quads_node("footprint", quad, np.asarray([p.color], np.float32), top)), MAP_BIT)
         if o.is_trigger:
             node.setRenderModeWireframe()
             node.setLightOff(1)
@@ -346,9 +414,22 @@ class CarNode:
         for side in (-1.0, 1.0):
             pts = [(side * (hx - 0.06), lamp_y, end * (hz + 0.04), 0.0, end, 0.06, 0.06) for end in (1.0, -1.0)]
             self.signals.append(self._lamps("signal", pts))
+        # the same lamps seen from above, for the map: flat patches on the roof's corners
+        top = height + 0.05
+        self.brake_map = self._map_lamps([(s * (hx - 0.3), top, hz - 0.15, 0.22, 0.15) for s in (-1.0, 1.0)])
+        self.signals_map = [
+            self._map_lamps([(side * (hx - 0.12), top, end * (hz - 0.12), 0.12, 0.12) for end in (1.0, -1.0)]) for side in (-1.0, 1.0)
+        ]
         self._state: tuple[Any, ...] = ()
         self._lamp_state: tuple[Any, ...] = ()
         self._shown = True
+
+    def _map_lamps(self, rows: Sequence[tuple[float, float, float, float, float]]) -> Any:
+        quads = np.array([[[x - hw, z - hd], [x + hw, z - hd], [x + hw, z + hd], [x - hw, z + hd]] for x, _, z, hw, hd in rows], np.float32)
+        node = self.np.attachNewNode(meshes.flat_quads_node("map-lamps", quads, np.full((len(rows), 3), 255.0, np.float32), rows[0][1]))
+        node.setLightOff(1)
+        node.setBin("fixed", 10)
+        return only_for(node, MAP_BIT)
 
     def _lamps(self, name: str, rows: Sequence[tuple[float, ...]]) -> Any:
         node = self.np.attachNewNode(meshes.lamps_node(name, rows))
@@ -372,9 +453,13 @@ class CarNode:
             self._state = pose
         lamps = (brake, signal if blink_on else 0)
         if lamps != self._lamp_state:
-            self.brake.setColor(_rgba(pal.BRAKE_ON if brake else pal.BRAKE_OFF))
-            for bit, node in zip((1, 2), self.signals):
-                node.setColor(_rgba(pal.SIGNAL_ON if lamps[1] & bit else pal.SIGNAL_OFF))
+            brake_color = _rgba(pal.BRAKE_ON if brake else pal.BRAKE_OFF)
+            self.brake.setColor(brake_color)
+            self.brake_map.setColor(brake_color)
+            for bit, node, flat in zip((1, 2), self.signals, self.signals_map):
+                color = _rgba(pal.SIGNAL_ON if lamps[1] & bit else pal.SIGNAL_OFF)
+                node.setColor(color)
+                flat.setColor(color)
             self._lamp_state = lamps
 
 
@@ -427,6 +512,10 @@ class TrafficLightNode:
             node = self.np.attachNewNode(meshes.lamps_node("lamp", rows))
             node.setLightOff(1)
             self.lamps.append(node)
+        disc = meshes.disc_node("light-disc", [(LIGHT_DISC_M, (255, 255, 255))], segments=12)
+        self.disc = only_for(self.np.attachNewNode(disc), MAP_BIT)
+        self.disc.setZ(top + LIGHT_HOUSING_M + 0.05)
+        self.disc.setLightOff(1)
         self._state = ""
 
     def sync(self, scene: WorldScene, world: Any) -> None:
@@ -439,4 +528,5 @@ class TrafficLightNode:
         on = LAMPS_BY_STATE.get(state, (False, False, False))
         for lit, node, color in zip(on, self.lamps, (pal.LAMP_RED, pal.LAMP_YELLOW, pal.LAMP_GREEN)):
             node.setColor(_rgba(color if lit else pal.LAMP_DARK))
+        self.disc.setColor(_rgba(MAP_LIGHT_COLORS.get(on, pal.LAMP_DARK)))
         self._state = state
