@@ -13,6 +13,7 @@ gaze). The settings' `frustumNear`/`frustumFar` set the lens's clipping planes, 
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -38,6 +39,7 @@ Viewport = tuple[float, float, float, float]  # left, right, bottom, top (fracti
 FULL: Viewport = (0.0, 1.0, 0.0, 1.0)
 
 
+@functools.lru_cache(maxsize=64)
 def default_vfov_rad(width: int, height: int) -> float:
     """OpenDS's 30.5 degree vertical field of view on wide frames; narrower frames (an
     84x84 observation) keep the horizontal field of view of a 16:9 frame instead."""
@@ -145,8 +147,9 @@ class DriverViewRenderer:
 
     # ------------------------------------------------------------------ drawing
     def render(self, width: int, height: int) -> np.ndarray:
-        frame = self.render_views(width, height, [(FULL, self.camera(width, height))])
-        return self._precipitate(frame, [FULL])
+        weather = weather_of(self.world) if self.weather else {}
+        frame = self.render_views(width, height, [(FULL, self.camera(width, height))], weather)
+        return self._precipitate(frame, [FULL], weather)
 
     def render_surface(self, width: int, height: int) -> Any:
         """A frame on this renderer's own offscreen pygame surface (for overlays such as the HUD)."""
@@ -159,14 +162,19 @@ class DriverViewRenderer:
     def draw(self, surface: Any, cam: Camera) -> None:
         """Draw the world as seen by `cam` onto the whole of `surface`."""
         w, h = surface.get_size()
-        frame = self._precipitate(self.render_views(w, h, [(FULL, cam)]), [FULL])
+        weather = weather_of(self.world) if self.weather else {}
+        frame = self._precipitate(self.render_views(w, h, [(FULL, cam)], weather), [FULL], weather)
         _pg.pygame().surfarray.blit_array(surface, frame.swapaxes(0, 1))
 
-    def render_views(self, width: int, height: int, views: Sequence[tuple[Viewport, Camera]]) -> np.ndarray:
+    def render_views(
+        self, width: int, height: int, views: Sequence[tuple[Viewport, Camera]], weather: dict[str, float] | None = None
+    ) -> np.ndarray:
         """One frame with each camera in its viewport (later viewports on top), fogged; no rain or snow."""
         target = self._draw_views(width, height, views)
         frame = target.rgb()
-        fog = fog_for(weather_of(self.world)) if self.weather else None
+        if weather is None:
+            weather = weather_of(self.world) if self.weather else {}
+        fog = fog_for(weather)
         if fog is not None:
             self._fog(frame, self._depth_pass(width, height, views), views, fog)
         return frame
@@ -187,10 +195,11 @@ class DriverViewRenderer:
     def _draw_views(self, width: int, height: int, views: Sequence[tuple[Viewport, Camera]]) -> Offscreen:
         target = self._prepare(width, height, views)
         main = views[0][1]
-        self.stage.sync(main.x, main.y, main.z, include_ego=not all(self.inside_car(c) for _, c in views))
+        inside = [self.inside_car(c) for _, c in views]
+        self.stage.sync(main.x, main.y, main.z, include_ego=not all(inside))
         for k, (node, (vp, cam)) in enumerate(zip(self._cams, views)):
             _, _, w, h = pixel_rect(width, height, vp)
-            self._place(k, node, cam, w, h)
+            self._place(k, node, cam, w, h, inside[k])
         target.render()
         return target
 
@@ -229,10 +238,9 @@ class DriverViewRenderer:
         self._layout = layout
         return self._target
 
-    def _place(self, k: int, node: Any, cam: Camera, w: int, h: int) -> None:
+    def _place(self, k: int, node: Any, cam: Camera, w: int, h: int, inside: bool) -> None:
         p3d = panda()
         focal = cam.focal_px(w, h)
-        inside = self.inside_car(cam)
         lens_key = (w, h, focal, cam.near, cam.far, inside, cam.mirror)
         if lens_key != self._lens_keys[k]:  # (a lens change makes Panda3D recompute its matrices: only when needed)
             lens = node.node().getLens()
@@ -313,8 +321,7 @@ class DriverViewRenderer:
         blended = frame.astype(np.float64) * (1 - amount) + np.asarray(fog.color, float) * amount
         frame[:] = np.clip(blended + 0.5, 0, 255).astype(np.uint8)
 
-    def _precipitate(self, frame: np.ndarray, viewports: Sequence[Viewport]) -> np.ndarray:
-        weather = weather_of(self.world) if self.weather else {}
+    def _precipitate(self, frame: np.ndarray, viewports: Sequence[Viewport], weather: dict[str, float]) -> np.ndarray:
         if not any(weather.get(k, -1.0) > 0 for k in ("raining_percent", "snowing_percent")):
             return frame
         surface = _pg.from_array(frame).copy()
