@@ -110,3 +110,34 @@ def test_lens_matches_the_pinhole_projection() -> None:
         p = np.array([[x + side * (hx - 0.3), y + 0.45 * 1.45, z + hz + 0.04]])
         px = cam.project(cam.to_view(p), 640, 360)[0]
         assert abs(xs[mask].mean() - px[0]) < 1.5 and abs(ys[mask].mean() - px[1]) < 1.5
+
+
+def test_lct_sign_is_legible_at_40_m_in_full_hd() -> None:
+    """The lane sign 40 m ahead on a 1920x1080 frame: its board shows the lane number as drawn
+    on its face texture (the rendered board matches the face image scaled to its size)."""
+    import pygame
+
+    from opends_gym.render.scene import base_y
+    from opends_gym.render.sign_textures import face_image
+
+    world = World(BUNDLED_DIR / "LaneChangeTest")
+    while not any(o.visible for o in world.objects.objects):
+        world.run(0.5)
+    sign = min((o for o in world.objects.objects if o.visible), key=lambda o: o.position[0])
+    world.ego.body.state.z = sign.position[2] + 40.0
+    r = make_renderer("driver_view", world)
+    frame = r.render(1920, 1080)
+    cam = r.camera(1920, 1080)
+    board = r.scene.parts(sign)[-1]
+    y0, x, z = base_y(sign), sign.position[0], sign.position[2] + board.hz
+    corners = np.array([[x - board.hx, y0 + board.y1, z], [x + board.hx, y0 + board.y0, z]])
+    (left, top), (right, bottom) = cam.project(cam.to_view(corners), 1920, 1080)
+    assert right - left > 60 and bottom - top > 90, "a 1.6 m board 40 m away spans about 80x120 px"
+    crop = frame[int(top) + 3 : int(bottom) - 3, int(left) + 3 : int(right) - 3].astype(float)
+    face = face_image(board.label, board.color, board.hx / (0.5 * (board.y1 - board.y0)))
+    surf = pygame.transform.smoothscale(pygame.surfarray.make_surface(face.swapaxes(0, 1)), (int(right - left), int(bottom - top)))
+    ref = pygame.surfarray.array3d(surf).swapaxes(0, 1)[3:-3, 3:-3].astype(float)
+    h, w = min(len(crop), len(ref)), min(crop.shape[1], ref.shape[1])
+    white = crop[:h, :w].min(axis=-1) > 200
+    assert 0.08 < white.mean() < 0.5, "the lane number's white strokes"
+    assert np.abs(crop[:h, :w] - ref[:h, :w]).mean() < 18.0  # (about 10; a mirrored face gives 30)
