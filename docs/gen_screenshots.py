@@ -85,7 +85,7 @@ def probes(world: Any, viewer: Any, width: int, height: int) -> dict[str, tuple[
         o = min(signs, key=lambda o: math.hypot(o.position[0] - s.x, o.position[2] - s.z))
         parts = view.scene.parts(o)
         board = parts[-1]
-        from opends_gym.render.scene import base_y
+        from opends_gym.render.styles import base_y
 
         out["sign"] = (*project((o.position[0], base_y(o) + 0.5 * (board.y0 + board.y1), o.position[2])), board.color)
     tr = world.traffic

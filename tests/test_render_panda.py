@@ -117,8 +117,8 @@ def test_lct_sign_is_legible_at_40_m_in_full_hd() -> None:
     on its face texture (the rendered board matches the face image scaled to its size)."""
     import pygame
 
-    from opends_gym.render.scene import base_y
     from opends_gym.render.sign_textures import face_image
+    from opends_gym.render.styles import base_y
 
     world = World(BUNDLED_DIR / "LaneChangeTest")
     while not any(o.visible for o in world.objects.objects):

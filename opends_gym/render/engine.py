@@ -69,11 +69,6 @@ def graphics_pipe() -> Any:
     return pipe
 
 
-def to_panda(x: float, y: float, z: float) -> tuple[float, float, float]:
-    """A world (OpenDS) point in Panda3D coordinates."""
-    return (x, -z, y)
-
-
 class Offscreen:
     """An offscreen buffer of `width` x `height` with its own engine; `rgb()` reads the last frame."""
 

@@ -175,26 +175,6 @@ def disc_node(name: str, rings: list[tuple[float, RGB]], segments: int = 48) -> 
     return geom_node(name, np.concatenate(verts), np.concatenate(cols), np.concatenate(tris).astype(np.uint32))
 
 
-def sky_node(name: str, radius: float, horizon: RGB, zenith: RGB, top_elev_rad: float = 0.6, segments: int = 32) -> Any:
-    """A dome around the origin: `horizon` colour at and below the horizon, `zenith` from `top_elev_rad` up."""
-    elev = np.array([-0.5, 0.0, 0.5 * top_elev_rad, top_elev_rad, 0.5 * math.pi - 0.01], np.float32)
-    a = np.linspace(0.0, 2.0 * math.pi, segments, endpoint=False)
-    verts, cols = [], []
-    for e in elev:
-        t = min(1.0, max(0.0, float(e) / top_elev_rad))
-        col = np.asarray(horizon, np.float32) * (1 - t) + np.asarray(zenith, np.float32) * t
-        verts.append(
-            np.stack([radius * math.cos(e) * np.cos(a), radius * math.cos(e) * np.sin(a), np.full_like(a, radius * math.sin(e))], 1)
-        )
-        cols.append(np.tile(col, (segments, 1)))
-    tris = []
-    for k in range(len(elev) - 1):
-        i0 = k * segments + np.arange(segments)
-        j0 = k * segments + (np.arange(segments) + 1) % segments
-        tris += [np.stack([i0, i0 + segments, j0 + segments], 1), np.stack([i0, j0 + segments, j0], 1)]
-    return geom_node(name, np.concatenate(verts), np.concatenate(cols), np.concatenate(tris).astype(np.uint32))
-
-
 def textured_board_node(name: str, hx: float, y0: float, y1: float, hz: float, texture: Any) -> Any:
     """A sign board's front and back faces (the label texture), slightly in front of its box."""
     p3d = panda()

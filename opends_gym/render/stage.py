@@ -27,8 +27,8 @@ from . import meshes
 from . import palette as pal
 from .engine import panda
 from .road_layout import DASH_M, MARK_HALF_W_M, PERIOD_M, RoadLayout
-from .scene import BLINK_HZ, LAMPS_BY_STATE, LIGHT_HOUSING_M, LIGHT_POLE_M, WorldScene, base_y
-from .styles import Part, car_parts
+from .scene import BLINK_HZ, LAMPS_BY_STATE, LIGHT_HOUSING_M, LIGHT_POLE_M, WorldScene
+from .styles import Part, base_y, car_parts
 
 MODEL_MAP_ENV = "OPENDS_GYM_MODEL_MAP"
 GRASS_RINGS = [(r, pal.blend(pal.GRASS, pal.GRASS_FAR, r / 400.0)) for r in (8.0, 30.0, 100.0, 400.0, 1900.0)]
@@ -127,7 +127,6 @@ class Stage:
         self._scene_state: dict[int, tuple[Any, ...]] = {}
         self._scene_scale: dict[int, tuple[float, float, float]] = {}
         self._traffic: dict[int, CarNode | Any] = {}
-        self._traffic_state: dict[int, tuple[Any, ...]] = {}
         self._lights_nodes = [TrafficLightNode(self.objects, p) for p in self.scene.lights]
         self.ego = CarNode(self.objects, car_parts(*self._ego_size(), pal.EGO))
         hx, hz, height = self._ego_size()
