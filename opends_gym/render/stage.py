@@ -42,7 +42,8 @@ ORDER_SKY, ORDER_GRASS, ORDER_ROAD, ORDER_MARK, ORDER_TRACK = 0, 1, 2, 3, 4
 # (wide lines, ideal tracks, lamps seen from above, traffic-light discs) only to the map, and
 # camera k's background card only to camera k
 INSIDE_BIT, OUTSIDE_BIT, DEPTH_BIT, MAP_BIT, CARD_BIT0 = 1, 2, 3, 4, 8
-MAP_LINE_PX = 1.2  # map lines are at least this wide (thinner ones would miss pixel centres)
+MAP_LINE_PX = 1.2
+GROUND_CELL_M = 250.0  # map lines are at least this wide (thinner ones would miss pixel centres)
 LIGHT_DISC_M = 0.6
 MAP_FOOTPRINT_M = 0.6  # half size: a sign board seen from above is a few centimetres thin
 MAP_LIGHT_COLORS = {
@@ -169,9 +170,12 @@ class Stage:
 
     def _build_road(self) -> None:
         road = self.road
+        white = np.asarray(pal.MARKING, np.float32)
+        layers: list[tuple[np.ndarray, np.ndarray]] = []  # (quads (N, 4, 2), colours (N, 3)) in drawing order
         marks: list[np.ndarray] = []
-        for i, r in enumerate(road.ribbons):
-            self._ground_layer(meshes.strip_node(f"ribbon{i}", r.left, r.right, r.color), ORDER_ROAD, parent=self.road_np)
+        for r in road.ribbons:
+            q = np.stack([r.left[:-1], r.left[1:], r.right[1:], r.right[:-1]], axis=1)
+            layers.append((q, np.tile(np.asarray(r.color, np.float32), (len(q), 1))))
             for pts, dashed in r.marks:
                 lines = np.concatenate([pts[:-1], pts[1:]], axis=1)
                 if dashed:
@@ -180,10 +184,10 @@ class Stage:
                 if len(lines):
                     marks.append(lines)
         self.ribbon_lines = np.concatenate(marks) if marks else np.zeros((0, 4))
+        self._ground_cells("road", layers, self.road_np, ORDER_ROAD)
         if marks:
-            q = meshes.line_quads_xz(np.concatenate(marks), MARK_HALF_W_M)
-            node = meshes.flat_quads_node("marks", q, np.tile(np.asarray(pal.MARKING, np.float32), (len(q), 1)))
-            self._ground_layer(node, ORDER_MARK, parent=self.road_np)
+            q = meshes.line_quads_xz(self.ribbon_lines, MARK_HALF_W_M)
+            self._ground_cells("paint", [(q, np.tile(white, (len(q), 1)))], self.road_np, ORDER_MARK)
         self.bands = None
         self.band_lines = np.zeros((0, 4))
         if road.bands:
@@ -192,8 +196,6 @@ class Stage:
             z0, z1 = band_breaks()
             quad = np.stack([np.stack([np.full_like(z0, lo), z0], 1), np.stack([np.full_like(z0, hi), z0], 1),
                              np.stack([np.full_like(z0, hi), z1], 1), np.stack([np.full_like(z0, lo), z1], 1)], 1)  # fmt: skip
-            colors = np.tile(np.asarray(pal.ASPHALT, np.float32), (len(quad), 1))
-            self._ground_layer(meshes.flat_quads_node("band", quad, colors), ORDER_ROAD, parent=self.bands)
             band_lines: list[np.ndarray] = []
             k = np.arange(-DASHES_M, DASHES_M, PERIOD_M)
             for e, dashed in road.band_marks:
@@ -203,8 +205,35 @@ class Stage:
                     band_lines.append(np.stack([np.full_like(z0, e), z0, np.full_like(z0, e), z1], axis=1))
             self.band_lines = np.concatenate(band_lines)
             q = meshes.line_quads_xz(self.band_lines, MARK_HALF_W_M)
-            node = meshes.flat_quads_node("band-marks", q, np.tile(np.asarray(pal.MARKING, np.float32), (len(q), 1)))
-            self._ground_layer(node, ORDER_MARK, parent=self.bands)
+            asphalt = np.tile(np.asarray(pal.ASPHALT, np.float32), (len(quad), 1))
+            self._ground_cells("band", [(quad, asphalt)], self.bands, ORDER_ROAD, BAND_HALF_LENGTH_M, by_x=False)
+            self._ground_cells("band-paint", [(q, np.tile(white, (len(q), 1)))], self.bands, ORDER_MARK, BAND_HALF_LENGTH_M, by_x=False)
+
+    def _ground_cells(
+        self,
+        name: str,
+        layers: list[tuple[np.ndarray, np.ndarray]],
+        parent: Any,
+        order: int,
+        cell_m: float = GROUND_CELL_M,
+        by_x: bool = True,
+    ) -> None:
+        """One mesh per `cell_m` square (or band along Z) of a ground layer: few meshes to draw,
+        and Panda3D culls the cells out of view. Quads keep their order inside a cell."""
+        if not layers:
+            return
+        quads = np.concatenate([q for q, _ in layers]).astype(np.float32)
+        colors = np.concatenate([c for _, c in layers])
+        centre = quads.mean(axis=1)
+        cell = np.floor(centre / cell_m).astype(np.int64)
+        if not by_x:
+            cell[:, 0] = 0
+        key = cell[:, 0] * 1_000_003 + cell[:, 1]
+        idx = np.argsort(key, kind="stable")
+        key, quads, colors = key[idx], quads[idx], colors[idx]
+        starts = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
+        for a, b in zip(starts, [*starts[1:], len(key)]):
+            self._ground_layer(meshes.flat_quads_node(name, quads[a:b], colors[a:b]), order, parent=parent)
 
     def map_symbols(self, scale_px_per_m: float, ideal_tracks: bool) -> None:
         """(Re)build the map's wide lane lines and ideal tracks for a scale (at least `MAP_LINE_PX` wide)."""
