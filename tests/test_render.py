@@ -138,7 +138,7 @@ def test_sign_made_visible_by_an_action_appears_in_driver_view(lct_world_with_si
     changed = np.any(shown != hidden, axis=-1)
     assert changed.sum() > 30, "making the signs visible changed almost nothing"
     px = shown[changed].astype(int)
-    blue_board = (px[:, 2] > px[:, 0] + 40) & (px[:, 2] < 170)  # dark blue LCT boards, not the paler sky
+    blue_board = (px[:, 2] > px[:, 0] + 40) & (px[:, 0] < 80)  # saturated blue LCT boards, not the paler sky (red >= 92)
     assert blue_board.sum() > 10
     # the boards stand on both sides of the road
     cols = np.flatnonzero(changed.any(axis=0))

@@ -2,13 +2,14 @@
 the human viewer's composition and window.
 
 Why: `render_mode="rgb_array"`, image observations and the human viewer all draw a
-`sim.World` without a display or a GL context (pygame Surfaces and numpy only). pygame is
-imported on first use, never when this package is imported.
+`sim.World` without a display: the 3D views and the map are Panda3D scene graphs drawn
+offscreen (`engine`, `stage`), software-rendered unless a GL pipe is asked for; the HUD and
+window are pygame. Neither is imported until a renderer is made.
 
 `make_renderer(view, world, hud=False, **options)` -> an object with
 `render(width, height)` returning uint8 (height, width, 3). Views: "topdown"
 (`TopDownRenderer`), "driver_view" (the driver's eye, or any `camera_mode=`), "chase",
-"static_back" and "top" (`DriverViewRenderer` camera modes), and "human" (the human
+"static_back", "top" and "outside" (`DriverViewRenderer` camera modes), and "human" (the human
 viewer's composition per the task's settings: screens, mirrors, top view and HUD).
 `hud=True` draws the HUD (`hud.HudOverlay`) over any view.
 """
@@ -17,7 +18,7 @@ from __future__ import annotations
 
 from typing import Any
 
-RENDER_VIEWS = ("topdown", "driver_view", "chase", "static_back", "top", "human")
+RENDER_VIEWS = ("topdown", "driver_view", "chase", "static_back", "top", "outside", "human")
 
 
 def make_renderer(view: str, world: Any, hud: bool = False, **options: Any) -> Any:
@@ -27,7 +28,7 @@ def make_renderer(view: str, world: Any, hud: bool = False, **options: Any) -> A
         from .topdown import TopDownRenderer
 
         renderer = TopDownRenderer(world, **options)
-    elif view in ("driver_view", "chase", "static_back", "top"):
+    elif view in ("driver_view", "chase", "static_back", "top", "outside"):
         from .driver_view import DriverViewRenderer
 
         mode = options.pop("camera_mode", "ego") if view == "driver_view" else view

@@ -1,7 +1,8 @@
 """`ViewComposer`: the human viewer's frame - screens, mirrors, top view and HUD - per settings.xml.
 
 Why: a lab session shows what OpenDS shows, laid out by the task's settings (OpenDS
-`CameraFactory` defaults where a value is missing):
+`CameraFactory` defaults where a value is missing). Screens and mirrors are display
+regions of one Panda3D frame (one render per frame, as OpenDS's viewports):
 
 * `numberOfScreens` N side by side; each screen's camera turns by `angleBetweenAdjacentCameras`
   (default 40 degrees, which is also each screen's horizontal field of view); screen i
@@ -25,7 +26,8 @@ from typing import Any
 import numpy as np
 
 from . import _pg
-from .driver_view import DriverViewRenderer
+from .camera import Camera
+from .driver_view import DriverViewRenderer, Viewport, pixel_rect
 from .hud import HudOverlay
 from .topdown import TopDownRenderer
 
@@ -92,10 +94,16 @@ class ViewComposer:
         return self._surface
 
     def draw(self, surface: Any) -> None:
-        self.draw_screens(surface)
-        if self.view.camera_mode == "ego":
-            for name in self.mirrors():
-                self.draw_mirror(surface, name)
+        """Screens and mirrors in one Panda3D frame (display regions), then borders, top view and HUD."""
+        w, h = surface.get_size()
+        screens = self.screen_views(w, h)
+        mirrors = [(name, *self.mirror_view(w, h, name)) for name in self.mirrors()] if self.view.camera_mode == "ego" else []
+        self.view.blit_views(surface, [*screens, *((vp, cam) for _, vp, cam in mirrors)])
+        self.view.precipitate_on(surface, [vp for vp, _ in screens])
+        pg = _pg.pygame()
+        for _, vp, _cam in mirrors:
+            x, y, rw, rh = pixel_rect(w, h, vp)
+            pg.draw.rect(surface, (25, 25, 25), pg.Rect(x, y, rw, rh).inflate(max(4, rw // 20), max(4, rh // 10)), max(2, rw // 40))
         if self.top_view:
             self.draw_top_view(surface)
         if self.hud is not None:
@@ -104,40 +112,39 @@ class ViewComposer:
     def mirrors(self) -> tuple[str, ...]:
         return {"off": (), "back_only": ("back",), "side_only": ("left", "right"), "all": ("back", "left", "right")}[self.mirror_mode]
 
-    def draw_screens(self, surface: Any) -> None:
-        w, h = surface.get_size()
+    def screen_views(self, w: int, h: int) -> list[tuple[Viewport, Camera]]:
+        """OpenDS's screens side by side, each turned by the angle between adjacent cameras."""
         n = self.screens
         if n == 1:
-            self.view.draw(surface, self.view.camera(w, h))
-            return
+            return [((0.0, 1.0, 0.0, 1.0), self.view.camera(w, h))]
+        out = []
         for i in range(1, n + 1):
             x0, x1 = (i - 1) * w // n, i * w // n
-            sub = surface.subsurface((x0, 0, x1 - x0, h))
             yaw = ((n + 1) // 2 - i) * self.angle_rad
-            self.view.draw(sub, self.view.camera(x1 - x0, h, yaw_offset=yaw, hfov_rad=self.angle_rad))
+            out.append((((i - 1) / n, i / n, 0.0, 1.0), self.view.camera(x1 - x0, h, yaw_offset=yaw, hfov_rad=self.angle_rad)))
+        return out
 
-    def draw_mirror(self, surface: Any, name: str) -> None:
-        pg = _pg.pygame()
-        w, h = surface.get_size()
+    def mirror_view(self, w: int, h: int, name: str) -> tuple[Viewport, Camera]:
+        """A mirror's viewport (from the settings, else OpenDS's defaults) and its flipped camera."""
         left, right, bottom, top, h_deg, v_deg, fov_deg, eye = MIRRORS[name]
         vp = getattr(self.general, {"back": "rearview_mirror", "left": "left_mirror", "right": "right_mirror"}[name])
         if vp is not None:
             left, right, bottom, top = _or(vp.left, left), _or(vp.right, right), _or(vp.bottom, bottom), _or(vp.top, top)
             h_deg = math.degrees(vp.horizontal_angle_rad) if vp.horizontal_angle_rad is not None else h_deg
             v_deg = math.degrees(vp.vertical_angle_rad) if vp.vertical_angle_rad is not None else v_deg
-        rect = _viewport(w, h, left, right, bottom, top)
-        pg.draw.rect(surface, (25, 25, 25), pg.Rect(rect).inflate(max(4, rect[2] // 20), max(4, rect[3] // 10)))
-        sub = surface.subsurface(pg.Rect(rect).clip(surface.get_rect()))
+        left, right = min(max(left, 0.0), 1.0), min(max(right, 0.0), 1.0)
+        bottom, top = min(max(bottom, 0.0), 1.0), min(max(top, 0.0), 1.0)
+        _, _, rw, rh = pixel_rect(w, h, (left, right, bottom, top))
         cam = self.view.camera(
-            sub.get_width(),
-            sub.get_height(),
+            rw,
+            rh,
             yaw_offset=math.pi + math.radians(h_deg),
             pitch=-math.radians(v_deg),
             mirror=True,
             eye_offset=eye,
             vfov_rad=math.radians(fov_deg),
         )
-        self.view.draw(sub, cam)
+        return (left, right, bottom, top), cam
 
     def draw_top_view(self, surface: Any) -> None:
         pg = _pg.pygame()

@@ -1,49 +1,45 @@
-"""`DriverViewRenderer`: the 3D view from the driver's seat (or a chase or top camera).
+"""`DriverViewRenderer`: the 3D view from the driver's seat (or a chase or top camera) on Panda3D.
 
 Why: perception research and human sessions need what the driver sees, on machines with
-no display and no GPU. Sky and ground are per-row gradients (fogged by the ground depth of
-each row), the road and every object are quads sorted by the painter's algorithm
-(`raster`), then rain and snow go on top. Camera modes follow OpenDS's `cameraMode`:
-ego (driver's eye), chase (behind and above), static_back (further back), top (straight
-down, car pointing up).
+no display and no GPU. The World's scene graph (`stage.Stage`) is rendered offscreen by
+Panda3D (`engine`); several cameras can share one frame as display regions (screens,
+mirrors). Fog is applied from the depth buffer with OpenDS's visibility (`weather`), rain
+and snow go on top. Camera modes follow OpenDS's `cameraMode`: ego (driver's eye), chase
+(behind and above), static_back (further back), top (straight down, car pointing up),
+outside (a fixed camera at the settings' `outsideCamPosition` that follows the car with its
+gaze). The settings' `frustumNear`/`frustumFar` set the lens's clipping planes, and
+`showHood` puts the bonnet in the driver's view.
 """
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from . import _pg
-from . import palette as pal
-from .camera import OPENDS_VFOV_DEG, Camera
-from .raster import LAYER_GROUND, LAYER_MARKING, QuadBatch, add_boxes, add_lamps, draw, ground_quads, line_quads
-from .road_layout import RoadLayout
-from .scene import WorldScene
-from .weather import Precipitation, fog_for, weather_of
+from . import _pg, meshes
+from .camera import OPENDS_FAR_M, OPENDS_VFOV_DEG, Camera
+from .engine import Offscreen, panda
+from .stage import CARD_BIT0, DEPTH_BIT, INSIDE_BIT, ORDER_SKY, OUTSIDE_BIT, Stage
+from .weather import Fog, Precipitation, fog_for, weather_of
 
-CAMERA_MODES = ("ego", "chase", "static_back", "top")
+CAMERA_MODES = ("ego", "chase", "static_back", "top", "outside")
+OUTSIDE_OFFSET_M = (12.0, 4.0, 6.0)  # outside camera without `outsideCamPosition`: right, up, back of the start pose
 # driver's eye relative to the car's reference point: behind it, left of centre, above the ground
 EYE_BACK_M, EYE_LEFT_M, EYE_HEIGHT_M = 0.25, 0.35, 1.2
 CHASE = {"chase": (7.0, 2.8, math.radians(-10.0)), "static_back": (12.0, 4.5, math.radians(-14.0))}
 TOP_HEIGHT_M = 45.0
 WIDE_ASPECT = 16.0 / 9.0
-ROAD_RADIUS_M = 1000.0
-OBJECT_RADIUS_M = 500.0
+CARD_DIST_M = 100.0  # where a background card hangs in front of its camera (between near and far)
+DEPTH_LEVELS = 4096  # the depth pass encodes eye depth in 12 bits over the far distance (red: high, green: low bits)
+Viewport = tuple[float, float, float, float]  # left, right, bottom, top (fractions from the bottom-left)
+FULL: Viewport = (0.0, 1.0, 0.0, 1.0)
 
 
-# ground pieces get shorter near the viewer so fog and near-plane clipping stay smooth
-def _breaks(first_m: float = 1.5, growth: float = 1.16, limit_m: float = ROAD_RADIUS_M) -> np.ndarray:
-    out = [first_m]
-    while out[-1] * growth + 1.0 < limit_m:
-        out.append(out[-1] * growth + 1.0)
-    return np.asarray(out)
-
-
-ROAD_BREAKS_M = _breaks()
-
-
+@functools.lru_cache(maxsize=64)
 def default_vfov_rad(width: int, height: int) -> float:
     """OpenDS's 30.5 degree vertical field of view on wide frames; narrower frames (an
     84x84 observation) keep the horizontal field of view of a 16:9 frame instead."""
@@ -55,11 +51,25 @@ def default_vfov_rad(width: int, height: int) -> float:
     return 2.0 * math.atan(math.tan(0.5 * h) / aspect)
 
 
+def pixel_rect(width: int, height: int, vp: Viewport) -> tuple[int, int, int, int]:
+    """Pixel rect (x, y, w, h) of a viewport, as Panda3D rounds display regions."""
+    left, right, bottom, top = vp
+    x0, x1 = int(left * width + 0.5), int(right * width + 0.5)
+    y1, y0 = height - int(bottom * height + 0.5), height - int(top * height + 0.5)
+    return x0, y0, max(1, x1 - x0), max(1, y1 - y0)
+
+
 class DriverViewRenderer:
-    """3D view of a World. `render(w, h)` -> uint8 (h, w, 3); `draw(surface, cam)` for compositions."""
+    """3D view of a World. `render(w, h)` -> uint8 (h, w, 3); `render_views` for several cameras."""
 
     def __init__(
-        self, world: Any, camera_mode: str = "ego", vfov_deg: float | None = None, show_triggers: bool = False, weather: bool = True
+        self,
+        world: Any,
+        camera_mode: str = "ego",
+        vfov_deg: float | None = None,
+        show_triggers: bool = False,
+        weather: bool = True,
+        model_map: Any = None,
     ) -> None:
         if camera_mode not in CAMERA_MODES:
             raise ValueError(f"unknown camera mode {camera_mode!r}; choose from {', '.join(CAMERA_MODES)}")
@@ -67,10 +77,18 @@ class DriverViewRenderer:
         self.camera_mode = camera_mode
         self.vfov_deg = vfov_deg
         self.weather = weather
-        self.scene = WorldScene(world, show_triggers=show_triggers)
-        self.road = RoadLayout(world)
+        self.stage = Stage(world, show_triggers=show_triggers, model_map=model_map)
+        settings = getattr(getattr(world, "task", None), "settings", None)
+        self._general = getattr(settings, "general", None)
+        self._near: float | None = getattr(self._general, "frustum_near_m", None)
+        self._far: float | None = getattr(self._general, "frustum_far_m", None)
+        self.show_hood = bool(getattr(self._general, "show_hood", False))
+        self.scene = self.stage.scene
         self.precipitation = Precipitation()
-        self._backgrounds: dict[tuple[Any, ...], Any] = {}  # per viewport size and camera (screens, mirrors)
+        self._target: Offscreen | None = None
+        self._layout: tuple[Any, ...] = ()
+        self._cams: list[Any] = []
+        self._depth: Offscreen | None = None
         self._surface: Any = None
 
     # ------------------------------------------------------------------ cameras
@@ -93,72 +111,228 @@ class DriverViewRenderer:
         s = self.world.ego.state
         mode = mode or self.camera_mode
         vfov = vfov_rad or (math.radians(self.vfov_deg) if self.vfov_deg else default_vfov_rad(width, height))
+        if mode == "outside" and eye_offset is None:
+            x, y, z = self.outside_position()
+            dx, dy, dz = s.x - x, s.y + 0.8 - y, s.z - z
+            yaw, pitch = math.atan2(-dx, -dz), math.atan2(dy, math.hypot(dx, dz))
+            return Camera(x, y, z, yaw, pitch, vfov, hfov_rad, self._near or 0.5, self._far or OPENDS_FAR_M, mirror=mirror)
         fx, fz = -math.sin(s.yaw), -math.cos(s.yaw)
         rx, rz = math.cos(s.yaw), -math.sin(s.yaw)
         if mode == "ego" or eye_offset is not None:
             right, up, back = eye_offset if eye_offset is not None else (-EYE_LEFT_M, EYE_HEIGHT_M, EYE_BACK_M)
             x, y, z = s.x + right * rx - back * fx, s.y + up, s.z + right * rz - back * fz
-            return Camera(x, y, z, s.yaw + yaw_offset, pitch, vfov, hfov_rad, 0.3, mirror=mirror)
+            return Camera(x, y, z, s.yaw + yaw_offset, pitch, vfov, hfov_rad, self._near or 0.3, self._far or OPENDS_FAR_M, mirror=mirror)
         if mode == "top":
-            return Camera(s.x, s.y + TOP_HEIGHT_M, s.z, s.yaw + yaw_offset, -0.5 * math.pi, vfov, hfov_rad, 1.0, mirror=mirror)
+            top = s.y + TOP_HEIGHT_M
+            return Camera(s.x, top, s.z, s.yaw + yaw_offset, -0.5 * math.pi, vfov, hfov_rad, 1.0, self._far or OPENDS_FAR_M, mirror=mirror)
         back, up, tilt = CHASE[mode]
-        return Camera(s.x - back * fx, s.y + up, s.z - back * fz, s.yaw + yaw_offset, tilt + pitch, vfov, hfov_rad, 0.5, mirror=mirror)
+        x, y, z, yaw = s.x - back * fx, s.y + up, s.z - back * fz, s.yaw + yaw_offset
+        return Camera(x, y, z, yaw, tilt + pitch, vfov, hfov_rad, self._near or 0.5, self._far or OPENDS_FAR_M, mirror=mirror)
+
+    def outside_position(self) -> tuple[float, float, float]:
+        """The outside camera's fixed place: `outsideCamPosition`, else beside the start pose."""
+        pos = getattr(self._general, "outside_cam_position", None)
+        if pos is not None and None not in (pos.x, pos.y, pos.z):
+            return (float(pos.x), float(pos.y), float(pos.z))
+        start = self.world.start_pose
+        x, y, z = start.position_m
+        yaw = start.yaw_rad
+        right, up, back = OUTSIDE_OFFSET_M
+        return (x + right * math.cos(yaw) + back * math.sin(yaw), y + up, z - right * math.sin(yaw) + back * math.cos(yaw))
+
+    def inside_car(self, cam: Camera) -> bool:
+        """True for a camera sitting in the ego car (the driver's eye, a mirror): the ego is not drawn for it."""
+        s = self.world.ego.state
+        return math.hypot(cam.x - s.x, cam.z - s.z) <= 2.5 and cam.y - s.y <= 3.0
 
     # ------------------------------------------------------------------ drawing
     def render(self, width: int, height: int) -> np.ndarray:
-        return _pg.to_array(self.render_surface(width, height))
+        weather = weather_of(self.world) if self.weather else {}
+        frame = self.render_views(width, height, [(FULL, self.camera(width, height))], weather)
+        return self._precipitate(frame, [FULL], weather)
 
     def render_surface(self, width: int, height: int) -> Any:
-        """Draw a frame onto this renderer's own offscreen surface and return that surface."""
+        """A frame on this renderer's own offscreen pygame surface (for overlays such as the HUD)."""
+        frame = self.render(width, height)
         if self._surface is None or self._surface.get_size() != (width, height):
             self._surface = _pg.new_surface(width, height)
-        self.draw(self._surface, self.camera(width, height))
+        _pg.pygame().surfarray.blit_array(self._surface, frame.swapaxes(0, 1))
         return self._surface
 
     def draw(self, surface: Any, cam: Camera) -> None:
         """Draw the world as seen by `cam` onto the whole of `surface`."""
         w, h = surface.get_size()
-        ground_y = self.world.ego.state.y
         weather = weather_of(self.world) if self.weather else {}
-        fog = fog_for(weather)
-        surface.blit(self._sky_and_ground(w, h, cam, cam.y - ground_y, fog), (0, 0))
-        batch = QuadBatch()
-        radius = min(cam.far, ROAD_RADIUS_M)
-        road = self.road.pieces(cam.x, cam.z, radius, ROAD_BREAKS_M)
-        batch.add(ground_quads(road.quads, ground_y + 0.01), road.quad_colors, LAYER_GROUND)
-        batch.add(line_quads(road.lines, road.line_half_w, ground_y + 0.02), road.line_colors, LAYER_MARKING)
-        s = self.world.ego.state
-        outside = math.hypot(cam.x - s.x, cam.z - s.z) > 2.5 or cam.y - ground_y > 3.0  # not sitting in the car
-        boxes, lamps = self.scene.collect(cam.x, cam.z, min(cam.far, OBJECT_RADIUS_M), include_ego=outside, buried_below_y=ground_y)
-        rows = boxes.array()
-        add_boxes(batch, rows, boxes.labels)
-        add_lamps(batch, lamps.array(), rows)
-        draw(surface, cam, batch, fog)
-        if weather:
-            self.precipitation.draw(surface, weather, self.world.t_s)
+        frame = self._precipitate(self.render_views(w, h, [(FULL, cam)], weather), [FULL], weather)
+        _pg.pygame().surfarray.blit_array(surface, frame.swapaxes(0, 1))
 
-    def _sky_and_ground(self, w: int, h: int, cam: Camera, eye_height: float, fog: Any) -> Any:
-        key = (w, h, round(cam.pitch, 4), round(eye_height, 3), cam.vfov_rad, cam.hfov_rad, None if fog is None else fog.density_per_m)
-        cached = self._backgrounds.get(key)
-        if cached is not None:
-            return cached
-        depth = cam.ground_row_depths(w, h, max(eye_height, 0.05))
-        sky = np.isinf(depth)
-        t_far = np.clip(np.where(sky, 1.0, depth / 400.0), 0.0, 1.0)[:, None]
-        ground = np.asarray(pal.GRASS, float) * (1 - t_far) + np.asarray(pal.GRASS_FAR, float) * t_far
-        fpx = cam.focal_px(w, h)
-        a = (0.5 * h - (np.arange(h) + 0.5)) / fpx
-        elev = np.clip((np.arctan(a) + cam.pitch) / 0.6, 0.0, 1.0)[:, None]
-        sky_col = np.asarray(pal.SKY_HORIZON, float) * (1 - elev) + np.asarray(pal.SKY_ZENITH, float) * elev
-        rows = np.where(sky[:, None], sky_col, ground)
+    def render_views(
+        self, width: int, height: int, views: Sequence[tuple[Viewport, Camera]], weather: dict[str, float] | None = None
+    ) -> np.ndarray:
+        """One frame with each camera in its viewport (later viewports on top), fogged; no rain or snow."""
+        target = self._draw_views(width, height, views)
+        frame = target.rgb()
+        if weather is None:
+            weather = weather_of(self.world) if self.weather else {}
+        fog = fog_for(weather)
         if fog is not None:
-            amount = fog.amount(np.where(sky, 1e5, depth))[:, None]
-            rows = rows * (1 - amount) + np.asarray(fog.color, float) * amount
-        column = np.clip(rows, 0, 255).astype(np.uint8)
+            self._fog(frame, self._depth_pass(width, height, views), views, fog)
+        return frame
+
+    def blit_views(self, surface: Any, views: Sequence[tuple[Viewport, Camera]]) -> None:
+        """`render_views` onto a pygame surface; without fog the frame goes there straight from
+        Panda3D's buffer (no numpy copy: what keeps a 1280x720 window fast)."""
         pg = _pg.pygame()
-        strip = pg.surfarray.make_surface(column[None, :, :])
-        bg = pg.transform.scale(strip, (w, h))
-        if len(self._backgrounds) >= 8:
-            self._backgrounds.pop(next(iter(self._backgrounds)))
-        self._backgrounds[key] = bg
-        return bg
+        w, h = surface.get_size()
+        if self.weather and fog_for(weather_of(self.world)) is not None:
+            surface.blit(_pg.from_array(self.render_views(w, h, views)), (0, 0))
+            return
+        target = self._draw_views(w, h, views)
+        fmt = {4: "BGRA", 3: "BGR"}[target.components()]
+        img = pg.image.frombuffer(target.bgra_bytes(), (w, h), fmt)
+        surface.blit(pg.transform.flip(img, False, True), (0, 0))
+
+    def _draw_views(self, width: int, height: int, views: Sequence[tuple[Viewport, Camera]]) -> Offscreen:
+        target = self._prepare(width, height, views)
+        main = views[0][1]
+        inside = [self.inside_car(c) for _, c in views]
+        self.stage.sync(main.x, main.y, main.z, include_ego=not all(inside))
+        for k, (node, (vp, cam)) in enumerate(zip(self._cams, views)):
+            _, _, w, h = pixel_rect(width, height, vp)
+            self._place(k, node, cam, w, h, inside[k])
+        target.render()
+        return target
+
+    def _prepare(self, width: int, height: int, views: Sequence[tuple[Viewport, Camera]]) -> Offscreen:
+        layout = (width, height, tuple(vp for vp, _ in views))
+        if self._target is not None and self._layout == layout:
+            return self._target
+        p3d = panda()
+        if self._target is None or (self._target.width, self._target.height) != (width, height):
+            if self._target is not None:
+                self._target.close()
+            self._target = Offscreen(width, height)
+        else:
+            self._target.buffer.removeAllDisplayRegions()
+        for node in self._cams:
+            node.removeNode()
+        self._cams = []
+        self._cards: list[Any] = []
+        self._card_keys: list[tuple[Any, ...]] = []
+        self._lens_keys: list[tuple[Any, ...]] = []
+        if self._depth is not None:
+            self._depth.close()
+            self._depth = None
+        for k, (vp, _) in enumerate(views):
+            cam_node = p3d.Camera(f"cam{k}")
+            cam_node.setLens(p3d.PerspectiveLens())
+            node = self.stage.root.attachNewNode(cam_node)
+            self._target.region(*vp, camera=node, sort=k)
+            self._cams.append(node)
+            self._cards.append(None)
+            self._card_keys.append(())
+            self._lens_keys.append(())
+        self.stage.show_hood = self.show_hood
+        if self.show_hood:
+            self.stage.hood.show(p3d.BitMask32.bit(INSIDE_BIT))
+        self._layout = layout
+        return self._target
+
+    def _place(self, k: int, node: Any, cam: Camera, w: int, h: int, inside: bool) -> None:
+        p3d = panda()
+        focal = cam.focal_px(w, h)
+        lens_key = (w, h, focal, cam.near, cam.far, inside, cam.mirror)
+        if lens_key != self._lens_keys[k]:  # (a lens change makes Panda3D recompute its matrices: only when needed)
+            lens = node.node().getLens()
+            lens.setFilmSize(w, h)
+            lens.setFocalLength(focal)
+            lens.setNearFar(cam.near, cam.far)
+            node.node().setCameraMask(p3d.BitMask32.bit(INSIDE_BIT if inside else OUTSIDE_BIT) | p3d.BitMask32.bit(CARD_BIT0 + k))
+            self._lens_keys[k] = lens_key
+        node.setPosHprScale(
+            cam.x, -cam.z, cam.y, math.degrees(cam.yaw), math.degrees(cam.pitch), 0.0, -1.0 if cam.mirror else 1.0, 1.0, 1.0
+        )
+        eye_height = max(cam.y - self.world.ego.state.y, 0.05)
+        key = (w, h, round(focal, 3), round(cam.pitch, 4), round(eye_height, 3))
+        if key != self._card_keys[k]:  # the sky-and-grass card: rebuilt only when the lens, pitch or eye height change
+            if self._cards[k] is not None:
+                self._cards[k].removeNode()
+            card = node.attachNewNode(meshes.background_node(f"background{k}", w, h, focal, cam.pitch, eye_height, CARD_DIST_M))
+            card.setBin("background", ORDER_SKY)
+            card.setDepthTest(False)
+            card.setDepthWrite(False)
+            card.setLightOff(1)
+            card.hide(p3d.BitMask32.allOn())
+            card.show(p3d.BitMask32.bit(CARD_BIT0 + k))
+            self._cards[k] = card
+            self._card_keys[k] = key
+
+    def _depth_pass(self, width: int, height: int, views: Sequence[tuple[Viewport, Camera]]) -> np.ndarray:
+        """Eye depth in metres per pixel (inf where the sky is): the scene drawn again with each
+        surface coloured by its distance (a texture looked up by the eye-space position), which
+        works on every pipe (the software renderer cannot read its depth buffer back)."""
+        p3d = panda()
+        if self._depth is None:
+            self._depth = Offscreen(width, height, clear=(1.0, 1.0, 0.0))
+            self._depth_cams: list[Any] = []
+            ramp = p3d.Texture("depth-ramp")
+            i = np.arange(DEPTH_LEVELS)
+            rgb = np.stack([i // 16, (i % 16) * 16, np.zeros_like(i)], axis=1).astype(np.uint8)
+            ramp.setup2dTexture(DEPTH_LEVELS, 1, p3d.Texture.TUnsignedByte, p3d.Texture.FRgb)
+            ramp.setRamImageAs(rgb.tobytes(), "RGB")
+            ramp.setMinfilter(p3d.SamplerState.FTNearest)
+            ramp.setMagfilter(p3d.SamplerState.FTNearest)
+            ramp.setWrapU(p3d.SamplerState.WMClamp)
+            self._ramp = ramp
+            for k, ((vp, _), colour_cam) in enumerate(zip(views, self._cams)):
+                node = colour_cam.attachNewNode(p3d.Camera(f"depth{k}", colour_cam.node().getLens()))
+                self._depth.region(*vp, camera=node, sort=k)
+                self._depth_cams.append(node)
+        ts = p3d.TextureStage.getDefault()
+        for (_, cam), colour_cam, node in zip(views, self._cams, self._depth_cams):
+            m = p3d.Mat4(0, 0, 0, 0, 1.0 / cam.far, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1)
+            state = p3d.RenderState.make(
+                p3d.TextureAttrib.make(self._ramp),
+                p3d.TexGenAttrib.make(ts, p3d.TexGenAttrib.MEyePosition),
+                p3d.TexMatrixAttrib.make(ts, p3d.TransformState.makeMat(m)),
+                p3d.ColorAttrib.makeFlat((1, 1, 1, 1)),
+                p3d.LightAttrib.makeAllOff(),
+                10000,
+            )
+            node.node().setInitialState(state)
+            inside = colour_cam.node().getCameraMask() & p3d.BitMask32.bit(INSIDE_BIT)
+            bits = p3d.BitMask32.bit(DEPTH_BIT) | (inside if inside.getWord() else p3d.BitMask32.bit(OUTSIDE_BIT))
+            node.node().setCameraMask(bits)
+        self.stage.place_grass()
+        self._depth.render()
+        rgb = self._depth.rgb().astype(np.int64)
+        level: np.ndarray = rgb[..., 0] * 16 + rgb[..., 1] // 16
+        depth = np.empty(level.shape)
+        for vp, cam in views:
+            x, y, w, h = pixel_rect(width, height, vp)
+            depth[y : y + h, x : x + w] = (level[y : y + h, x : x + w] + 0.5) * (cam.far / DEPTH_LEVELS)
+        depth[level >= DEPTH_LEVELS - 1] = np.inf
+        return depth
+
+    @staticmethod
+    def _fog(frame: np.ndarray, depth: np.ndarray, views: Sequence[tuple[Viewport, Camera]], fog: Fog) -> None:
+        """Blend each pixel towards the fog colour by its depth (Koschmieder, as `weather` says)."""
+        amount = fog.amount(np.where(np.isinf(depth), 1e5, depth))[..., None]
+        blended = frame.astype(np.float64) * (1 - amount) + np.asarray(fog.color, float) * amount
+        frame[:] = np.clip(blended + 0.5, 0, 255).astype(np.uint8)
+
+    def _precipitate(self, frame: np.ndarray, viewports: Sequence[Viewport], weather: dict[str, float]) -> np.ndarray:
+        if not any(weather.get(k, -1.0) > 0 for k in ("raining_percent", "snowing_percent")):
+            return frame
+        surface = _pg.from_array(frame).copy()
+        self.precipitate_on(surface, viewports)
+        return _pg.to_array(surface)
+
+    def precipitate_on(self, surface: Any, viewports: Sequence[Viewport]) -> None:
+        """Rain streaks and snow flakes (screen space, simulation time) over each viewport."""
+        weather = weather_of(self.world) if self.weather else {}
+        if not any(weather.get(k, -1.0) > 0 for k in ("raining_percent", "snowing_percent")):
+            return
+        w, h = surface.get_size()
+        for vp in viewports:
+            self.precipitation.draw(surface.subsurface(pixel_rect(w, h, vp)), weather, self.world.t_s)

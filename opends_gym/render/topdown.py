@@ -1,10 +1,13 @@
 """`TopDownRenderer`: a bird's-eye map centred on the ego car, cheap enough for observations.
 
 Why: image observations for RL need thousands of frames per minute; a map with the road,
-signs, traffic and lights is the cheapest picture that still carries the task. Drawn with
-pygame on an offscreen surface (no display). Heading-up (the car points up, placed low in
-the frame to show more road ahead) or north-up (-Z up, the car centred). The scale in
-px/m is fixed by `scale_px_per_m`, or fits `view_m` metres across the shorter side.
+signs, traffic and lights is the cheapest picture that still carries the task. It is the
+World's Panda3D scene graph (`stage.Stage`, the same one the driver view draws) seen by an
+orthographic camera from above, plus map symbols only the map shows: lane lines at least a
+pixel wide, ideal tracks, lamps seen from above and a disc per traffic light in its phase.
+Heading-up (the car points up, placed low in the frame to show more road ahead) or
+north-up (-Z up, the car centred). The scale in px/m is fixed by `scale_px_per_m`, or fits
+`view_m` metres across the shorter side.
 """
 
 from __future__ import annotations
@@ -16,16 +19,10 @@ import numpy as np
 
 from . import _pg
 from . import palette as pal
-from .road_layout import RoadLayout
-from .scene import LAMPS_BY_STATE, WIRE, WorldScene
+from .engine import Offscreen, panda
+from .stage import MAP_BIT, Stage
 
-LIGHT_COLORS = {
-    (True, False, False): pal.LAMP_RED,
-    (False, True, False): pal.LAMP_YELLOW,
-    (False, False, True): pal.LAMP_GREEN,
-    (True, True, False): pal.LAMP_YELLOW,
-    (True, True, True): pal.LAMP_YELLOW,
-}
+CAMERA_HEIGHT_M = 400.0  # above the ego; the orthographic lens sees everything below it
 
 
 class TopDownRenderer:
@@ -51,15 +48,19 @@ class TopDownRenderer:
         self.heading_up = heading_up
         self.ego_at = float(ego_at) if heading_up else 0.5
         self.show_ideal_tracks = show_ideal_tracks
-        self.scene = WorldScene(world, show_triggers=show_triggers)
-        self.road = RoadLayout(world)
+        self.stage = Stage(world, show_triggers=show_triggers)
+        self.scene = self.stage.scene
+        self.road = self.stage.road
+        self._target: Offscreen | None = None
+        self._cam: Any = None
+        self._lens_key: tuple[Any, ...] = ()
         self._surface: Any = None
 
     def render(self, width: int, height: int) -> np.ndarray:
-        return _pg.to_array(self.render_surface(width, height))
+        return self._draw(width, height).rgb()
 
     def render_surface(self, width: int, height: int) -> Any:
-        """Draw a frame onto this renderer's own offscreen surface and return that surface."""
+        """A frame on this renderer's own offscreen pygame surface (for overlays such as the HUD)."""
         if self._surface is None or self._surface.get_size() != (width, height):
             self._surface = _pg.new_surface(width, height)
         self.draw(self._surface)
@@ -76,60 +77,48 @@ class TopDownRenderer:
         """Draw the map onto the whole of `surface` (arguments override the renderer's settings)."""
         pg = _pg.pygame()
         w, h = surface.get_size()
+        target = self._draw(w, h, centre, scale_px_per_m, heading_up, ego_at)
+        fmt = {4: "BGRA", 3: "BGR"}[target.components()]
+        img = pg.image.frombuffer(target.bgra_bytes(), (w, h), fmt)
+        surface.blit(pg.transform.flip(img, False, True), (0, 0))
+
+    def _draw(
+        self,
+        w: int,
+        h: int,
+        centre: tuple[float, float] | None = None,
+        scale_px_per_m: float | None = None,
+        heading_up: bool | None = None,
+        ego_at: float | None = None,
+    ) -> Offscreen:
+        p3d = panda()
+        if self._target is None or (self._target.width, self._target.height) != (w, h):
+            if self._target is not None:
+                self._target.close()
+            g = pal.GRASS  # (a little over each level: see stage._rgba)
+            self._target = Offscreen(w, h, clear=((g[0] + 0.1) / 255.0, (g[1] + 0.1) / 255.0, (g[2] + 0.1) / 255.0))
+            if self._cam is None:
+                self._cam = self.stage.root.attachNewNode(p3d.Camera("map", p3d.OrthographicLens()))
+                self._cam.node().setCameraMask(p3d.BitMask32.bit(MAP_BIT))
+            self._target.region(0.0, 1.0, 0.0, 1.0, camera=self._cam)
+            self._lens_key = ()
         s = self.world.ego.state
-        cx, cz = centre if centre is not None else (s.x, s.z)
         scale = scale_px_per_m or self.scale_px_per_m or min(w, h) / self.view_m
         up = self.heading_up if heading_up is None else heading_up
+        at = (self.ego_at if up else 0.5) if ego_at is None else ego_at
         yaw = s.yaw if up else 0.0
-        c, sn = math.cos(yaw), math.sin(yaw)
-        ox, oy = 0.5 * w, h * ((self.ego_at if up else 0.5) if ego_at is None else ego_at)
-        radius = math.hypot(w, h) / scale
-
-        def to_px(x: np.ndarray, z: np.ndarray) -> np.ndarray:
-            dx, dz = x - cx, z - cz
-            return np.stack([ox + scale * (dx * c - dz * sn), oy + scale * (dx * sn + dz * c)], axis=-1)
-
-        surface.fill(pal.GRASS)
-        polygon, line = pg.draw.polygon, pg.draw.line
-        road = self.road.pieces(cx, cz, radius)
-        if len(road.quads):
-            for pts, col in zip(to_px(road.quads[..., 0], road.quads[..., 1]).tolist(), road.quad_colors.astype(int).tolist()):
-                polygon(surface, col, pts)
-        if len(road.lines):
-            ends = to_px(road.lines[:, [0, 2]], road.lines[:, [1, 3]])  # (M, 2 ends, 2)
-            ex, ey = ends[..., 0], ends[..., 1]
-            seen = ~(((ex < 0).all(1)) | ((ex > w).all(1)) | ((ey < 0).all(1)) | ((ey > h).all(1)))
-            widths = np.maximum(1, np.round(2 * road.line_half_w[seen] * scale)).astype(int).tolist()
-            for (p0, p1), col, wd in zip(ends[seen].tolist(), road.line_colors[seen].astype(int).tolist(), widths):
-                line(surface, col, p0, p1, wd)
-        if self.show_ideal_tracks:
-            tl = self.road.track_lines(cx, cz, radius)
-            if len(tl):
-                for p0, p1 in zip(to_px(tl[:, 0], tl[:, 1]).tolist(), to_px(tl[:, 2], tl[:, 3]).tolist()):
-                    line(surface, pal.IDEAL_TRACK, p0, p1, 1)
-        boxes, lamps = self.scene.collect(cx, cz, radius, include_ego=True)
-        rows = boxes.array()
-        if len(rows):
-            bx, bz, byaw, hx, hz = rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 5], rows[:, 6]
-            bc, bs = np.cos(byaw)[:, None], np.sin(byaw)[:, None]
-            lx = np.array([-1.0, 1.0, 1.0, -1.0])[None, :] * hx[:, None]
-            lz = np.array([-1.0, -1.0, 1.0, 1.0])[None, :] * hz[:, None]
-            corners = to_px(bx[:, None] + lx * bc + lz * bs, bz[:, None] - lx * bs + lz * bc).tolist()
-            colors = rows[:, 7:10].astype(int).tolist()
-            wires = (rows[:, 10] == WIRE).tolist()
-            for i in np.argsort(rows[:, 4], kind="stable").tolist():  # low things first, overhead beams last
-                polygon(surface, colors[i], corners[i], 1 if wires[i] else 0)
-        lamp_rows = lamps.array()
-        if len(lamp_rows):
-            low = lamp_rows[:, 1] < 2.5 + self.world.ego.state.y  # car lamps; traffic-light lamps are drawn as one disc
-            lr = lamp_rows[low]
-            tx, tz = -lr[:, 4], lr[:, 3]
-            p0 = to_px(lr[:, 0] - lr[:, 5] * tx, lr[:, 2] - lr[:, 5] * tz).tolist()
-            p1 = to_px(lr[:, 0] + lr[:, 5] * tx, lr[:, 2] + lr[:, 5] * tz).tolist()
-            wd = max(1, round(0.3 * scale))
-            for a0, a1, col in zip(p0, p1, lr[:, 7:10].astype(int).tolist()):
-                line(surface, col, a0, a1, wd)
-        for x, z, state in self.scene.light_states:
-            col = LIGHT_COLORS.get(LAMPS_BY_STATE.get(state, (False, False, False)), pal.LAMP_DARK)
-            px = to_px(np.array(x), np.array(z)).tolist()
-            pg.draw.circle(surface, col, px, max(2, round(0.6 * scale)))
+        lens_key = (w, h, scale)
+        if lens_key != self._lens_key:
+            lens = self._cam.node().getLens()
+            lens.setFilmSize(w / scale, h / scale)
+            lens.setNearFar(1.0, 2.0 * CAMERA_HEIGHT_M)
+            self._lens_key = lens_key
+        self.stage.map_symbols(scale, self.show_ideal_tracks)
+        cx, cz = centre if centre is not None else (s.x, s.z)
+        ahead = (at - 0.5) * h / scale  # the frame's centre lies this far ahead of the car
+        fx, fz = -math.sin(yaw), -math.cos(yaw)
+        x, z = cx + ahead * fx, cz + ahead * fz
+        self.stage.sync(x, s.y + CAMERA_HEIGHT_M, z, include_ego=True)
+        self._cam.setPosHpr(x, -z, s.y + CAMERA_HEIGHT_M, math.degrees(yaw), -90.0, 0.0)
+        self._target.render()
+        return self._target

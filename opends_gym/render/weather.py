@@ -15,14 +15,27 @@ particle filters; we keep their meaning, not their pixels:
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from . import palette as pal
-from .raster import Fog
 
 VIS_CLEAR_M, VIS_DENSE_M = 2000.0, 40.0
+
+
+@dataclass
+class Fog:
+    """Fog as a colour and an extinction per metre: `amount(d)` = 1 - exp(-density d)."""
+
+    color: tuple[int, int, int]
+    density_per_m: float
+
+    def amount(self, depth: np.ndarray) -> np.ndarray:
+        return 1.0 - np.exp(-self.density_per_m * np.maximum(depth, 0.0))
+
+
 MAX_PARTICLES = 900
 REF_AREA_PX = 1280 * 720
 PARTICLE_SEED = 20240611
