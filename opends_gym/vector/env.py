@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
@@ -94,7 +95,7 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             raise ValueError("choose threads or processes for the shards, not both")
         if processes is not None and processes < 1:
             raise ValueError(f"processes must be at least 1, not {processes}")
-        shards = max(1, min(processes, num_envs)) if processes is not None else _shard_count(num_envs, threads)
+        shards = max(1, min(processes, num_envs)) if processes is not None else _shard_count(num_envs, threads, batch_cls.parallel_kernels)
         bounds = np.linspace(0, num_envs, shards + 1).astype(int)
         self._slices = [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
         self._k = int(template.config.nearby_vehicles)
@@ -228,11 +229,13 @@ def _add_numbers(out: dict[str, Any], values: dict[str, float], e: int, n: int) 
         out[f"_{key}"][e] = True
 
 
-def _shard_count(num_envs: int, threads: int | None) -> int:
-    """Shards stepped in parallel Python threads: by default one (the step's kernels run their
-    chunks of envs on numba's threads themselves)."""
+def _shard_count(num_envs: int, threads: int | None, parallel_kernels: bool) -> int:
+    """Shards stepped in parallel Python threads: by default one for a batch whose kernels run
+    their chunks of envs on numba's threads themselves (`parallel_kernels`), else one per CPU
+    (at most 4) once the shards are large enough for that to pay (numpy releases the GIL in
+    its loops)."""
     if threads is None:
-        threads = 1
+        threads = 1 if parallel_kernels or num_envs < 2048 else min(4, os.cpu_count() or 1)
     if threads < 1:
         raise ValueError(f"threads must be at least 1, not {threads}")
     return max(1, min(threads, num_envs))

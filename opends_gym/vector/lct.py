@@ -25,6 +25,7 @@ from .trace import TraceRing
 
 class LctBatch(BatchCore):
     handled_actions = frozenset({"setupLaneChangeReactionTimer", "manipulateObject"})
+    parallel_kernels = True  # its step kernels use numba's threads (`parallel`)
 
     def __init__(self, template: LaneChangeTestEnv, n: int, record_metrics: bool = True) -> None:
         super().__init__(template, n, record_metrics)
