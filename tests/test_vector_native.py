@@ -287,7 +287,8 @@ def test_sharded_batches_step_exactly_like_one_shard(shards: dict[str, int]) -> 
 def test_many_chunks_step_each_env_as_alone() -> None:
     """A batch large enough that its kernels split it into chunks stepped on numba's threads
     computes for each env what a batch of that env alone computes (observations, rewards,
-    flags, info and episode metrics, through autoresets)."""
+    flags, info and episode metrics, through autoresets); what a step returns is the caller's
+    (the next step leaves it unchanged)."""
     from opends_gym.vector.kernels import CHUNK_ENVS
 
     kw = {**SHORT[LCT], "max_episode_s": 8.0}
@@ -301,11 +302,15 @@ def test_many_chunks_step_each_env_as_alone() -> None:
     _same("reset obs", obs[picks], obs_s)
     rng = np.random.default_rng(5)
     ends = 0
+    held: tuple[Any, ...] = ()
     for t in range(120):
         a = lct_driver(obs, rng, n)
         a[picks[1], 0] = rng.uniform(-0.4, 0.4)  # (off the road: an early end in a middle chunk)
         out = big.step(a)
         out_s = small.step(a[picks])
+        for x, kept in held:  # the arrays a step returned stay as they were (none is the batch's state)
+            _same(f"step {t - 1} kept", x, kept)
+        held = tuple((x, x.copy()) for x in (*out[:4], *(v for v in out[4].values() if isinstance(v, np.ndarray))))
         obs = out[0]
         for name, x, y in zip(("obs", "reward", "terminated", "truncated"), out[:4], out_s[:4], strict=True):
             _same(f"step {t} {name}", x[picks], y)

@@ -155,7 +155,7 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         parts = [shard.reset(seeds[sl]) for shard, sl in zip(self.shards, self._slices)]
         self._autoreset[:] = False
         self._started = True
-        obs = np.concatenate([p[0] for p in parts])
+        obs = _join([p[0] for p in parts])
         values = _concat([p[1] for p in parts])
         return obs, self._info_dict(values, [[] for _ in parts])
 
@@ -182,10 +182,7 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             err = part[-1]
             if err is not None:  # name the env in the whole batch, not in its shard
                 raise type(err)(_renumber(str(err), sl.start)) from err
-        obs = np.concatenate([p[0] for p in parts])
-        reward = np.concatenate([p[1] for p in parts])
-        terminated = np.concatenate([p[2] for p in parts])
-        truncated = np.concatenate([p[3] for p in parts])
+        obs, reward, terminated, truncated = (_join([p[i] for p in parts]) for i in range(4))
         ended = terminated | truncated
         info = self._info_dict(_concat([p[4] for p in parts]), [p[5] for p in parts])
         self._autoreset = ended
@@ -241,8 +238,13 @@ def _shard_count(num_envs: int, threads: int | None, parallel_kernels: bool) -> 
     return max(1, min(threads, num_envs))
 
 
+def _join(parts: list[np.ndarray]) -> np.ndarray:
+    """The shards' arrays as one (a single shard's as it is: its arrays are fresh each step)."""
+    return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+
 def _concat(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    return {k: _join([p[k] for p in parts]) for k in parts[0]}
 
 
 def _check_actions(a: np.ndarray, stepping: np.ndarray) -> None:
