@@ -19,6 +19,7 @@ from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
+from .kernels import CHUNK_ENVS
 from .lct_step import _observation_range, _outcomes_range, _substeps_range, lct_observation, lct_outcomes, lct_substeps
 from .trace import TraceRing
 
@@ -55,7 +56,9 @@ class LctBatch(BatchCore):
         self._no_block = np.empty((1, 1, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
         self._steering = (np.zeros(n), np.zeros(n), np.zeros(n))  # lct_substeps' scratch
-        self.parallel = True  # the step's kernels run chunks of envs on numba's threads (False: their serial twins, for Python threads)
+        # the step's kernels run chunks of envs on numba's threads (False: their serial twins, for Python threads and for
+        # a batch of one chunk, which a parallel launch would only delay: waking the pool costs more than stepping it)
+        self.parallel = n > CHUNK_ENVS
         self._park = np.full(n, -1, dtype=np.int64)  # the physics step where a car waits for its triggers to fire (-1: none)
 
     def _reset_task(self, idx: np.ndarray) -> None:
