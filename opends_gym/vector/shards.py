@@ -2,8 +2,9 @@
 
 Why: the compiled kernels release the GIL but the Python between them holds it, so shards
 stepped in threads of one process share one interpreter's worth of glue. Worker processes
-(`processes=N`) run that glue in parallel too: two independent processes of 2,048 LCT envs
-each ran side by side at the speed of one alone here. A worker process gets actions over a
+(`processes=N`) run that glue in parallel too (before the LCT's kernels ran on numba's
+threads, two independent processes of 2,048 LCT envs each ran side by side at the speed of
+one alone here; the LCT batch now uses the cores from one process). A worker process gets actions over a
 pipe and writes its observation, rewards, flags and info arrays into memory shared with the
 caller; only the finished episodes' metrics travel back through the pipe. The arithmetic is
 the same code as in process, so the results are identical (tested). The pipe round trip
