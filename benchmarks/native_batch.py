@@ -5,6 +5,7 @@
     python benchmarks/native_batch.py --no-metrics          # without the per-step traces
     python benchmarks/native_batch.py --sizes 4096 --processes 2   # shards in 2 worker processes
     python benchmarks/native_batch.py --sizes 4096 --episode       # one whole LCT episode, scoring included
+    python benchmarks/native_batch.py --sizes 4096 --random        # random actions (autoresets), as throughput.py
 
 A lane-keeping policy (the instructed lane for the LCT) keeps the episodes long; the
 first steps are not timed (warm-up). Prints one row per N: env-steps per second, ms per
@@ -44,14 +45,20 @@ def action_width(env: gym.vector.VectorEnv) -> int:
     return int(shape[0])
 
 
-def measure(env: gym.vector.VectorEnv, seconds: float, lct: bool) -> tuple[float, float]:
+def measure(env: gym.vector.VectorEnv, seconds: float, lct: bool, random: bool = False) -> tuple[float, float]:
     width = action_width(env)
     obs, _ = env.reset(seed=0)
-    for _ in range(3):
-        obs, *_ = env.step(policy(obs, width, lct))
+    env.action_space.seed(0)
+    drawn = [env.action_space.sample() for _ in range(16)] if random else []
+
+    def act(obs: np.ndarray, i: int) -> np.ndarray:
+        return drawn[i % 16] if random else policy(obs, width, lct)
+
+    for i in range(3):
+        obs, *_ = env.step(act(obs, i))
     steps, t0 = 0, time.perf_counter()
     while time.perf_counter() - t0 < seconds:
-        obs, *_ = env.step(policy(obs, width, lct))
+        obs, *_ = env.step(act(obs, steps))
         steps += 1
     dt = time.perf_counter() - t0
     return steps * env.num_envs / dt, 1000.0 * dt / steps
@@ -80,6 +87,7 @@ def main() -> None:
     p.add_argument("--seconds", type=float, default=4.0)
     p.add_argument("--no-metrics", action="store_true", help="record_metrics=False (no traces, no episode_metrics)")
     p.add_argument("--episode", action="store_true", help="one whole episode per batch size, its end (scoring) included")
+    p.add_argument("--random", action="store_true", help="random actions (action_space.sample, autoresets) instead of the lane keeper")
     shards = p.add_mutually_exclusive_group()
     shards.add_argument("--threads", type=int, help="shards stepped in this many threads (default: one per core from 2048 envs)")
     shards.add_argument("--processes", type=int, help="shards in this many worker processes")
@@ -89,7 +97,7 @@ def main() -> None:
     print(f"{env_id}, fast backend, 10 Hz policy / 60 Hz physics, record_metrics={not args.no_metrics}, shards: {sharding or 'default'}")
     print(f"{'mode':<8} {'N':>7} {'env-steps/s':>14} {'ms/step':>10}")
     sync = gym.make_vec(env_id, num_envs=min(args.sizes), vectorization_mode="sync")
-    rate, ms = measure(sync, min(args.seconds, 5.0), lct)
+    rate, ms = measure(sync, min(args.seconds, 5.0), lct, args.random)
     print(f"{'sync':<8} {sync.num_envs:>7} {rate:>14,.0f} {ms:>10.2f}", flush=True)
     sync.close()
     if args.episode:
@@ -100,7 +108,7 @@ def main() -> None:
             rate, steps, slowest = whole_episode(env, lct)
             print(f"{'native':<8} {n:>7} {rate:>14,.0f} {steps:>7} {slowest:>15.2f}", flush=True)
         else:
-            rate, ms = measure(env, args.seconds, lct)
+            rate, ms = measure(env, args.seconds, lct, args.random)
             print(f"{'native':<8} {n:>7} {rate:>14,.0f} {ms:>10.2f}", flush=True)
         env.close()
 

@@ -230,13 +230,15 @@ def lane_keeping(obs: np.ndarray) -> np.ndarray:
 
 
 def measure_native(case: Case, backend: str, n: int, seconds: float, keep_lane: bool = False, processes: int | None = None,
-                   memory: bool = True) -> Row | None:  # fmt: skip
+                   memory: bool = True, metrics: bool = True) -> Row | None:  # fmt: skip
     """The natively batched env of `opends_gym.vector`, where one exists for this id and backend
     (random actions, or with `keep_lane` the LCT lane follower; shards in threads, or with
     `processes` in that many worker processes)."""
     if case.kwargs or not native_batch_available(case.env_id):
         return None
     shards: dict[str, Any] = {"processes": processes} if processes else {}
+    if not metrics:
+        shards["record_metrics"] = False
 
     def build() -> list[Any]:
         v = gym.make_vec(case.env_id, num_envs=n, vectorization_mode="vector_entry_point", physics=backend, **shards)
@@ -264,6 +266,7 @@ def measure_native(case: Case, backend: str, n: int, seconds: float, keep_lane: 
         vec.close()
     label = f"{case.label} (lane keeping)" if keep_lane else case.label
     mode = f"native, {processes} processes" if processes else "native"
+    mode += "" if metrics else ", no metrics"
     if processes:
         cpu = float("nan")  # the workers' CPU time is not this process's
     return Row(label, backend, mode, n, rate * n, rate * n / case.policy_hz, mb, cpu)
@@ -308,6 +311,9 @@ class Round:
     motorway_sim: float
     native_random: float
     native_keep: float
+    native_bare: float  # random actions, record_metrics=False
+    brake_random: float
+    platoon_random: float
 
     @property
     def lct_ratio(self) -> float:
@@ -330,13 +336,18 @@ def goal_rounds(rounds: int, seconds: float, native_envs: int) -> list[Round]:
         mw = measure_single(motorway, "fast", seconds, memory=False)
         rand = measure_native(lct, "fast", native_envs, seconds, memory=False)
         keep = measure_native(lct, "fast", native_envs, seconds, keep_lane=True, memory=False)
-        nan = float("nan")
-        out.append(
-            Round(hw.steps_per_s, one.steps_per_s, mw.sim_s_per_s, rand.steps_per_s if rand else nan, keep.steps_per_s if keep else nan)
-        )
+        bare = measure_native(lct, "fast", native_envs, seconds, memory=False, metrics=False)
+        brake = measure_native(cases["BrakeReaction"], "fast", native_envs, seconds, memory=False)
+        platoon = measure_native(cases["ThreeVehiclePlatoon"], "fast", native_envs, seconds, memory=False)
+
+        def rate(row: Row | None) -> float:
+            return row.steps_per_s if row is not None and not row.note else float("nan")
+
+        out.append(Round(hw.steps_per_s, one.steps_per_s, mw.sim_s_per_s, rate(rand), rate(keep), rate(bare), rate(brake), rate(platoon)))
         r = out[-1]
-        print(f"round {k + 1}: peer {r.peer_steps:.1f}, LCT {r.lct_ratio:.0f}x, Motorway {r.motorway_ratio:.1f}x, "
-              f"native {r.native_random:,.0f} / {r.native_keep:,.0f} (random / lane keeping)", flush=True)  # fmt: skip
+        print(f"round {k + 1}: peer {r.peer_steps:.1f}, LCT {r.lct_ratio:.0f}x, Motorway {r.motorway_ratio:.1f}x, native LCT "
+              f"{r.native_random:,.0f} / {r.native_bare:,.0f} / {r.native_keep:,.0f} (random / random, no metrics / lane keeping), "
+              f"brake {r.brake_random:,.0f}, platoon {r.platoon_random:,.0f}", flush=True)  # fmt: skip
     return out
 
 
@@ -353,24 +364,29 @@ def goals(rows: list[Row], rounds: list[Round]) -> list[str]:
         value = float(np.median(values))
         out.append(f"| {goal} | {fmt(value, 1)}{unit} | {target:,.0f}{unit} | {'PASS' if value >= target else 'FAIL'} |")
 
-    line("single LCT (fast) policy steps/s vs highway-fast-v0 (random actions, resets)", [r.lct_ratio for r in rounds], 250, "x")
+    line("single LCT (fast) policy steps/s vs highway-fast-v0 (random actions, resets)", [r.lct_ratio for r in rounds], 300, "x")
     line("MotorwayTask (fast, 41 cars) simulated s per wall s vs highway-fast-v0", [r.motorway_ratio for r in rounds], 10, "x")
-    line("native batch LCT env-steps/s, lane keeping (episodes last)", [r.native_keep for r in rounds], 1_000_000, "")
+    line("native LCT env-steps/s, random actions, without metrics", [r.native_bare for r in rounds], 5_000_000, "")
+    line("native LCT env-steps/s, random actions, with metrics", [r.native_random for r in rounds], 3_000_000, "")
+    line("native LCT env-steps/s, lane keeping, with metrics (episodes last)", [r.native_keep for r in rounds], 1_000_000, "")
+    line("native brake test / native LCT, random actions, with metrics", [100 * r.brake_random / r.native_random for r in rounds], 80, " %")
     line(
-        "native batch LCT env-steps/s, random actions (episodes of ~5 s, scored as they end)",
-        [r.native_random for r in rounds],
-        1_000_000,
-        "",
+        "native platoon test / native LCT, random actions, with metrics",
+        [100 * r.platoon_random / r.native_random for r in rounds],
+        80,
+        " %",
     )
+    out.append("| native MotorwayTask (41 cars, triggers) env-steps/s | n/a (not built) | 100,000 | n/a (not built) |")
     for label in ("LaneChangeTest", "MotorwayTask"):
         b = find(rows, label, "bullet", "single")
         line(f"bullet backend real-time factor ({label}, main table)", [b.rtf_per_env] if b else [], 50, "x")
-    out += ["", "| round | highway-fast-v0 steps/s | LCT steps/s | LCT ratio | Motorway sim s/s | Motorway ratio | native random "
-            "| native lane keeping |",
-            "|---:|---:|---:|---:|---:|---:|---:|---:|"]  # fmt: skip
+    out += ["", "| round | highway-fast-v0 steps/s | LCT steps/s | LCT ratio | Motorway sim s/s | Motorway ratio | native LCT random "
+            "| native LCT random, no metrics | native LCT lane keeping | native brake random | native platoon random |",
+            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]  # fmt: skip
     for k, r in enumerate(rounds):
         out.append(f"| {k + 1} | {fmt(r.peer_steps, 1)} | {fmt(r.lct_steps)} | {fmt(r.lct_ratio)}x | {fmt(r.motorway_sim)} | "
-                   f"{fmt(r.motorway_ratio, 1)}x | {fmt(r.native_random)} | {fmt(r.native_keep)} |")  # fmt: skip
+                   f"{fmt(r.motorway_ratio, 1)}x | {fmt(r.native_random)} | {fmt(r.native_bare)} | {fmt(r.native_keep)} | "
+                   f"{fmt(r.brake_random)} | {fmt(r.platoon_random)} |")  # fmt: skip
     return out
 
 

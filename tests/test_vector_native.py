@@ -282,3 +282,46 @@ def test_sharded_batches_step_exactly_like_one_shard(shards: dict[str, int]) -> 
             sharded.step(np.zeros((5, 2), dtype=np.float32))
     one.close()
     sharded.close()
+
+
+def test_many_chunks_step_each_env_as_alone() -> None:
+    """A batch large enough that its kernels split it into chunks stepped on numba's threads
+    computes for each env what a batch of that env alone computes (observations, rewards,
+    flags, info and episode metrics, through autoresets); what a step returns is the caller's
+    (the next step leaves it unchanged)."""
+    from opends_gym.vector.kernels import CHUNK_ENVS
+
+    kw = {**SHORT[LCT], "max_episode_s": 8.0}
+    n = 2 * CHUNK_ENVS + 3
+    picks = [0, CHUNK_ENVS + 1, n - 1]
+    big = gym.make_vec(LCT, num_envs=n, vectorization_mode="vector_entry_point", **kw)
+    small = gym.make_vec(LCT, num_envs=len(picks), vectorization_mode="vector_entry_point", **kw)
+    seeds = [100 + i for i in range(n)]
+    obs, _ = big.reset(seed=seeds)
+    obs_s, _ = small.reset(seed=[seeds[e] for e in picks])
+    _same("reset obs", obs[picks], obs_s)
+    rng = np.random.default_rng(5)
+    ends = 0
+    held: tuple[Any, ...] = ()
+    for t in range(120):
+        a = lct_driver(obs, rng, n)
+        a[picks[1], 0] = rng.uniform(-0.4, 0.4)  # (off the road: an early end in a middle chunk)
+        out = big.step(a)
+        out_s = small.step(a[picks])
+        for x, kept in held:  # the arrays a step returned stay as they were (none is the batch's state)
+            _same(f"step {t - 1} kept", x, kept)
+        held = tuple((x, x.copy()) for x in (*out[:4], *(v for v in out[4].values() if isinstance(v, np.ndarray))))
+        obs = out[0]
+        for name, x, y in zip(("obs", "reward", "terminated", "truncated"), out[:4], out_s[:4], strict=True):
+            _same(f"step {t} {name}", x[picks], y)
+        info, info_s = out[4], out_s[4]
+        for key, value in info_s.items():
+            if key == "episode_metrics":
+                ends += int(info_s["_episode_metrics"].sum())
+                for mk, mv in value.items():
+                    _same(f"step {t} metric {mk}", info[key][mk][picks], mv)
+            else:
+                _same(f"step {t} info {key}", info[key][picks], value)
+    assert ends >= 3
+    big.close()
+    small.close()

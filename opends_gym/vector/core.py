@@ -35,6 +35,7 @@ class BatchCore:
     trace_columns: tuple[str, ...] = ("x_m", "z_m", "speed_mps", "steering")
     needs_distance = False  # the base running mean deviation (the LCT replaces it)
     has_traffic = False  # `_traffic_step` and `_traffic_hits` do something
+    parallel_kernels = False  # its step kernels run chunks of envs on numba's threads (one shard by default)
 
     def __init__(self, template: OpenDSEnv, n: int, record_metrics: bool = True) -> None:
         self.template: Any = template

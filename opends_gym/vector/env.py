@@ -20,12 +20,15 @@ per-step event log) is not produced, nor rendering.
 
 Options: `record_metrics=False` skips the per-step traces (and `episode_metrics`); they
 take ~0.5 MB per env for the LCT's 300 s limit, and a batch whose traces would not fit in
-memory is refused. `threads` splits the envs into shards stepped in parallel threads
-(the compiled kernels release the GIL); by default one per CPU (at most 4) from 2048 envs.
+memory is refused. Parallelism: the Lane Change Test's step kernels run chunks of envs on
+numba's thread pool (`NUMBA_NUM_THREADS`, one per core by default; `numba.set_num_threads`),
+so one process uses every core with no Python per chunk. `threads` splits the envs into
+shards stepped in Python threads as well (the kernels release the GIL; the brake and
+platoon batches step much of their physics step in numpy, which holds it between calls).
 `processes=N` runs N shards in separate processes instead (`opends_gym.vector.shards`): the
-first in the calling process, each other one in a worker process of its own, so the Python
-between kernels runs in parallel too, at the price of a pipe round trip per step for the
-workers (worth it for thousands of envs); the workers are forked where the OS can.
+first in the calling process, each other one in a worker process of its own (spawned), each
+with its share of numba's threads, at the price of a pipe round trip per step for the
+workers.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import gymnasium as gym
+import numba
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -97,7 +101,7 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             raise ValueError("choose threads or processes for the shards, not both")
         if processes is not None and processes < 1:
             raise ValueError(f"processes must be at least 1, not {processes}")
-        shards = max(1, min(processes, num_envs)) if processes is not None else _shard_count(num_envs, threads)
+        shards = max(1, min(processes, num_envs)) if processes is not None else _shard_count(num_envs, threads, batch_cls.parallel_kernels)
         bounds = np.linspace(0, num_envs, shards + 1).astype(int)
         self._slices = [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
         self._k = int(template.config.nearby_vehicles)
@@ -109,17 +113,24 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             probe = batch_cls(template, 1, False).info()  # the info keys and their types, for the shared arrays
             info_dtypes = {key: np.asarray(v).dtype.str for key, v in probe.items()}
             first = self._slices[0]
-            self.shards.append(LocalShard(batch_cls(template, first.stop - first.start, record_metrics), self._k, self._obs_size))
+            each = max(1, numba.get_num_threads() // shards)  # numba threads per process: the cores shared out
+            self.shards.append(LocalShard(batch_cls(template, first.stop - first.start, record_metrics), self._k, self._obs_size, each))
             for i, sl in enumerate(self._slices[1:], start=1):
                 try:
                     n = sl.stop - sl.start
-                    self.shards.append(ProcessShard(env_id, batch_cls, n, record_metrics, kwargs, self._k, self._obs_size, info_dtypes, i))
+                    self.shards.append(
+                        ProcessShard(env_id, batch_cls, n, record_metrics, kwargs, self._k, self._obs_size, info_dtypes, i, each)
+                    )
                 except BaseException:
                     self.close_extras()
                     raise
         else:
             templates = [template] + [gym.make(env_id, disable_env_checker=True, **kwargs).unwrapped for _ in range(shards - 1)]
             cores = [batch_cls(t, sl.stop - sl.start, record_metrics) for t, sl in zip(templates, self._slices)]  # type: ignore[arg-type]
+            if shards > 1:  # numba's workqueue threads take one caller at a time: each Python thread steps its shard serially
+                for core in cores:
+                    if hasattr(core, "parallel"):
+                        core.parallel = False
             self.shards = [LocalShard(c, self._k, self._obs_size) for c in cores]
             # the calling thread steps the first shard itself; the pool the others
             self._pool = ThreadPoolExecutor(max_workers=shards - 1, thread_name_prefix="opends-native") if shards > 1 else None
@@ -150,7 +161,7 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         parts = [shard.reset(seeds[sl]) for shard, sl in zip(self.shards, self._slices)]
         self._autoreset[:] = False
         self._started = True
-        obs = np.concatenate([p[0] for p in parts])
+        obs = _join([p[0] for p in parts])
         values = _concat([p[1] for p in parts])
         return obs, self._info_dict(values, [[] for _ in parts])
 
@@ -177,10 +188,7 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             err = part[-1]
             if err is not None:  # name the env in the whole batch, not in its shard
                 raise type(err)(_renumber(str(err), sl.start)) from err
-        obs = np.concatenate([p[0] for p in parts])
-        reward = np.concatenate([p[1] for p in parts])
-        terminated = np.concatenate([p[2] for p in parts])
-        truncated = np.concatenate([p[3] for p in parts])
+        obs, reward, terminated, truncated = (_join([p[i] for p in parts]) for i in range(4))
         ended = terminated | truncated
         info = self._info_dict(_concat([p[4] for p in parts]), [p[5] for p in parts])
         self._autoreset = ended
@@ -224,18 +232,25 @@ def _add_numbers(out: dict[str, Any], values: dict[str, float], e: int, n: int) 
         out[f"_{key}"][e] = True
 
 
-def _shard_count(num_envs: int, threads: int | None) -> int:
-    """Shards stepped in parallel threads (numpy releases the GIL in its loops): by default one
-    per CPU (at most 4) once the shards are large enough for that to pay."""
+def _shard_count(num_envs: int, threads: int | None, parallel_kernels: bool) -> int:
+    """Shards stepped in parallel Python threads: by default one for a batch whose kernels run
+    their chunks of envs on numba's threads themselves (`parallel_kernels`), else one per CPU
+    (at most 4) once the shards are large enough for that to pay (numpy releases the GIL in
+    its loops)."""
     if threads is None:
-        threads = min(4, os.cpu_count() or 1) if num_envs >= 2048 else 1
+        threads = 1 if parallel_kernels or num_envs < 2048 else min(4, os.cpu_count() or 1)
     if threads < 1:
         raise ValueError(f"threads must be at least 1, not {threads}")
     return max(1, min(threads, num_envs))
 
 
+def _join(parts: list[np.ndarray]) -> np.ndarray:
+    """The shards' arrays as one (a single shard's as it is: its arrays are fresh each step)."""
+    return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+
 def _concat(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    return {k: _join([p[k] for p in parts]) for k in parts[0]}
 
 
 def _check_actions(a: np.ndarray, stepping: np.ndarray) -> None:

@@ -27,6 +27,16 @@ LANE = 0  # (timers.LANE)
 # columns of a trigger volume row (`TriggerBatch.vols`): centre, reach (no contact farther away along z), heading, half sizes
 V_CZ, V_CX, V_REACH, V_YAW, V_HX, V_HZ = range(6)
 FAIL, MISS, SUCCESS = 1, 2, 3
+CHUNK_ENVS = 128  # envs per chunk of a parallel step (`chunk_count`)
+
+
+@inline
+def chunk_count(n: int) -> int:
+    """Chunks of about CHUNK_ENVS envs that the threads of a parallel step take one at a
+    time: small enough that a thread whose core is busy elsewhere holds up little, large
+    enough that taking one costs little next to stepping it."""
+    c = (n + CHUNK_ENVS - 1) // CHUNK_ENVS
+    return c if c > 1 else 1
 
 
 @kernel
@@ -222,14 +232,21 @@ def heading_error(yaw: float, heading: float) -> float:
 @kernel
 def ego_features(out: np.ndarray, u: np.ndarray, yaw: np.ndarray, heading: float, offset: np.ndarray, lat: np.ndarray, lane: np.ndarray,
                  steer: np.ndarray, r: np.ndarray) -> None:  # fmt: skip
-    """`ObservationType.ego_features` of every env into the first columns of `out` (float32):
-    speed, heading error (wrapped to [-pi, pi)), lane offset, lateral position, lane, steering,
-    yaw rate."""
+    """`ego_features_row` of every env."""
     for e in range(len(u)):
-        out[e, 0] = u[e]
-        out[e, 1] = heading_error(yaw[e], heading)
-        out[e, 2] = offset[e]
-        out[e, 3] = lat[e]
-        out[e, 4] = lane[e]
-        out[e, 5] = steer[e]
-        out[e, 6] = r[e]
+        ego_features_row(out, e, u[e], yaw[e], heading, offset[e], lat[e], lane[e], steer[e], r[e])
+
+
+@inline
+def ego_features_row(out: np.ndarray, e: int, u: float, yaw: float, heading: float, offset: float, lat: float, lane: int, steer: float,
+                     r: float) -> None:  # fmt: skip
+    """`ObservationType.ego_features` of env e into the first columns of row e of `out`
+    (float32): speed, heading error (wrapped to [-pi, pi)), lane offset, lateral position,
+    lane, steering, yaw rate."""
+    out[e, 0] = u
+    out[e, 1] = heading_error(yaw, heading)
+    out[e, 2] = offset
+    out[e, 3] = lat
+    out[e, 4] = lane
+    out[e, 5] = steer
+    out[e, 6] = r

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numba
 import numpy as np
 
 from ..envs.base import LANE_KEEPING_OFFSET_M
@@ -18,13 +19,14 @@ from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
-from .kernels import ego_features
-from .lct_step import lct_outcomes, lct_stimulus, lct_substeps
+from .kernels import CHUNK_ENVS
+from .lct_step import _observation_range, _outcomes_range, _substeps_range, lct_observation, lct_outcomes, lct_substeps
 from .trace import TraceRing
 
 
 class LctBatch(BatchCore):
     handled_actions = frozenset({"setupLaneChangeReactionTimer", "manipulateObject"})
+    parallel_kernels = True  # its step kernels use numba's threads (`parallel`)
 
     def __init__(self, template: LaneChangeTestEnv, n: int, record_metrics: bool = True) -> None:
         super().__init__(template, n, record_metrics)
@@ -54,6 +56,9 @@ class LctBatch(BatchCore):
         self._no_block = np.empty((1, 1, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
         self._steering = (np.zeros(n), np.zeros(n), np.zeros(n))  # lct_substeps' scratch
+        # the step's kernels run chunks of envs on numba's threads (False: their serial twins, for Python threads and for
+        # a batch of one chunk, which a parallel launch would only delay: waking the pool costs more than stepping it)
+        self.parallel = n > CHUNK_ENVS
         self._park = np.full(n, -1, dtype=np.int64)  # the physics step where a car waits for its triggers to fire (-1: none)
 
     def _reset_task(self, idx: np.ndarray) -> None:
@@ -71,11 +76,15 @@ class LctBatch(BatchCore):
         floats = tuple(np.empty(n) for _ in range(6))
         new_collisions = np.empty(n, dtype=np.int64)
         reward, terminated, truncated = np.empty(n), np.empty(n, dtype=bool), np.empty(n, dtype=bool)
-        lct_outcomes(rows, self.guide.sign, self.guide.start_xz[1], s.z, s.u, self.last_s, self.progress, self.collisions,
+        args = (rows, self.guide.sign, self.guide.start_xz[1], s.z, s.u, self.last_s, self.progress, self.collisions,
                      self.collisions_seen, self.new_collisions, tm.n_results, self.reaction_cursor, tm.last_result, tm.last_rt,
                      self.rl["n"], self.rl["m2"], self.has_prev, self.prev_d, self.area, self.lat, self.off_road_limit, self.step_reward,
                      self.reward_scale, self.off_road_penalty, self.trig.paused, bool(self.config.terminate_on_collision), self.t,
-                     float(self.config.max_episode_s), floats, (new_collisions,), reward, terminated, truncated)  # fmt: skip
+                float(self.config.max_episode_s), floats, (new_collisions,), reward, terminated, truncated)  # fmt: skip
+        if self.parallel:
+            lct_outcomes(*args)
+        else:
+            _outcomes_range(0, n, *args)
         speed_kmh, result, rt, mdev, sdlp, progress = floats
         info = {
             "sim_time_s": self.t.copy(),
@@ -99,20 +108,27 @@ class LctBatch(BatchCore):
         return reward, terminated, truncated, info
 
     def observation(self, k: int, size: int) -> np.ndarray:
-        """The ego features (the shared kernel), empty vehicle slots and the sign stimulus
-        (`lct_stimulus`)."""
+        """The ego features, empty vehicle slots and the sign stimulus (`lct_observation`)."""
         if size != len(EGO_NAMES) + k * len(VEHICLE_NAMES) + 3:
             raise ValueError(f"the LCT observation has 7 ego features, {k} empty vehicle slots and 3 stimulus values, not {size} values")
         out = np.empty((self.n, size), dtype=np.float32)
         s = self.s
-        ego_features(out, s.u, s.yaw, self.guide.road_heading, self.offset, self.lat, self.lane, s.steer_in, s.r)
-        lct_stimulus(out, self.lat, s.z, self.revealed, self.sign_z, self.sign_lane, self.lane_lat)
+        args = (out, s.u, s.yaw, self.guide.road_heading, self.offset, self.lat, self.lane, s.steer_in, s.r, s.z, self.revealed,
+                self.sign_z, self.sign_lane, self.lane_lat)  # fmt: skip
+        if self.parallel:
+            lct_observation(*args)
+        else:
+            _observation_range(0, self.n, *args)
         return out
 
     def _physics_steps(self, live: np.ndarray, c: BatchControls) -> None:
         """`BatchCore._physics_steps` as one compiled loop (`lct_step`), back in Python only to
         fire the triggers of the cars that touched their boxes and to score ended timers. A
         policy step of more physics steps than a ring block holds runs a block at a time."""
+        with numba.parallel_chunksize(1):  # threads take the chunks one at a time: a busy core holds up one chunk, not half
+            self._substeps(live, c)
+
+    def _substeps(self, live: np.ndarray, c: BatchControls) -> None:
         s, trig, timers, ring, g = self.s, self.trig, self.timers, self.ring, self.guide
         ego_f = (s.x, s.z, s.yaw, s.u, s.v, s.r, s.rpm, s.prev_v, s.fuel_used, s.fuel_left, s.steer_in, s.gas_in, s.brake_in,
                  s.cruise_target, s.cruise_int)  # fmt: skip
@@ -124,7 +140,7 @@ class LctBatch(BatchCore):
             row0 = ring.g % ring.BLOCK - k_from if ring is not None else 0
             steps, resume = k_from, False
             while True:
-                parked, ran = lct_substeps(
+                args = (
                     resume, k_from, k_to, self.dt, live, self._park, self.step_count, self.t, trig.paused, self.p.car, self.p.engine_on,
                     self.p.suppress_cruise_off, self.p.min_speed, ego_f, s.gear, s.cruise_on, c.steer, c.gas, c.brake, self.car_shift,
                     self.car_half[0], self.car_half[1], trig.vols, trig.vol_triggers, trig.locks, trig.near, trig.contact,
@@ -135,6 +151,7 @@ class LctBatch(BatchCore):
                     self.norm, self.norm_d0, self.norm_step, self.scale, self.has_prev,
                     (self.prev_d, self.prev_dev, self.area, self.step_reward), self.off_road_limit, self._steering,
                 )  # fmt: skip
+                parked, ran = lct_substeps(*args) if self.parallel else _substeps_range(0, self.n, *args)
                 steps = max(steps, ran)
                 if timers.done.any():  # (before firing: a timer a trigger re-arms is scored first)
                     timers.score_ended(trig.started_at)

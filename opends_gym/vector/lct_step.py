@@ -15,14 +15,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import prange
 
-from ..jit import inline, kernel
+from ..jit import inline, kernel, parallel_kernel
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from .ego import ego_step
-from .kernels import lane_measures, nearest_volume, timer_step, volume_fires
+from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, timer_step, volume_fires
 
 
-@kernel
+@parallel_kernel
 def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarray, park: np.ndarray, step_count: np.ndarray, t: np.ndarray,
                  paused: np.ndarray, car: np.ndarray, engine_on: bool, suppress_cruise_off: bool, min_speed: float, ego: tuple,
                  gear: np.ndarray, cruise_on: np.ndarray, steer: np.ndarray, gas: np.ndarray, brake: np.ndarray, shift: float, hx: float,
@@ -47,6 +48,89 @@ def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarr
     steering angle, its cosine and sine: the steering is held for the policy step); trace
     rows are (x, z, u, steer_in).
     """
+    n = len(live)
+    chunks = chunk_count(n)
+    parked, ran = np.zeros(chunks, dtype=np.int64), np.full(chunks, k_from, dtype=np.int64)
+    for c in prange(chunks):
+        parked[c], ran[c] = _substeps_range(
+            c * n // chunks,
+            (c + 1) * n // chunks,
+            resume,
+            k_from,
+            k_to,
+            dt,
+            live,
+            park,
+            step_count,
+            t,
+            paused,
+            car,
+            engine_on,
+            suppress_cruise_off,
+            min_speed,
+            ego,
+            gear,
+            cruise_on,
+            steer,
+            gas,
+            brake,
+            shift,
+            hx,
+            hz,
+            vols,
+            vol_triggers,
+            locks,
+            near,
+            contact,
+            timers,
+            active,
+            spec,
+            timer_f,
+            braked,
+            start_lane,
+            timer_table,
+            bands,
+            done,
+            done_t,
+            sign,
+            centres,
+            half_width,
+            keep_m,
+            lat,
+            lane,
+            offset,
+            sdlp,
+            ring,
+            block_a,
+            block_b,
+            row0,
+            ring_steps,
+            start_z,
+            norm,
+            d0,
+            norm_step,
+            scale,
+            has_prev,
+            path,
+            off_road,
+            steering,
+        )
+    return parked.sum(), ran.max()
+
+
+@kernel
+def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarray, park: np.ndarray,
+                    step_count: np.ndarray, t: np.ndarray,
+                 paused: np.ndarray, car: np.ndarray, engine_on: bool, suppress_cruise_off: bool, min_speed: float, ego: tuple,
+                 gear: np.ndarray, cruise_on: np.ndarray, steer: np.ndarray, gas: np.ndarray, brake: np.ndarray, shift: float, hx: float,
+                 hz: float, vols: np.ndarray, vol_triggers: np.ndarray, locks: np.ndarray, near: np.ndarray, contact: np.ndarray,
+                 timers: bool, active: np.ndarray, spec: np.ndarray, timer_f: tuple, braked: np.ndarray,
+                 start_lane: np.ndarray, timer_table: np.ndarray, bands: np.ndarray, done: np.ndarray, done_t: np.ndarray, sign: float,
+                 centres: np.ndarray, half_width: float, keep_m: float, lat: np.ndarray, lane: np.ndarray, offset: np.ndarray,
+                 sdlp: tuple, ring: bool, block_a: np.ndarray, block_b: np.ndarray, row0: int, ring_steps: np.ndarray, start_z: float,
+                 norm: np.ndarray, d0: float, norm_step: float, scale: float, has_prev: np.ndarray, path: tuple, off_road: float,
+                 steering: tuple) -> tuple[int, int]:  # fmt: skip
+    """`lct_substeps` for the envs lo..hi-1 (a chunk): (cars parked, most steps run)."""
     x, z, yaw, u, v, r, rpm, prev_v, fuel_used, fuel_left, steer_in, gas_in, brake_in, cruise_target, cruise_int = ego
     timer_t, timer_x, timer_z, peak, hold_since, tlim, dlim = timer_f  # (not start_z: the LCT's start)
     sd_n, sd_mean, sd_m2 = sdlp
@@ -54,7 +138,7 @@ def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarr
     angle, cos_a, sin_a = steering
     block = block_a.shape[0]
     parked, ran = 0, k_from
-    for e in range(len(live)):
+    for e in range(lo, hi):
         if not resume:
             contact[e] = -1
         if not live[e] or (resume and park[e] < 0):
@@ -139,14 +223,29 @@ def lct_measure(z: float, lat: float, start_z: float, norm: np.ndarray, d0: floa
     return d, dev, area, reward
 
 
+@parallel_kernel
+def lct_observation(out: np.ndarray, u: np.ndarray, yaw: np.ndarray, heading: float, offset: np.ndarray, lat: np.ndarray,
+                    lane: np.ndarray, steer: np.ndarray, r: np.ndarray, z: np.ndarray, revealed: np.ndarray, sign_z: np.ndarray,
+                    sign_lane: np.ndarray, lane_lat: np.ndarray) -> None:  # fmt: skip
+    """The LCT's kinematics observation of every env (float32): the ego features
+    (`kernels.ego_features_row`), zeros for the vehicle slots, then the stimulus of
+    `LaneChangeTestEnv._stimulus`: the revealed sign's visibility, the lateral gap to its lane
+    and the distance driven past it (m)."""
+    n = len(u)
+    chunks = chunk_count(n)
+    for c in prange(chunks):
+        _observation_range(c * n // chunks, (c + 1) * n // chunks, out, u, yaw, heading, offset, lat, lane, steer, r, z, revealed,
+                           sign_z, sign_lane, lane_lat)  # fmt: skip
+
+
 @kernel
-def lct_stimulus(out: np.ndarray, lat: np.ndarray, z: np.ndarray, revealed: np.ndarray, sign_z: np.ndarray, sign_lane: np.ndarray,
-                 lane_lat: np.ndarray) -> None:  # fmt: skip
-    """The LCT observation's columns after the ego features (float32): zeros for the vehicle
-    slots, then the stimulus of `LaneChangeTestEnv._stimulus`: the revealed sign's visibility,
-    the lateral gap to its lane and the distance driven past it (m)."""
+def _observation_range(lo: int, hi: int, out: np.ndarray, u: np.ndarray, yaw: np.ndarray, heading: float, offset: np.ndarray,
+                       lat: np.ndarray, lane: np.ndarray, steer: np.ndarray, r: np.ndarray, z: np.ndarray, revealed: np.ndarray,
+                       sign_z: np.ndarray, sign_lane: np.ndarray, lane_lat: np.ndarray) -> None:  # fmt: skip
+    """`lct_observation` for the envs lo..hi-1."""
     width = out.shape[1]
-    for e in range(len(lat)):
+    for e in range(lo, hi):
+        ego_features_row(out, e, u[e], yaw[e], heading, offset[e], lat[e], lane[e], steer[e], r[e])
         for i in range(7, width - 3):
             out[e, i] = 0.0
         k = revealed[e]
@@ -160,7 +259,7 @@ def lct_stimulus(out: np.ndarray, lat: np.ndarray, z: np.ndarray, revealed: np.n
         out[e, width - 1] = distance
 
 
-@kernel
+@parallel_kernel
 def lct_outcomes(rows: np.ndarray, sign: float, origin_z: float, z: np.ndarray, u: np.ndarray, last_s: np.ndarray,
                  progress: np.ndarray, collisions: np.ndarray, collisions_seen: np.ndarray, new_collisions: np.ndarray,
                  n_results: np.ndarray, cursor: np.ndarray, last_result: np.ndarray, last_rt: np.ndarray, sd_n: np.ndarray,
@@ -174,9 +273,60 @@ def lct_outcomes(rows: np.ndarray, sign: float, origin_z: float, z: np.ndarray, 
     empties `step_reward`) and the episode flags of the envs `rows` (the others: reward 0,
     flags False), with the formulas of `BatchCore.info`, `LaneChangeTestEnv._reward` and
     `_task_terminated`, and `BatchCore._terminated`."""
+    n = len(z)
+    chunks = chunk_count(n)
+    for c in prange(chunks):
+        _outcomes_range(
+            c * n // chunks,
+            (c + 1) * n // chunks,
+            rows,
+            sign,
+            origin_z,
+            z,
+            u,
+            last_s,
+            progress,
+            collisions,
+            collisions_seen,
+            new_collisions,
+            n_results,
+            cursor,
+            last_result,
+            last_rt,
+            sd_n,
+            sd_m2,
+            has_prev,
+            prev_d,
+            area,
+            lat,
+            off_road,
+            step_reward,
+            reward_scale,
+            penalty,
+            paused,
+            terminate_on_collision,
+            t,
+            max_s,
+            info_f,
+            info_i,
+            reward,
+            terminated,
+            truncated,
+        )
+
+
+@kernel
+def _outcomes_range(lo: int, hi: int, rows: np.ndarray, sign: float, origin_z: float, z: np.ndarray, u: np.ndarray, last_s: np.ndarray,
+                 progress: np.ndarray, collisions: np.ndarray, collisions_seen: np.ndarray, new_collisions: np.ndarray,
+                 n_results: np.ndarray, cursor: np.ndarray, last_result: np.ndarray, last_rt: np.ndarray, sd_n: np.ndarray,
+                 sd_m2: np.ndarray, has_prev: np.ndarray, prev_d: np.ndarray, area: np.ndarray, lat: np.ndarray, off_road: float,
+                 step_reward: np.ndarray, reward_scale: float, penalty: float, paused: np.ndarray, terminate_on_collision: bool,
+                 t: np.ndarray, max_s: float, info_f: tuple, info_i: tuple, reward: np.ndarray, terminated: np.ndarray,
+                 truncated: np.ndarray) -> None:  # fmt: skip
+    """`lct_outcomes` for the envs lo..hi-1."""
     speed_kmh, result, rt, mdev, sdlp, progress_m = info_f
     (new_coll_out,) = info_i
-    for e in range(len(z)):
+    for e in range(lo, hi):
         s_now = -sign * (z[e] - origin_z)
         progress[e] = s_now - last_s[e] if rows[e] else 0.0
         if rows[e]:

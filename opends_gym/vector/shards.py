@@ -2,8 +2,9 @@
 
 Why: the compiled kernels release the GIL but the Python between them holds it, so shards
 stepped in threads of one process share one interpreter's worth of glue. Worker processes
-(`processes=N`) run that glue in parallel too: two independent processes of 2,048 LCT envs
-each ran side by side at the speed of one alone here. A worker process gets actions over a
+(`processes=N`) run that glue in parallel too (before the LCT's kernels ran on numba's
+threads, two independent processes of 2,048 LCT envs each ran side by side at the speed of
+one alone here; the LCT batch now uses the cores from one process). A worker process gets actions over a
 pipe and writes its observation, rewards, flags and info arrays into memory shared with the
 caller; only the finished episodes' metrics travel back through the pipe. The arithmetic is
 the same code as in process, so the results are identical (tested). The pipe round trip
@@ -13,14 +14,13 @@ costs ~0.6 ms per step, so processes pay off for large batches only.
 from __future__ import annotations
 
 import ctypes
-import gc
 import multiprocessing as mp
 import traceback
-import tracemalloc
 from multiprocessing.connection import Connection
 from typing import Any
 
 import gymnasium as gym
+import numba
 import numpy as np
 
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
@@ -55,13 +55,21 @@ def reset_shard(core: BatchCore, seeds: list[int | None], k: int, obs_size: int)
 
 
 class LocalShard:
-    """A shard stepped in this process (in a worker thread when there are several)."""
+    """A shard stepped in this process (in a worker thread when there are several); `threads`:
+    numba threads for its kernels (None: numba's setting)."""
 
-    def __init__(self, core: BatchCore, k: int, obs_size: int) -> None:
-        self.core, self.k, self.obs_size = core, k, obs_size
+    def __init__(self, core: BatchCore, k: int, obs_size: int, threads: int | None = None) -> None:
+        self.core, self.k, self.obs_size, self.threads = core, k, obs_size, threads
 
     def step(self, actions: np.ndarray, resetting: np.ndarray) -> StepResult:
-        return step_shard(self.core, actions, resetting, self.k, self.obs_size)
+        if self.threads is None:
+            return step_shard(self.core, actions, resetting, self.k, self.obs_size)
+        before = numba.get_num_threads()
+        numba.set_num_threads(self.threads)
+        try:
+            return step_shard(self.core, actions, resetting, self.k, self.obs_size)
+        finally:
+            numba.set_num_threads(before)
 
     def reset(self, seeds: list[int | None]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         return reset_shard(self.core, seeds, self.k, self.obs_size)
@@ -97,21 +105,20 @@ class SharedArrays:
 
 
 class ProcessShard:
-    """A shard in a worker process of its own (forked where the OS can, so it starts with the
-    compiled kernels; it builds its own env template). `send_step` and `receive` are split so
-    the caller can start every shard before waiting for any."""
+    """A shard in a worker process of its own, started fresh (spawned: a process forked after
+    numba's OpenMP thread pool started cannot use it), which builds its own env template and
+    steps with `threads` numba threads. `send_step` and `receive` are split so the caller can
+    start every shard before waiting for any."""
 
     def __init__(self, env_id: str, batch_cls: type[BatchCore], n: int, record_metrics: bool, kwargs: dict[str, Any], k: int,
-                 obs_size: int, info_dtypes: dict[str, str], index: int) -> None:  # fmt: skip
-        # fork where there is one: the worker starts with this process's modules and compiled
-        # kernels (no re-import, works from a notebook or stdin); it only runs this batch's code
-        ctx: Any = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+                 obs_size: int, info_dtypes: dict[str, str], index: int, threads: int = 1) -> None:  # fmt: skip
+        ctx: Any = mp.get_context("spawn")
         layout = {"obs": ((n, obs_size), "float32"), "reward": ((n,), "float64"), "terminated": ((n,), "bool"), "truncated": ((n,), "bool")}
         layout.update({f"info.{key}": ((n,), dtype) for key, dtype in info_dtypes.items()})
         self.shared = SharedArrays(layout, ctx)
         self._conn, child = ctx.Pipe()
         self.index = index
-        args = (child, env_id, batch_cls, n, record_metrics, kwargs, k, obs_size, self.shared)
+        args = (child, env_id, batch_cls, n, record_metrics, kwargs, k, obs_size, self.shared, threads)
         self._process = ctx.Process(target=_serve, args=args, name=f"opends-native-{index}", daemon=True)
         self._process.start()
         child.close()
@@ -168,12 +175,10 @@ class ProcessShard:
 
 
 def _serve(conn: Connection, env_id: str, batch_cls: type[BatchCore], n: int, record_metrics: bool, kwargs: dict[str, Any], k: int,
-           obs_size: int, shared: SharedArrays) -> None:  # fmt: skip
+           obs_size: int, shared: SharedArrays, threads: int) -> None:  # fmt: skip
     """A worker process: build the shard, then answer step/reset requests until told to close."""
-    gc.freeze()  # a forked worker inherits the caller's objects: keep the collector off them
-    if tracemalloc.is_tracing():  # nor does it trace allocations because the caller did (several times slower)
-        tracemalloc.stop()
     try:
+        numba.set_num_threads(threads)
         from ..envs.registration import register_envs
 
         register_envs()  # (a spawned interpreter has not registered them)

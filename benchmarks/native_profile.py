@@ -1,0 +1,109 @@
+"""What limits the native Lane Change Test batch? CPU time per env-step, by part, on one thread.
+
+Measures CPU time (this process's, all threads: other programs on a shared host do not
+count) per env-step of a native LCT batch (random actions with resets, `NUMBA_NUM_THREADS=1`
+unless set) and splits it:
+
+* `ego physics only`: the ego car's model alone (`vector.ego.ego_step`: cruise control,
+  minSpeed, powertrain, four-wheel single-track body), the batch's physics steps per policy
+  step, in one compiled loop: the floor for any batch that computes the single env's floats;
+* the whole step without and with the per-step traces (`record_metrics`), and from a
+  profile of the latter the share of the compiled step kernels (`lct_substeps`,
+  `lct_outcomes`, `lct_observation`) and of the rest (Python glue, trigger firing, resets,
+  episode scoring).
+
+    python benchmarks/native_profile.py [--envs 4096] [--steps 200]
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import logging
+import math
+import os
+import pstats
+import time
+
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+
+import gymnasium as gym
+import numpy as np
+
+import opends_gym  # noqa: F401
+from opends_gym.jit import kernel
+from opends_gym.sim.ego.spec import MAX_WHEEL_ANGLE_RAD
+from opends_gym.vector.ego import EgoParams, ego_step
+
+LCT = "OpenDS/LaneChangeTest-v0"
+
+
+@kernel
+def physics_only(car: np.ndarray, dt: float, steps: int, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, u: np.ndarray,
+                 steer: np.ndarray, gas: np.ndarray, brake: np.ndarray) -> None:  # fmt: skip
+    """`steps` ego physics steps of every car, its state in registers (as `lct_substeps`)."""
+    for e in range(len(x)):
+        xe, ze, ye, ue, ve, re, ge, rpm, pv, fu, fl, con, cint = x[e], z[e], yaw[e], u[e], 0.0, 0.0, 3, 2000.0, u[e], 0.0, 50.0, True, 0.0
+        a = steer[e] * MAX_WHEEL_ANGLE_RAD
+        ca, sa = math.cos(a), math.sin(a)
+        for _ in range(steps):
+            u0 = ue
+            xe, ze, ye, ue, ve, re, ge, rpm, fu, fl, con, cint, _, _, _, _ = ego_step(
+                car, True, False, 0.0, dt, xe, ze, ye, ue, ve, re, ge, rpm, pv, fu, fl, con, ue, cint, a, ca, sa, gas[e], brake[e]
+            )
+            pv = u0
+        x[e], z[e], yaw[e], u[e] = xe, ze, ye, ue
+
+
+def cpu_per_env_step(step: object, n: int, steps: int) -> float:
+    """CPU ns per env-step of `steps` calls of step() (after 5 untimed ones)."""
+    for _ in range(5):
+        step()  # type: ignore[operator]
+    c0 = time.process_time()
+    for _ in range(steps):
+        step()  # type: ignore[operator]
+    return 1e9 * (time.process_time() - c0) / (steps * n)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--envs", type=int, default=4096)
+    ap.add_argument("--steps", type=int, default=200)
+    args = ap.parse_args()
+    logging.disable(logging.WARNING)
+    n = args.envs
+    template = gym.make(LCT).unwrapped
+    p = EgoParams.from_world(template.world)
+    repeat, dt = template.config.action_repeat, template.world.dt_s
+    rng = np.random.default_rng(0)
+    state = [np.zeros(n), np.zeros(n), np.zeros(n), np.full(n, 22.0)]
+    controls = [rng.uniform(-1, 1, n), rng.uniform(0, 1, n), np.zeros(n)]
+    ego_ns = cpu_per_env_step(lambda: physics_only(p.car, dt, repeat, *state, *controls), n, args.steps)
+    print(f"native LCT, {n} envs, random actions with resets, NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}; CPU time per env-step:")
+    print(f"  ego physics only ({repeat} physics steps)  {ego_ns:8.0f} ns  ({ego_ns / repeat:.0f} ns per physics step)")
+    for metrics in (False, True):
+        env = gym.make_vec(LCT, num_envs=n, vectorization_mode="vector_entry_point", record_metrics=metrics)
+        env.reset(seed=0)
+        env.action_space.seed(0)
+        actions = [env.action_space.sample() for _ in range(16)]
+        i = [0]
+
+        def step(env: gym.vector.VectorEnv = env, actions: list[np.ndarray] = actions, i: list[int] = i) -> None:
+            env.step(actions[i[0] % 16])
+            i[0] += 1
+
+        ns = cpu_per_env_step(step, n, args.steps)
+        print(f"  whole step, record_metrics={metrics!s:<5}         {ns:8.0f} ns  ({1e9 / ns:,.0f} env-steps per CPU second)")
+        if metrics:
+            prof = cProfile.Profile()
+            prof.runcall(lambda: [step() for _ in range(args.steps)])
+            stats = pstats.Stats(prof).stats  # type: ignore[attr-defined]
+            total = sum(v[2] for v in stats.values())
+            kernels = sum(v[2] for (_, _, name), v in stats.items() if name in ("lct_substeps", "lct_outcomes", "lct_observation"))
+            share = 100 * kernels / total
+            print(f"    compiled step kernels {share:.0f} % of the wall time (cProfile), the rest (Python) {100 - share:.0f} %")
+        env.close()
+
+
+if __name__ == "__main__":
+    main()

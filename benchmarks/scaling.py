@@ -1,0 +1,97 @@
+"""How does the native Lane Change Test batch scale over cores? One table: 1, 2, 4, 8, 16 threads.
+
+Each measurement runs in a fresh process with `NUMBA_NUM_THREADS=k` (the step kernels' chunks
+of envs run on numba's k threads) and `--envs-per-thread` envs per thread (2,048 by default:
+the batch grows with the threads, as a trainer would size it), random actions with resets,
+with and without the per-step traces (`record_metrics`). The thread counts run in
+interleaved rounds (1, 2, 4, ... then again) so that a shared host's drift spreads over all
+of them; the table gives each count's median and range over the rounds, the speed-up over
+one thread and `cpu %` (the process's CPU time over wall time: below k x 100 %, other
+programs had the cores or the threads waited) and the rate per CPU second (what the
+threads computed while they ran; the steadiest figure on a busy host). Thread counts above this host's cores are
+measured too (marked: they share the cores) unless `--threads` leaves them out.
+
+    python benchmarks/scaling.py [--threads 1 2 4 8 16] [--envs-per-thread 2048] [--seconds 3] [--rounds 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+PROBE = """
+import json, sys, time, logging
+import gymnasium as gym, numba
+import opends_gym
+logging.disable(logging.WARNING)
+n, seconds, metrics = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3] == "1"
+env = gym.make_vec("OpenDS/LaneChangeTest-v0", num_envs=n, vectorization_mode="vector_entry_point", record_metrics=metrics)
+env.reset(seed=0)
+env.action_space.seed(0)
+actions = [env.action_space.sample() for _ in range(16)]
+for i in range(5):
+    env.step(actions[i % 16])
+steps, t0, c0 = 0, time.perf_counter(), time.process_time()
+while time.perf_counter() - t0 < seconds:
+    env.step(actions[steps % 16])
+    steps += 1
+wall = time.perf_counter() - t0
+print(json.dumps({"rate": steps * n / wall, "cpu": (time.process_time() - c0) / wall, "threads": numba.get_num_threads()}))
+"""
+
+
+def probe(threads: int, envs: int, seconds: float, metrics: bool) -> dict[str, float]:
+    env = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
+    out = subprocess.run(
+        [sys.executable, "-c", PROBE, str(envs), str(seconds), "1" if metrics else "0"], env=env, capture_output=True, text=True, check=True
+    )
+    return dict(json.loads(out.stdout.strip().splitlines()[-1]))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2, 4, 8, 16])
+    ap.add_argument("--envs-per-thread", type=int, default=2048)
+    ap.add_argument("--seconds", type=float, default=3.0)
+    ap.add_argument("--rounds", type=int, default=3)
+    args = ap.parse_args()
+    cores = os.cpu_count() or 1
+    print(f"native LaneChangeTest-v0, random actions with resets, {args.envs_per_thread} envs per thread, {cores} cores here, "
+          f"{args.rounds} interleaved rounds of {args.seconds:.1f} s; {time.strftime('%Y-%m-%d %H:%M')}", flush=True)  # fmt: skip
+    results: dict[tuple[int, bool], list[dict[str, float]]] = {}
+    for r in range(args.rounds):
+        for k in args.threads:
+            for metrics in (False, True):
+                res = probe(k, k * args.envs_per_thread, args.seconds, metrics)
+                results.setdefault((k, metrics), []).append(res)
+                print(f"round {r + 1}: {k} threads, metrics {metrics}: {res['rate']:,.0f} env-steps/s, cpu {100 * res['cpu']:.0f} %",
+                      flush=True)  # fmt: skip
+    print()
+    print("| threads | envs | without metrics: env-steps/s (median, range) | speed-up | cpu % | per CPU s | with metrics: env-steps/s "
+          "(median, range) | speed-up | cpu % | per CPU s |")  # fmt: skip
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    base = {m: float(np.median([x["rate"] for x in results[(args.threads[0], m)]])) for m in (False, True)}
+    for k in args.threads:
+        cells = [f"{k}{' (> cores)' if k > cores else ''}", f"{k * args.envs_per_thread:,}"]
+        for metrics in (False, True):
+            rates = [x["rate"] for x in results[(k, metrics)]]
+            cpu = float(np.median([x["cpu"] for x in results[(k, metrics)]]))
+            med = float(np.median(rates))
+            per_cpu = float(np.median([x["rate"] / x["cpu"] for x in results[(k, metrics)]]))
+            cells += [
+                f"{med:,.0f} ({min(rates):,.0f}-{max(rates):,.0f})",
+                f"{med / base[metrics]:.2f}x",
+                f"{100 * cpu:.0f}",
+                f"{per_cpu:,.0f}",
+            ]
+        print("| " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main()
