@@ -247,6 +247,8 @@ class BatchCore:
         s = self.s
         out = {"x_m": s.x, "z_m": s.z, "speed_mps": s.u, "steering": s.steer_in}
         extra = {"accelerator": s.gas_in, "brake": s.brake_in, "headway_s": self.headway, "ttc_s": self.ttc}
+        if "gap_m" in self.trace_columns:  # (batches with traffic: the lead's gap and speed)
+            extra |= {"gap_m": self.lead_gap_m, "lead_speed_mps": self.lead_speed_mps}
         extra |= {k: getattr(self, k) for k in self.trace_columns if k not in out and k not in extra}
         return {k: out.get(k, extra.get(k)) for k in self.trace_columns}  # type: ignore[misc]
 
@@ -303,7 +305,8 @@ class BatchCore:
         if self.ring is None:
             raise RuntimeError("episode metrics were switched off (record_metrics=False)")
         tpl = self.template
-        constant = {c: 0.0 for c in ("yaw_rad", "accelerator", "brake")} | {"headway_s": math.inf, "ttc_s": math.inf}
+        constant = {c: 0.0 for c in ("yaw_rad", "accelerator", "brake")} | {"headway_s": math.inf, "ttc_s": math.inf, "gap_m": math.inf}
+        constant["lead_speed_mps"] = math.nan
         constant = {k: v for k, v in constant.items() if k not in self.trace_columns}
         tpl.trace = self.ring.to_trace(e, self.guide, self.dt, constant, columns)
         w = tpl.world
