@@ -5,8 +5,9 @@ Why: the LCT's published analysis (Mattes 2003; ISO 26022:2010) scores the drive
 the first sign and the end of the last lane change, not the lead-in and lead-out, and
 reads lane-keeping phases apart from lane-change phases (lane keeping alone is the more
 sensitive indicator, as Huemer & Vollrath note of the ISO draft). A sign is answered
-correctly only if the car settles in the instructed lane; settling in another lane is a
-wrong-lane error and never leaving the old lane a missed change.
+correctly only if the car settles in the instructed lane (the lane it is in for most of
+the lane-keeping phase); settling back in the lane it entered the segment in is a missed
+change (no change made), settling in any other lane a wrong-lane error.
 
 Segments, per sign k (distances along the track, m): it starts where the sign becomes
 readable (`d_k - visibility_m`) and ends where the next one does (the last: one median
@@ -138,12 +139,8 @@ def score_lct_iso(
         seg_lanes = lanes[in_segment]
         keep_lanes = lanes[in_keep] if np.any(in_keep) else seg_lanes[-1:]
         settled = int(np.bincount(keep_lanes).argmax()) if len(keep_lanes) else int(sign.from_lane)
-        if settled == sign.to_lane:
-            result = CORRECT
-        elif len(seg_lanes) == 0 or np.all(seg_lanes == sign.from_lane):
-            result = MISSED
-        else:
-            result = WRONG_LANE
+        entry_lane = int(seg_lanes[0]) if len(seg_lanes) else int(sign.from_lane)
+        result = CORRECT if settled == sign.to_lane else MISSED if settled == entry_lane else WRONG_LANE
         out.append(
             SignScore(
                 sign=sign,

@@ -89,6 +89,7 @@ class DrtScore:
     hit_rate: float
     mean_rt_s: float
     false_alarms: int = 0  # responses that answered no stimulus (neither hit nor premature)
+    rts_s: tuple[float, ...] = ()  # the hits' reaction times, in stimulus order
 
 
 def score_drt(onsets_s: Sequence[float], responses_s: Sequence[float], min_rt_s: float = 0.1, max_rt_s: float = 2.5) -> DrtScore:
@@ -116,7 +117,9 @@ def score_drt(onsets_s: Sequence[float], responses_s: Sequence[float], min_rt_s:
                 rts.append(rt)
             break
     n = len(onsets_s)
-    return DrtScore(n, hits, n - hits, premature, hits / n if n else math.nan, float(np.mean(rts)) if rts else math.nan, used.count(False))
+    return DrtScore(
+        n, hits, n - hits, premature, hits / n if n else math.nan, float(np.mean(rts)) if rts else math.nan, used.count(False), tuple(rts)
+    )
 
 
 @dataclass(frozen=True)
