@@ -37,7 +37,7 @@ def test_glance_metrics_and_nhtsa_criteria() -> None:
     assert nhtsa_pass_share([g, ok, ok, many]) == 0.5
     none = glance_metrics([])
     assert none.glance_count == 0 and none.total_eyes_off_road_s == 0.0 and math.isnan(none.mean_glance_s)
-    with pytest.raises(ValueError, match="glance 1: starts at 1.0 s before the previous glance ended at 1.5 s"):
+    with pytest.raises(ValueError, match=r"glance 1: starts at 1\.0 s before the previous glance ended at 1\.5 s"):
         glance_metrics([(0.0, 1.5), (1.0, 2.0)])
     with pytest.raises(ValueError, match="glance 0: ends"):
         glance_metrics([(2.0, 1.0)])

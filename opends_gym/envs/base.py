@@ -21,7 +21,12 @@ equal across seeded runs):
   `events`: tuple of event dicts emitted this step (the documented non-numeric key).
   `episode_metrics`: dict of the task's summary, present only on the last step; the base
   adds lanes_known (0/1), mean_abs_lateral_offset_m (mean |lateral_offset_m| over physics
-  steps) and off_road_s (simulated seconds beyond the road's edges).
+  steps) and off_road_s (simulated seconds beyond the road's edges), and the measures that
+  follow the standards (docs/metrics.md): sdlp_j2944_m over fixed 30 s segments with
+  sdlp_j2944_valid_fraction, sdlp_j2944_excluded_fraction, sdlp_j2944_segments,
+  sdlp_j2944_segments_valid; steering_reversal_rate_{0_5,2,10}deg_per_min on lane keeping;
+  car following with both speeds: lead_share, thw_mean_s, thw_min_s,
+  thw_below_{1,2}s_share, ttc_below_{1_5,3}s_share.
 """
 
 from __future__ import annotations

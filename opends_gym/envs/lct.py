@@ -92,13 +92,24 @@ class LaneChangeTestEnv(OpenDSEnv):
     lane_change_errors, mean_lane_change_latency_s (sign visible to start of the move),
     and per sign `sign07_latency_s`, `sign07_reached`, `sign07_timer_result` (OpenDS's
     lane-change reaction timer: 1 correct, -1 failure, -2 missed, 0 not armed).
+    SDLP (`sdlp_j2944_m`) leaves out the instructed lane changes (from a sign becoming
+    readable to the end of the basic normative change) and is taken relative to the
+    instructed lane; the reversal rates count those lane-keeping stretches only.
+
+    With `scoring="iso26022"`, `episode_metrics` also holds the ISO 26022-style scores of
+    `opends_gym.metrics.lct_iso` (lead-in and lead-out not scored): iso_mdev_m,
+    iso_mdev_lane_change_m, iso_mdev_lane_keeping_m, iso_scored_m, iso_signs_scored,
+    iso_correct, iso_wrong_lane, iso_missed, iso_mean_latency_s, iso_median_latency_s
+    (sign readable to steering onset) and per sign `sign07_iso_result` (1 correct, -1
+    wrong lane, -2 missed), `sign07_iso_mdev_m`, `sign07_iso_mdev_lane_change_m`,
+    `sign07_iso_mdev_lane_keeping_m`, `sign07_iso_latency_s`. See docs/metrics.md.
 
     ## Arguments
     Every `EnvConfig` field (physics, policy_hz, observation, action, ...) and the track:
     lanes, lane_width_m, speed_kmh, signs, spacing_min_m, spacing_max_m, visibility_m,
     lead_in_m, lead_out_m, track_seed, hold_lane_s, normative_start_before_sign_m,
     normative_length_per_lane_m, off_road_margin_m, reward_scale, reward_deviation_scale_m,
-    off_road_penalty.
+    off_road_penalty, and `scoring` ("default" or "iso26022").
 
     ## Version history
     v0: initial release.

@@ -247,8 +247,6 @@ class BatchCore:
         s = self.s
         out = {"x_m": s.x, "z_m": s.z, "speed_mps": s.u, "steering": s.steer_in}
         extra = {"accelerator": s.gas_in, "brake": s.brake_in, "headway_s": self.headway, "ttc_s": self.ttc}
-        if "gap_m" in self.trace_columns:  # (batches with traffic: the lead's gap and speed)
-            extra |= {"gap_m": self.lead_gap_m, "lead_speed_mps": self.lead_speed_mps}
         extra |= {k: getattr(self, k) for k in self.trace_columns if k not in out and k not in extra}
         return {k: out.get(k, extra.get(k)) for k in self.trace_columns}  # type: ignore[misc]
 

@@ -88,6 +88,8 @@ class PlatoonBatch(BatchCore):
         self.lead_j = np.full(n, -1, dtype=np.int64)
         self.lead_gap = np.zeros(n)
         self.lead_v = np.zeros(n)
+        self.gap_m = np.full(n, np.inf)
+        self.lead_speed_mps = np.full(n, np.nan)
 
     # ------------------------------------------------------------------ reset
     def _reset_task(self, idx: np.ndarray) -> None:
@@ -115,7 +117,7 @@ class PlatoonBatch(BatchCore):
         j, gap, v, length = self.traffic.lead(s.x, s.z, s.yaw, s.u)
         found = j >= 0
         self.lead_j, self.lead_gap, self.lead_v = j, gap, v
-        self.lead_gap_m = np.where(found & np.isfinite(gap), gap, np.inf)  # (the trace's gap_m and lead_speed_mps)
+        self.gap_m = np.where(found & np.isfinite(gap), gap, np.inf)  # (trace columns, read by name)
         self.lead_speed_mps = np.where(found & np.isfinite(gap), v, np.nan)
         with np.errstate(divide="ignore", invalid="ignore"):
             self.headway = np.where(found & np.isfinite(gap) & (s.u > 0.0), (gap + length) / s.u, np.inf)
