@@ -119,6 +119,7 @@ def score_lct_iso(
     spacing = float(np.median(np.diff([s.d_m for s in ordered]))) if len(ordered) > 1 else 0.0
     ends = [*starts[1:], ordered[-1].d_m + spacing - visibility_m]
     lanes = nearest_lane(y, lane_centers_m)
+    monotonic = bool(np.all(d[1:] >= d[:-1]))  # (the usual drive: each stretch is a slice)
     out: list[SignScore] = []
     totals = {"change": [0.0, 0.0], "keep": [0.0, 0.0]}
     for k, sign in enumerate(ordered):
@@ -134,10 +135,11 @@ def score_lct_iso(
         totals["change"][1] += l_change
         totals["keep"][0] += a_keep
         totals["keep"][1] += l_keep
-        in_segment = (d >= start) & (d <= end)
-        in_keep = in_segment & (d >= change_end)
-        seg_lanes = lanes[in_segment]
-        keep_lanes = lanes[in_keep] if np.any(in_keep) else seg_lanes[-1:]
+        seg = _between(d, start, end, monotonic)
+        seg_lanes = lanes[seg]
+        keep_lanes = lanes[_between(d, change_end, end, monotonic)]
+        if len(keep_lanes) == 0:
+            keep_lanes = seg_lanes[-1:]
         settled = int(np.bincount(keep_lanes).argmax()) if len(keep_lanes) else int(sign.from_lane)
         entry_lane = int(seg_lanes[0]) if len(seg_lanes) else int(sign.from_lane)
         result = CORRECT if settled == sign.to_lane else MISSED if settled == entry_lane else WRONG_LANE
@@ -149,7 +151,7 @@ def score_lct_iso(
                 mdev_m=(a_change + a_keep) / (l_change + l_keep) if l_change + l_keep > 0 else nan,
                 mdev_lane_change_m=a_change / l_change if l_change > 0 else nan,
                 mdev_lane_keeping_m=a_keep / l_keep if l_keep > 0 else nan,
-                latency_s=_onset_latency(d, t, steer, start, end, lane_centers_m, sign, onset_deg),
+                latency_s=_onset_latency(d, t, steer, start, seg, lane_centers_m, sign, onset_deg),
             )
         )
     a_all = totals["change"][0] + totals["keep"][0]
@@ -163,22 +165,29 @@ def score_lct_iso(
     )
 
 
+def _between(d: np.ndarray, lo: float, hi: float, monotonic: bool) -> slice | np.ndarray:
+    """The samples with lo <= d <= hi: a slice where d never decreases, else a mask."""
+    if monotonic:
+        return slice(int(np.searchsorted(d, lo, side="left")), int(np.searchsorted(d, hi, side="right")))
+    return (d >= lo) & (d <= hi)
+
+
 def _onset_latency(
     d: np.ndarray,
     t: np.ndarray,
     steer: np.ndarray,
     start: float,
-    end: float,
+    seg: slice | np.ndarray,
     lane_centers_m: Sequence[float],
     sign: LctSign,
     onset_deg: float,
 ) -> float:
-    """Seconds from the sign becoming readable (at distance `start`) to the first sample in
-    the segment whose steering moved `onset_deg` towards the new lane."""
+    """Seconds from the sign becoming readable (at distance `start`) to the first sample of
+    the segment `seg` whose steering moved `onset_deg` towards the new lane."""
     shift = float(lane_centers_m[sign.to_lane]) - float(lane_centers_m[sign.from_lane])
     if shift == 0.0:
         return math.nan
     t0 = float(np.interp(start, d, t))
     s0 = float(np.interp(start, d, steer))
-    idx = np.flatnonzero((d >= start) & (d <= end) & (math.copysign(1.0, shift) * (steer - s0) >= onset_deg))
-    return float(t[idx[0]]) - t0 if len(idx) else math.nan
+    idx = np.flatnonzero(math.copysign(1.0, shift) * (steer[seg] - s0) >= onset_deg)
+    return float(t[seg][idx[0]]) - t0 if len(idx) else math.nan
