@@ -155,8 +155,8 @@ def test_lct_iso_segments_exclude_lead_in_and_split_phases() -> None:
         norm = 0.0 if x < 70 else 3.5 * min(1.0, (x - 70) / 40) if x < 170 else 3.5 * (1 - min(1.0, (x - 170) / 40))
         return norm + (1.0 if x < 50 else 0.5 if 111 <= x <= 159 else 0.0)
 
-    def steer(x: float) -> float:
-        return 5.0 if 75 <= x <= 85 else -5.0 if 180 <= x <= 190 else 0.0
+    def steer(x: float) -> float:  # a brief twitch towards the new lane, then the steering that moves the car
+        return 3.0 if 61 <= x <= 62 else 5.0 if 65 <= x <= 72 else -3.0 if x == 162 else -5.0 if 168 <= x <= 175 else 0.0
 
     d, t, yy, ss = _lct_drive(y, steer)
     s = score_lct_iso(d, t, yy, ss, signs, CENTRES, 1, MODEL, visibility_m=40.0)
@@ -168,9 +168,11 @@ def test_lct_iso_segments_exclude_lead_in_and_split_phases() -> None:
     assert s.signs[1].mdev_m == pytest.approx(0.0, abs=1e-12)
     assert s.mdev_m == pytest.approx(keep_area / 200)
     assert s.mdev_lane_keeping_m == pytest.approx(keep_area / 100) and s.mdev_lane_change_m == pytest.approx(0.0, abs=1e-12)
-    assert [x.latency_s for x in s.signs] == [pytest.approx(1.5), pytest.approx(2.0)]  # 75 - 60 m, 180 - 160 m at 10 m/s
+    # steering onset at 65 and 168 m (the car is 10 % over at 74 and 174 m; the twitches at
+    # 61 and 162 m moved nothing): 5 m and 8 m after the signs became readable, at 10 m/s
+    assert [x.latency_s for x in s.signs] == [pytest.approx(0.5), pytest.approx(0.8)]
     out = s.as_dict()
-    assert out["iso_correct"] == 2 and out["iso_mean_latency_s"] == pytest.approx(1.75)
+    assert out["iso_correct"] == 2 and out["iso_mean_latency_s"] == pytest.approx(0.65)
 
 
 def test_lct_iso_wrong_lane_and_missed_change() -> None:

@@ -16,9 +16,11 @@ end of the normative lane change (`NormativeModel`), its lane-keeping phase from
 MDEV of a stretch is the area between the driven and the normative lateral position
 divided by its length. A sign whose segment the drive did not complete is not scored.
 
-Initiation latency: from the sign becoming readable to steering onset, the first sample
-where the steering-wheel angle has moved `onset_deg` from its value at that moment
-towards the new lane (our threshold, 2 deg by default; the ISO text was not available).
+Initiation latency: from the sign becoming readable to the onset of the steering that
+made the lane change: the start of the last run of samples, before the car is 10 % of the
+way to the new lane, whose steering-wheel angle is `onset_deg` or more from its value at
+that moment towards the new lane (our threshold, 2 deg by default; the ISO text was not
+available). Earlier steering noise that did not move the car does not count.
 """
 
 from __future__ import annotations
@@ -151,7 +153,7 @@ def score_lct_iso(
                 mdev_m=(a_change + a_keep) / (l_change + l_keep) if l_change + l_keep > 0 else nan,
                 mdev_lane_change_m=a_change / l_change if l_change > 0 else nan,
                 mdev_lane_keeping_m=a_keep / l_keep if l_keep > 0 else nan,
-                latency_s=_onset_latency(d, t, steer, start, seg, lane_centers_m, sign, onset_deg),
+                latency_s=_onset_latency(d, t, y, steer, start, seg, lane_centers_m, sign, onset_deg),
             )
         )
     a_all = totals["change"][0] + totals["keep"][0]
@@ -175,6 +177,7 @@ def _between(d: np.ndarray, lo: float, hi: float, monotonic: bool) -> slice | np
 def _onset_latency(
     d: np.ndarray,
     t: np.ndarray,
+    y: np.ndarray,
     steer: np.ndarray,
     start: float,
     seg: slice | np.ndarray,
@@ -182,12 +185,25 @@ def _onset_latency(
     sign: LctSign,
     onset_deg: float,
 ) -> float:
-    """Seconds from the sign becoming readable (at distance `start`) to the first sample of
-    the segment `seg` whose steering moved `onset_deg` towards the new lane."""
-    shift = float(lane_centers_m[sign.to_lane]) - float(lane_centers_m[sign.from_lane])
+    """Seconds from the sign becoming readable (at distance `start`) to the onset of the
+    steering that moved the car: the start of the last run of samples, at or before the car
+    is 10 % of the way to the new lane, whose steering is `onset_deg` or more from its value
+    at `start` towards the new lane (steering noise earlier does not count). NaN when the
+    car never got 10 % of the way within the segment."""
+    y_from, y_to = float(lane_centers_m[sign.from_lane]), float(lane_centers_m[sign.to_lane])
+    shift = y_to - y_from
     if shift == 0.0:
+        return math.nan
+    ys, ss, ts = y[seg], steer[seg], t[seg]
+    moved = np.flatnonzero((ys - y_from) / shift >= 0.1)
+    if len(moved) == 0:
         return math.nan
     t0 = float(np.interp(start, d, t))
     s0 = float(np.interp(start, d, steer))
-    idx = np.flatnonzero(math.copysign(1.0, shift) * (steer[seg] - s0) >= onset_deg)
-    return float(t[seg][idx[0]]) - t0 if len(idx) else math.nan
+    toward = math.copysign(1.0, shift) * (ss[: moved[0] + 1] - s0) >= onset_deg
+    above = np.flatnonzero(toward)
+    if len(above) == 0:
+        return math.nan
+    below = np.flatnonzero(~toward[: above[-1]])
+    first = int(below[-1]) + 1 if len(below) else 0
+    return float(ts[first]) - t0
