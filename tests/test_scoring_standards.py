@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import opends_gym  # noqa: F401  (registers the envs)
+from opends_gym.drivers.episodes import run_episode
 from opends_gym.drivers.rule import RuleDriver, RuleParams
 from opends_gym.envs.drt import DetectionResponseTask
 from opends_gym.metrics import LctSign, NormativeModel
@@ -210,3 +211,24 @@ def test_lct_env_iso26022_scoring_option() -> None:
     assert "iso_mdev_m" not in plain and plain["mdev_basic_m"] == on_time["mdev_basic_m"]  # old keys unchanged
     with pytest.raises(ValueError, match="scoring must be one of default, iso26022, not 'iso'"):
         _short_lct(scoring="iso")
+
+
+class _GlancingDriver(RuleDriver):
+    """The rule driver with a glance record, as a driver model with a glance process keeps it."""
+
+    def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
+        super().reset(env, seed)
+        self.glances: list[tuple[float, float]] = []
+
+    def act(self, obs: Any, info: dict[str, Any]) -> Any:
+        t = float(info["sim_time_s"])
+        if t >= 5.0 and len(self.glances) < 2 and (not self.glances or t >= self.glances[-1][1] + 3.0):
+            self.glances.append((t, t + (2.5 if self.glances else 1.0)))
+        return super().act(obs, info)
+
+
+def test_episode_loop_adds_the_glance_metrics_of_a_glancing_driver() -> None:
+    glancing = run_episode(_short_lct(max_episode_s=20.0), _GlancingDriver(), seed=0).metrics
+    assert glancing["glance_count"] == 2 and glancing["glance_total_eyes_off_road_s"] == pytest.approx(3.5)
+    assert glancing["glance_max_s"] == pytest.approx(2.5) and glancing["glance_long_share"] == 0.5
+    assert "glance_count" not in run_episode(_short_lct(max_episode_s=1.0), RuleDriver(), seed=0).metrics
