@@ -132,14 +132,3 @@ def sdlp_segments(
         segments=tuple(segments),
         segment_length=segment_length,
     )
-
-
-def near_events_mask(axis: np.ndarray, events: np.ndarray, before: float, after: float) -> np.ndarray:
-    """True for samples within [event - before, event + after] of any event (instructed
-    lane changes: only those are excluded from SDLP; an unintended departure is lane
-    keeping done badly and stays in)."""
-    a = np.asarray(axis, dtype=float)
-    out = np.zeros(len(a), dtype=bool)
-    for e in np.asarray(events, dtype=float):
-        out |= (a >= e - before) & (a <= e + after)
-    return out
