@@ -26,9 +26,9 @@ class Episode:
 
 def run_episode(env: gym.Env[Any, Any], agent: Any, seed: int) -> Episode:
     """Reset `env` and `agent` with `seed` and drive until the episode ends. An agent with
-    a `glances` list of (start_s, end_s) off-road glances (the virtual participant) adds the
-    glance metrics of `metrics.glance` (glance_count, glance_total_eyes_off_road_s,
-    glance_mean_s, glance_max_s, glance_long_share)."""
+    a `glances` list (or tuple) of (start_s, end_s) off-road glances (the virtual
+    participant) adds the glance metrics of `metrics.glance` (glance_count,
+    glance_total_eyes_off_road_s, glance_mean_s, glance_max_s, glance_long_share)."""
     start = time.perf_counter()
     obs, info = env.reset(seed=seed)
     agent.reset(env, seed)
@@ -41,6 +41,6 @@ def run_episode(env: gym.Env[Any, Any], agent: Any, seed: int) -> Episode:
             break
     metrics = dict(info.get("episode_metrics", {}))
     glances = getattr(agent, "glances", None)
-    if glances is not None:  # a driver model with a glance process: ISO 15007 / NHTSA glance measures
+    if isinstance(glances, (list, tuple)):  # a driver model's off-road glances: ISO 15007 / NHTSA glance measures
         metrics.update(glance_metrics(glances).as_dict())
     return Episode(seed, ret, steps, bool(terminated), time.perf_counter() - start, metrics)
