@@ -112,8 +112,9 @@ def straight_on(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray
 
 def test_lane_change_test_with_long_policy_steps_identical_to_single_env() -> None:
     """A policy step of 300 physics steps (more than a trace block of 256 holds) runs in parts,
-    with trigger boxes touched and timers scored inside them, to the end of the track."""
-    seen = run_identity(LCT, straight_on, n=3, steps=14, policy_hz=0.2)
+    with trigger boxes touched and timers scored inside them, to the end of the track; scored
+    with ISO 26022's segments as well."""
+    seen = run_identity(LCT, straight_on, n=3, steps=14, policy_hz=0.2, scoring="iso26022")  # (the ISO keys too)
     assert seen["episodes"] >= 3 and seen["reactions"] >= 3
 
 

@@ -9,6 +9,8 @@ from typing import Any
 
 import gymnasium as gym
 
+from ..metrics.glance import glance_metrics
+
 
 @dataclass
 class Episode:
@@ -23,7 +25,10 @@ class Episode:
 
 
 def run_episode(env: gym.Env[Any, Any], agent: Any, seed: int) -> Episode:
-    """Reset `env` and `agent` with `seed` and drive until the episode ends."""
+    """Reset `env` and `agent` with `seed` and drive until the episode ends. An agent with
+    a `glances` list (or tuple) of (start_s, end_s) off-road glances (the virtual
+    participant) adds the glance metrics of `metrics.glance` (glance_count,
+    glance_total_eyes_off_road_s, glance_mean_s, glance_max_s, glance_long_share)."""
     start = time.perf_counter()
     obs, info = env.reset(seed=seed)
     agent.reset(env, seed)
@@ -34,4 +39,8 @@ def run_episode(env: gym.Env[Any, Any], agent: Any, seed: int) -> Episode:
         steps += 1
         if terminated or truncated:
             break
-    return Episode(seed, ret, steps, bool(terminated), time.perf_counter() - start, dict(info.get("episode_metrics", {})))
+    metrics = dict(info.get("episode_metrics", {}))
+    glances = getattr(agent, "glances", None)
+    if isinstance(glances, (list, tuple)):  # a driver model's off-road glances: ISO 15007 / NHTSA glance measures
+        metrics.update(glance_metrics(glances).as_dict())
+    return Episode(seed, ret, steps, bool(terminated), time.perf_counter() - start, metrics)

@@ -21,7 +21,12 @@ equal across seeded runs):
   `events`: tuple of event dicts emitted this step (the documented non-numeric key).
   `episode_metrics`: dict of the task's summary, present only on the last step; the base
   adds lanes_known (0/1), mean_abs_lateral_offset_m (mean |lateral_offset_m| over physics
-  steps) and off_road_s (simulated seconds beyond the road's edges).
+  steps) and off_road_s (simulated seconds beyond the road's edges), and the measures that
+  follow the standards (docs/metrics.md): sdlp_j2944_m over fixed 30 s segments with
+  sdlp_j2944_valid_fraction, sdlp_j2944_excluded_fraction, sdlp_j2944_segments,
+  sdlp_j2944_segments_valid; steering_reversal_rate_{0_5,2,10}deg_per_min on lane keeping;
+  car following with both speeds: lead_share, thw_mean_s, thw_min_s,
+  thw_below_{1,2}s_share, ttc_below_{1_5,3}s_share.
 """
 
 from __future__ import annotations
@@ -33,9 +38,9 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.utils import EzPickle
 
-from ..metrics.headway import time_headway, time_to_collision
-from ..metrics.lateral import lane_keeping_mask, sdlp
-from ..metrics.steering import reversal_rate
+from ..metrics.headway import car_following_summary, time_headway, time_to_collision
+from ..metrics.lateral import SDLP_MIN_VALID_FRACTION, SDLP_SEGMENT_S, lane_keeping_mask, sdlp, sdlp_segments
+from ..metrics.steering import gap_key, reversal_rate, reversal_rates
 from ..sim.controls import STEERING_WHEEL_MAX_DEG, DriverControls
 from ..sim.guide import RoadGuide
 from ..sim.perception import lead_vehicle
@@ -148,6 +153,17 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
     def _episode_metrics(self) -> dict[str, float]:
         """The task's summary; the base adds the generic driving measures."""
         return {}
+
+    def _instructed_lane_keeping(self) -> np.ndarray | None:
+        """Per trace row: True outside the task's instructed lane changes (None: the task
+        instructs none). SDLP (SAE J2944) excludes those samples only, and the reversal
+        rates are counted on these lane-keeping stretches."""
+        return None
+
+    def _sdlp_lateral(self) -> np.ndarray:
+        """Per trace row: the lateral position SDLP is taken of (m; a road-fixed lateral
+        position by default, relative to the instructed lane where the task has one)."""
+        return self.trace.col("lateral_m")
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
@@ -329,8 +345,10 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         if lead is not None:
             headway = time_headway(lead.gap_m, lead.length_m, s.u)
             ttc = time_to_collision(lead.gap_m, s.u, lead.speed_mps)
+            gap, lead_speed = lead.gap_m, lead.speed_mps
         else:
-            headway = ttc = math.inf
+            headway = ttc = gap = math.inf
+            lead_speed = math.nan
         inp = w.ego.inputs
         tr = self.trace
         prev = tr.last_row()
@@ -344,7 +362,8 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             run.dist += ds
             run.area += 0.5 * (abs(prev[_OFFSET]) + abs(offset)) * ds  # (RunningLateral.add_distance, inlined)
         run.add_offset(offset)
-        tr.append((w.t_s, x, z, s.yaw, s.u, lateral, offset, float(lane), inp.steering, inp.accelerator, inp.brake, headway, ttc))
+        tr.append((w.t_s, x, z, s.yaw, s.u, lateral, offset, float(lane), inp.steering, inp.accelerator, inp.brake, headway, ttc, gap,
+                   lead_speed))  # fmt: skip
 
     def _new_reaction(self) -> tuple[float, float]:
         reactions: Any = getattr(self.world.triggers, "reactions", ())
@@ -416,6 +435,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             "resets": float(self.resets),
             "reset_time_s": self.reset_time_s,
         }
+        out.update(self._standard_metrics(steer_deg, fs))
         out.update(self._episode_metrics())
         return out
 
@@ -436,6 +456,29 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         if self._reset_rows:
             ds[np.asarray(self._reset_rows) - 1] = 0.0
         return float(np.sum(ds))
+
+    def _standard_metrics(self, steer_deg: np.ndarray, fs: float) -> dict[str, float]:
+        """SDLP per SAE J2944, reversal rates at three gaps on lane keeping, car following
+        with both speeds (`docs/metrics.md` lists the keys and their sources)."""
+        tr = self.trace
+        t = tr.col("t_s")
+        instructed = self._instructed_lane_keeping()
+        exclude = None if instructed is None else ~instructed
+        res = sdlp_segments(t, self._sdlp_lateral(), exclude, None, SDLP_SEGMENT_S, SDLP_MIN_VALID_FRACTION)
+        out = {
+            "sdlp_j2944_m": res.sdlp_m,
+            "sdlp_j2944_valid_fraction": res.valid_fraction,
+            "sdlp_j2944_excluded_fraction": res.excluded_fraction,
+            "sdlp_j2944_segments": float(len(res.segments)),
+            "sdlp_j2944_segments_valid": float(res.segments_valid),
+        }
+        keep = instructed if instructed is not None else lane_keeping_mask(t, tr.col("lane_index"))
+        for gap, rate in reversal_rates(steer_deg, fs, keep).items():
+            out[f"steering_reversal_rate_{gap_key(gap)}_per_min"] = rate
+        cf = car_following_summary(tr.col("gap_m"), tr.col("speed_mps"), tr.col("lead_speed_mps"))
+        cf.pop("ttc_min_s")  # (min_ttc_s above)
+        out.update({k.replace(".", "_"): v for k, v in cf.items()})
+        return out
 
     def _off_road_s(self) -> float:
         """Simulated seconds the car's reference point spent beyond its road's edges

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..metrics.reaction import brake_reaction_time
+from ..metrics.reaction import brake_reaction_time, score_brake_trials
 from ..task import DrivingTask
 from .platoon import PlatoonConfig, ThreeVehiclePlatoonEnv
 from .platoon_task import BRAKE_STIMULI, build_platoon_task
@@ -56,6 +56,12 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
     `BrakeSign_misses`, `BrakeSign_mean_rt_s`) and, over all lead-car stimuli, the mean
     accelerator-release time and brake-onset time after stimulus onset
     (`accelerator_release_s`, `brake_onset_s`; the latter is the brake reaction time).
+    Scored as trials (`metrics.reaction.score_brake_trials`): `brake_trials`,
+    `brake_trials_invalid` (foot not on the accelerator, or on the brake, at onset),
+    `brake_responses`, `brake_misses` (no brake onset within 5 s, counted),
+    `brake_miss_rate`, and the distribution of the responses' brake onset times
+    `brake_rt_mean_s`, `brake_rt_median_s`, `brake_rt_sd_s`, `brake_rt_p15_s`,
+    `brake_rt_p85_s`, plus `brake_release_mean_s` (accelerator release).
 
     ## Version history
     v0: initial release.
@@ -111,4 +117,20 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
         finite = [v for v in onsets if math.isfinite(v)]
         out["accelerator_release_s"] = float(np.nanmean(releases)) if any(math.isfinite(v) for v in releases) else math.nan
         out["brake_onset_s"] = float(np.mean(finite)) if finite else math.nan
+        onsets = [st.onset_s for st in self.platoon.state.stimuli if st.kind in ("brakeLight", "emergencyBrake")]
+        _, summary = score_brake_trials(tr.col("t_s"), tr.col("accelerator"), tr.col("brake"), onsets)
+        rt = summary.rt
+        out.update({
+            "brake_trials": float(summary.trials),
+            "brake_trials_invalid": float(summary.invalid),
+            "brake_responses": float(summary.responses),
+            "brake_misses": float(summary.misses),
+            "brake_miss_rate": summary.miss_rate,
+            "brake_rt_mean_s": rt.mean_s,
+            "brake_rt_median_s": rt.median_s,
+            "brake_rt_sd_s": rt.sd_s,
+            "brake_rt_p15_s": rt.p15_s,
+            "brake_rt_p85_s": rt.p85_s,
+            "brake_release_mean_s": summary.release.mean_s,
+        })  # fmt: skip
         return out

@@ -9,9 +9,13 @@ time at the physics rate, so a response is scored to the physics step.
 
 Adds to the observation nothing (wrap with your own stimulus channel if the agent must see
 it: `info["drt_stimulus_on"]` tells whether it is shown); adds info keys
-`drt_stimulus_on` (0/1) and, in `episode_metrics`, `drt_stimuli`, `drt_hits`,
-`drt_misses`, `drt_premature`, `drt_hit_rate`, `drt_mean_rt_s`; `stimuli_presented`
-(the env's exposure count) adds the DRT stimuli.
+`drt_stimulus_on` (0/1) and `drt_modality` (1 visual, 2 tactile, 3 auditory: ISO 17488's
+three DRT variants; the wrapper's `modality` names it) and, in `episode_metrics`,
+`drt_stimuli`, `drt_hits`, `drt_misses`, `drt_premature`, `drt_false_alarms` (presses
+that answered no stimulus), `drt_hit_rate`, `drt_mean_rt_s`, `drt_median_rt_s`,
+`drt_sd_rt_s` and `drt_modality`; `stimuli_presented` (the env's exposure count) adds the
+DRT stimuli. The modality is a label for the analysis (which
+stimulus a driver model must perceive): the wrapper shows nothing itself.
 """
 
 from __future__ import annotations
@@ -21,7 +25,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from ..metrics.reaction import score_drt
+from ..metrics.reaction import RtDistribution, score_drt
+
+MODALITIES = {"visual": 1.0, "tactile": 2.0, "auditory": 3.0}  # ISO 17488: remote/head-mounted visual, tactile, auditory
 
 
 class DetectionResponseTask(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstructorArgs):
@@ -32,10 +38,19 @@ class DetectionResponseTask(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordCon
         max_interval_s: float = 5.0,
         stimulus_s: float = 1.0,
         response_index: int = 2,
+        modality: str = "visual",
     ) -> None:
         gym.utils.RecordConstructorArgs.__init__(
-            self, min_interval_s=min_interval_s, max_interval_s=max_interval_s, stimulus_s=stimulus_s, response_index=response_index
+            self,
+            min_interval_s=min_interval_s,
+            max_interval_s=max_interval_s,
+            stimulus_s=stimulus_s,
+            response_index=response_index,
+            modality=modality,
         )
+        if modality not in MODALITIES:
+            raise ValueError(f"DetectionResponseTask modality must be one of {', '.join(MODALITIES)}, not {modality!r}")
+        self.modality = modality
         super().__init__(env)
         self.min_interval_s = min_interval_s
         self.max_interval_s = max_interval_s
@@ -55,6 +70,7 @@ class DetectionResponseTask(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordCon
         self._held = False
         self._pending = self._next_onset(0.0)
         info["drt_stimulus_on"] = 0.0
+        info["drt_modality"] = MODALITIES[self.modality]
         return obs, info
 
     def _pressed(self, action: Any) -> bool:
@@ -78,6 +94,7 @@ class DetectionResponseTask(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordCon
         last = self.onsets[-1] if self.onsets else -1e9
         answered = any(r >= last for r in self.responses) if self.onsets else False
         info["drt_stimulus_on"] = 1.0 if (t_now - last) < self.stimulus_s and not answered else 0.0
+        info["drt_modality"] = MODALITIES[self.modality]
         if "episode_metrics" in info:
             m = info["episode_metrics"]
             m.update(self.drt_metrics())
@@ -86,6 +103,7 @@ class DetectionResponseTask(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordCon
 
     def drt_metrics(self) -> dict[str, float]:
         s = score_drt(self.onsets, self.responses)
+        dist = RtDistribution.of(s.rts_s)
         return {
             "drt_stimuli": float(s.stimuli),
             "drt_hits": float(s.hits),
@@ -93,4 +111,8 @@ class DetectionResponseTask(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordCon
             "drt_premature": float(s.premature),
             "drt_hit_rate": s.hit_rate,
             "drt_mean_rt_s": s.mean_rt_s,
+            "drt_false_alarms": float(s.false_alarms),
+            "drt_median_rt_s": dist.median_s,
+            "drt_sd_rt_s": dist.sd_s,
+            "drt_modality": MODALITIES[self.modality],
         }

@@ -11,6 +11,8 @@ from typing import Any
 import numpy as np
 
 from ..metrics.lct import LctSign, NormativeModel, fit_lane_changes, lct_mdev, normative_path
+from ..metrics.lct_iso import score_lct_iso
+from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..task import DrivingTask
 from .base import OpenDSEnv
 from .config import EnvConfig
@@ -18,6 +20,7 @@ from .lct_task import LctGeometry, LctSignSpec, build_lct_task, sign_sequence
 from .trace import COL
 
 _GEOMETRY_FIELDS = {f.name for f in dataclasses.fields(LctGeometry)}
+SCORINGS = ("default", "iso26022")
 _Z, _LAT = COL["z_m"], COL["lateral_m"]
 
 
@@ -42,6 +45,7 @@ class LaneChangeTestConfig(EnvConfig):
     reward_scale: float = 0.1
     reward_deviation_scale_m: float = 2.0
     off_road_penalty: float = 10.0
+    scoring: str = "default"
 
     def geometry(self) -> LctGeometry:
         return LctGeometry(**{k: getattr(self, k) for k in _GEOMETRY_FIELDS})
@@ -93,13 +97,24 @@ class LaneChangeTestEnv(OpenDSEnv):
     scored once, up to where the car left it),
     and per sign `sign07_latency_s`, `sign07_reached`, `sign07_timer_result` (OpenDS's
     lane-change reaction timer: 1 correct, -1 failure, -2 missed, 0 not armed).
+    SDLP (`sdlp_j2944_m`) leaves out the instructed lane changes (from a sign becoming
+    readable to the end of the basic normative change) and is taken relative to the
+    instructed lane; the reversal rates count those lane-keeping stretches only.
+
+    With `scoring="iso26022"`, `episode_metrics` also holds the ISO 26022-style scores of
+    `opends_gym.metrics.lct_iso` (lead-in and lead-out not scored): iso_mdev_m,
+    iso_mdev_lane_change_m, iso_mdev_lane_keeping_m, iso_scored_m, iso_signs_scored,
+    iso_correct, iso_wrong_lane, iso_missed, iso_mean_latency_s, iso_median_latency_s
+    (sign readable to steering onset) and per sign `sign07_iso_result` (1 correct, -1
+    wrong lane, -2 missed), `sign07_iso_mdev_m`, `sign07_iso_mdev_lane_change_m`,
+    `sign07_iso_mdev_lane_keeping_m`, `sign07_iso_latency_s`. See docs/metrics.md.
 
     ## Arguments
     Every `EnvConfig` field (physics, policy_hz, observation, action, ...) and the track:
     lanes, lane_width_m, speed_kmh, signs, spacing_min_m, spacing_max_m, visibility_m,
     lead_in_m, lead_out_m, track_seed, hold_lane_s, normative_start_before_sign_m,
     normative_length_per_lane_m, off_road_margin_m, reward_scale, reward_deviation_scale_m,
-    off_road_penalty.
+    off_road_penalty, and `scoring` ("default" or "iso26022").
 
     ## Version history
     v0: initial release.
@@ -115,6 +130,9 @@ class LaneChangeTestEnv(OpenDSEnv):
 
     def _setup(self) -> None:
         g = self.geometry
+        scoring = getattr(self.config, "scoring", "default")
+        if scoring not in SCORINGS:
+            raise ValueError(f"LaneChangeTestConfig.scoring must be one of {', '.join(SCORINGS)}, not {scoring!r}")
         self.sign_specs: list[LctSignSpec] = sign_sequence(g)
         # distance along the track of each sign (the guide measures s from the start)
         self.metric_signs = [LctSign(g.start_z_m - s.z_m, s.from_lane, s.to_lane) for s in self.sign_specs]
@@ -228,7 +246,34 @@ class LaneChangeTestEnv(OpenDSEnv):
         out["lane_changes_correct"] = float(correct)
         out["lane_change_errors"] = float(len(fits) - correct)
         out["mean_lane_change_latency_s"] = float(np.mean(latencies)) if latencies else math.nan
+        if self.config.scoring == "iso26022":  # type: ignore[attr-defined]
+            steer = tr.col("steering") * STEERING_WHEEL_MAX_DEG
+            iso = score_lct_iso(d, tr.col("t_s"), y, steer, passed, self.lane_laterals, self.initial_lane, self.basic, g.visibility_m)
+            out.update(iso.as_dict())
         return out
+
+    def _instructed_changes(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per sample at distances `d`: inside an instructed lane change (from its sign
+        becoming readable to the end of the basic normative change), and the instructed
+        lane (the last readable sign's; the initial lane before the first)."""
+        g = self.geometry
+        changing = np.zeros(len(d), dtype=bool)
+        lane = np.full(len(d), self.initial_lane, dtype=np.int64)
+        for sign in self.metric_signs:  # (in track order)
+            start = sign.d_m - g.visibility_m
+            end = sign.d_m - self.basic.start_before_sign_m + self.basic.length_per_lane_m * abs(sign.to_lane - sign.from_lane)
+            changing |= (d >= start) & (d <= max(start, end))
+            lane[d >= start] = sign.to_lane
+        return changing, lane
+
+    def _instructed_lane_keeping(self) -> np.ndarray | None:
+        d = self._start_z - self.trace.col("z_m")
+        return ~self._instructed_changes(d)[0]
+
+    def _sdlp_lateral(self) -> np.ndarray:
+        tr = self.trace
+        lane = self._instructed_changes(self._start_z - tr.col("z_m"))[1]
+        return tr.col("lateral_m") - np.asarray(self.lane_laterals)[lane]
 
     def _timer_results(self) -> dict[int, int]:
         """OpenDS lane-change timer results by sign index (parsed from the timer comment)."""

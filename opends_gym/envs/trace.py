@@ -24,6 +24,8 @@ COLUMNS = (
     "brake",
     "headway_s",
     "ttc_s",
+    "gap_m",  # bumper to bumper to the lead vehicle (inf without one)
+    "lead_speed_mps",  # the lead's speed along the ego's heading (NaN without one)
 )
 COL = {name: i for i, name in enumerate(COLUMNS)}
 

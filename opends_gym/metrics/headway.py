@@ -55,3 +55,46 @@ def ttc_summary(ttc_s: np.ndarray, dt_s: float, threshold_s: float = 3.0) -> dic
         "time_exposed_s": float(len(below) * dt_s),
         "time_integrated_s2": float(np.sum(threshold_s - below) * dt_s),
     }
+
+
+# Thresholds reported by `car_following_summary`: THW < 1 s is the common "risky" line and
+# 2 s the "two-second rule" (Vogel 2003 discusses both); TTC* between 1.5 and 3 s is used
+# for conflicts (Vogel 2003; state it per study). Our defaults, all arguments.
+THW_THRESHOLDS_S = (1.0, 2.0)
+TTC_THRESHOLDS_S = (1.5, 3.0)
+
+
+def car_following_summary(
+    gap_m: np.ndarray,
+    follower_speed_mps: np.ndarray,
+    lead_speed_mps: np.ndarray,
+    thw_thresholds_s: tuple[float, ...] = THW_THRESHOLDS_S,
+    ttc_thresholds_s: tuple[float, ...] = TTC_THRESHOLDS_S,
+) -> dict[str, float]:
+    """Time headway and time to collision from both vehicles' speeds, per sample.
+
+    THW = gap / v_follower (bumper to bumper, SAE J2944's time gap) over samples with a
+    lead (finite gap) and a moving follower; TTC = gap / (v_follower - v_lead) while
+    closing in, else inf (Vogel 2003). Shares are of the samples with a lead (equal time
+    steps): `thw_below_1s_share` is the share of those with THW < 1 s; `ttc_below_3s_share`
+    the share with TTC < 3 s. NaN shares and means when no sample has a lead."""
+    gap = np.asarray(gap_m, dtype=float)
+    vf = np.asarray(follower_speed_mps, dtype=float)
+    vl = np.asarray(lead_speed_mps, dtype=float)
+    lead = np.isfinite(gap) & np.isfinite(vl)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        thw = np.where(lead & (vf > 0.0), np.maximum(gap, 0.0) / vf, np.inf)
+        closing = vf - vl
+        ttc = np.where(lead & (closing > 0.0), np.maximum(gap, 0.0) / closing, np.inf)
+    n = int(lead.sum())
+    out: dict[str, float] = {"lead_share": float(n / len(gap)) if len(gap) else math.nan}
+    finite_thw = thw[lead & np.isfinite(thw)]
+    out["thw_mean_s"] = float(finite_thw.mean()) if len(finite_thw) else math.nan
+    out["thw_min_s"] = float(finite_thw.min()) if len(finite_thw) else math.nan
+    finite_ttc = ttc[np.isfinite(ttc)]
+    out["ttc_min_s"] = float(finite_ttc.min()) if len(finite_ttc) else math.inf
+    for th in thw_thresholds_s:
+        out[f"thw_below_{th:g}s_share"] = float(np.mean(thw[lead] < th)) if n else math.nan
+    for th in ttc_thresholds_s:
+        out[f"ttc_below_{th:g}s_share"] = float(np.mean(ttc[lead] < th)) if n else math.nan
+    return out

@@ -132,3 +132,47 @@ def reversal_rate(angle_deg: np.ndarray, fs_hz: float, gap_deg: float = 2.0, cut
     duration_min = (len(x) - 1) / fs_hz / 60.0
     filtered = filtfilt(*butter2_lowpass(cutoff_hz, fs_hz), x) if cutoff_hz < fs_hz / 2 else x
     return reversal_count(filtered, gap_deg) / duration_min if duration_min > 0 else math.nan
+
+
+# The gaps reported by `reversal_rates`: 0.5 deg (small corrections, sensitive to
+# cognitive load), 2 deg (Östlund et al. 2005, HASTE deliverable 2, and Markkula &
+# Engström 2006: sensitive to visual load) and 10 deg (large corrections). Reversal
+# counting goes back to Macdonald & Hoffmann 1980 (Human Factors 22(6)).
+SRR_GAPS_DEG = (0.5, 2.0, 10.0)
+SRR_MIN_SEGMENT_S = 5.0  # shorter lane-keeping stretches are too short to filter (our choice)
+
+
+def reversal_rates(
+    angle_deg: np.ndarray,
+    fs_hz: float,
+    keep: np.ndarray | None = None,
+    gaps_deg: tuple[float, ...] = SRR_GAPS_DEG,
+    cutoff_hz: float = 0.6,
+    min_segment_s: float = SRR_MIN_SEGMENT_S,
+) -> dict[float, float]:
+    """Reversals per minute at each gap over the lane-keeping segments only: each run of
+    `keep` samples at least `min_segment_s` long is filtered and counted on its own (a lane
+    change's steering is no reversal), and the counts are divided by their total duration.
+    NaN for every gap when no segment is long enough."""
+    x = np.asarray(angle_deg, dtype=float)
+    mask = np.ones(len(x), dtype=bool) if keep is None else np.asarray(keep, dtype=bool)
+    min_n = max(3, int(math.ceil(min_segment_s * fs_hz)) + 1)
+    counts = dict.fromkeys(gaps_deg, 0)
+    duration_s = 0.0
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    for lo, hi in zip(edges[::2], edges[1::2], strict=True):
+        if hi - lo < min_n:
+            continue
+        seg = x[lo:hi]
+        filtered = filtfilt(*butter2_lowpass(cutoff_hz, fs_hz), seg) if cutoff_hz < fs_hz / 2 else seg
+        for g in gaps_deg:
+            counts[g] += reversal_count(filtered, g)
+        duration_s += (hi - lo - 1) / fs_hz
+    if duration_s <= 0.0:
+        return dict.fromkeys(gaps_deg, math.nan)
+    return {g: counts[g] / (duration_s / 60.0) for g in gaps_deg}
+
+
+def gap_key(gap_deg: float) -> str:
+    """`0.5` -> `0_5deg`: the gap as it appears in metric names."""
+    return f"{gap_deg:g}".replace(".", "_") + "deg"

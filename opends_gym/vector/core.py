@@ -306,7 +306,8 @@ class BatchCore:
         if self.ring is None:
             raise RuntimeError("episode metrics were switched off (record_metrics=False)")
         tpl = self.template
-        constant = {c: 0.0 for c in ("yaw_rad", "accelerator", "brake")} | {"headway_s": math.inf, "ttc_s": math.inf}
+        constant = {c: 0.0 for c in ("yaw_rad", "accelerator", "brake")} | {"headway_s": math.inf, "ttc_s": math.inf, "gap_m": math.inf}
+        constant["lead_speed_mps"] = math.nan
         constant = {k: v for k, v in constant.items() if k not in self.trace_columns}
         tpl.trace = self.ring.to_trace(e, self.guide, self.dt, constant, columns)
         w = tpl.world

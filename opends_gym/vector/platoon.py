@@ -37,7 +37,7 @@ SLOTS = 4  # simultaneous stimuli per env (a stimulus lasts <= 5 s; triggers lie
 
 class PlatoonBatch(BatchCore):
     handled_actions = frozenset({"setTVPTStimulus"})
-    trace_columns: tuple[str, ...] = ("x_m", "z_m", "speed_mps", "steering", "headway_s", "ttc_s", "lon_dev")
+    trace_columns: tuple[str, ...] = ("x_m", "z_m", "speed_mps", "steering", "headway_s", "ttc_s", "gap_m", "lead_speed_mps", "lon_dev")
     needs_distance = True
     has_traffic = True
 
@@ -88,6 +88,8 @@ class PlatoonBatch(BatchCore):
         self.lead_j = np.full(n, -1, dtype=np.int64)
         self.lead_gap = np.zeros(n)
         self.lead_v = np.zeros(n)
+        self.gap_m = np.full(n, np.inf)
+        self.lead_speed_mps = np.full(n, np.nan)
 
     # ------------------------------------------------------------------ reset
     def _reset_task(self, idx: np.ndarray) -> None:
@@ -115,6 +117,8 @@ class PlatoonBatch(BatchCore):
         j, gap, v, length = self.traffic.lead(s.x, s.z, s.yaw, s.u)
         found = j >= 0
         self.lead_j, self.lead_gap, self.lead_v = j, gap, v
+        self.gap_m = np.where(found & np.isfinite(gap), gap, np.inf)  # (trace columns, read by name)
+        self.lead_speed_mps = np.where(found & np.isfinite(gap), v, np.nan)
         with np.errstate(divide="ignore", invalid="ignore"):
             self.headway = np.where(found & np.isfinite(gap) & (s.u > 0.0), (gap + length) / s.u, np.inf)
             closing = s.u - v
