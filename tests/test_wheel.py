@@ -66,8 +66,9 @@ def test_wheel_carries_tasks_policies_configs_and_dbc(installed: Installed) -> N
         if policy.is_dir():
             for f in policy.iterdir():
                 assert f"opends_gym/bundled_policies/{policy.name}/{f.name}" in names
-    for f in (ROOT / "configs").iterdir():
-        assert f"opends_gym/bundled_configs/{f.name}" in names
+    for f in (ROOT / "configs").rglob("*"):
+        if f.is_file():
+            assert f"opends_gym/bundled_configs/{f.relative_to(ROOT / 'configs').as_posix()}" in names
 
 
 def test_installed_package_is_the_wheel(installed: Installed) -> None:

@@ -70,10 +70,12 @@ def literature() -> dict[str, LiteratureRow]:
 
 
 # ---------------------------------------------------------------------------- tasks
-def _lct(signs: int, visibility_m: float = 40.0) -> gym.Env[Any, Any]:
+def _lct(signs: int, visibility_m: float = 40.0, modality: str = "tactile") -> gym.Env[Any, Any]:
+    """The LCT with a DRT of the given ISO 17488 modality (the participant reads it from the wrapper)."""
     from ..envs.drt import DetectionResponseTask
 
-    return DetectionResponseTask(gym.make("OpenDS/LaneChangeTest-v0", action="continuous_buttons", signs=signs, visibility_m=visibility_m))
+    env = gym.make("OpenDS/LaneChangeTest-v0", action="continuous_buttons", signs=signs, visibility_m=visibility_m)
+    return DetectionResponseTask(env, modality=modality)
 
 
 def _brake(stimuli: int) -> gym.Env[Any, Any]:
@@ -173,7 +175,7 @@ def runs(short: bool = False) -> dict[str, Run]:
 
     return {
         "lct": _runner(lambda: _lct(signs), _lct_read),
-        "lct_visual_drt": _runner(lambda: _lct(signs), _lct_read, drt_modality="visual"),
+        "lct_visual_drt": _runner(lambda: _lct(signs, modality="visual"), _lct_read),
         "brake_expected": _runner(lambda: _brake(brake_n), brake_rt),
         "brake_unexpected": _runner(lambda: _brake(brake_n), brake_rt, instructed=False),
         "platoon": _runner(lambda: _platoon(platoon_m), lane_keeping, keep_band=False),
