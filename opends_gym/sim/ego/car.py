@@ -154,7 +154,7 @@ class EgoCar:
                 lead_gap, lead_v,
             )  # fmt: skip
             if physics_on:  # a backend of its own (bullet)
-                drive, brake_force = self.powertrain.forces(dt_s, v, gas * (1.0 - c.clutch), brake, 0.0, c.hand_brake)
+                drive, brake_force = self.powertrain.forces(dt_s, v, gas * (1.0 - c.clutch), brake, s.pitch, c.hand_brake)
                 body.step(dt_s, steer * MAX_WHEEL_ANGLE_RAD, drive, brake_force)
         self.inputs = CarInputs(steer, gas, brake, c.clutch, c.hand_brake, c.turn_signal or self.inputs.turn_signal, c.horn)
 

@@ -32,7 +32,7 @@ def cruise_params(min_speed_mps: float, suppress_off: bool, acc: bool, emergency
 
 
 @kernel
-def powertrain_step(car: np.ndarray, s: np.ndarray, ring: np.ndarray, dt: float, v_mps: float, gas: float, brake: float, slope_rad: float,
+def powertrain_step(car: np.ndarray, s: np.ndarray, ring: np.ndarray, dt: float, v_mps: float, gas: float, brake: float, pitch_rad: float,
                     hand_brake: bool) -> tuple[float, float]:  # fmt: skip
     """`powertrain_core` on the state slots `s`, plus the consumption display; (drive N, brake N).
 
@@ -53,7 +53,7 @@ def powertrain_step(car: np.ndarray, s: np.ndarray, ring: np.ndarray, dt: float,
         v_mps,
         gas,
         brake,
-        slope_rad,
+        pitch_rad,
         hand_brake,
     )
     s[S_GEAR], s[S_RPM], s[S_PREV_V], s[S_P_ENGINE], s[S_P_LOAD], s[S_FUEL_USED], s[S_FUEL_LEFT] = (
@@ -114,6 +114,7 @@ def ego_step(car: np.ndarray, aid: np.ndarray, s: np.ndarray, ring: np.ndarray, 
     gas, brake, cruise_on, cruise_integral = drive_inputs(
         aid, s, u, gas, brake, dt, cruise_on, cruise_target, cruise_integral, lead_gap, lead_v
     )
+    # a flat road: the chassis is level (pitch 0, which OpenDS's Car.getSlope reads as slightly downhill)
     drive, brake_n = powertrain_step(car, s, ring, dt, u, gas * (1.0 - clutch), brake, 0.0, hand_brake)
     x, z, yaw, u, v, r = body_step(car, x, z, yaw, u, v, r, dt, steer_rad, drive, brake_n, 0.0)
     return x, z, yaw, u, v, r, ring.shape[0] - int(s[S_RING_COUNT]), gas, brake, cruise_on, cruise_integral
