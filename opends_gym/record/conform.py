@@ -19,8 +19,10 @@ time, and where its physics fell behind the clock (a slow machine) the log's own
 and speeds give the rate (`time_scale`). Speeds compared are |velocity|, as OpenDS logs them.
 Where the task's ground is unknown (its `.j3o` models and no readable terrain height map),
 the ground is the recorded height profile and the result says so (`ground`, and how each
-backend uses it, `ground_model`: `bullet` takes a plane at the first sample's height, so a
-log with much relief, `ground_relief_m`, is compared on flat ground there); the scene's other models
+backend uses it, `ground_model`: `fast` follows the recorded heights and the recorded path's
+grade, which pulls the car and pitches its chassis for the powertrain's grade load; `bullet`
+takes a plane at the first sample's height, so a log with much relief, `ground_relief_m`, is
+compared on flat ground there); the scene's other models
 are left out (their shapes are unknown, and open-loop drift must not hit stand-in boxes).
 """
 
@@ -46,7 +48,7 @@ WINDOW_S = 5.0
 MIN_DURATION_S = 20.0  # the goals apply to drives at least this long
 GOALS = {"median_speed_err_kmh": 2.0, "median_heading_err_deg": 3.0, "median_pos_err_m": 1.5, "rms_speed_err_kmh": 5.0}
 TRACE_COLUMNS = ("t_s", "x_m", "z_m", "yaw_rad", "speed_kmh")
-GROUND_MODELS = {"fast": "height of the nearest recorded sample", "bullet": "plane at the first recorded height"}
+GROUND_MODELS = {"fast": "height and path grade of the nearest recorded sample", "bullet": "plane at the first recorded height"}
 
 
 class Recorded:
@@ -146,10 +148,12 @@ def _replay_task(task: DrivingTask) -> DrivingTask:
 
 
 class _Profile:
-    """Ground height under (x, z): the recorded height at the nearest recorded position
-    (looked up in 5 m cells, so a long log costs no more per step than a short one)."""
+    """The ground as the drive recorded it: under (x, z) the height of the nearest recorded
+    sample, and ahead of a heading the recorded path's grade there (looked up in 5 m cells,
+    so a long log costs no more per step than a short one)."""
 
     CELL_M = 5.0
+    GRADE_SPAN_M = 2.5  # the path's grade at a sample: its height change over this far either side
 
     def __init__(self, rec: Recorded) -> None:
         self._xz = np.column_stack([rec.x, rec.z])
@@ -158,13 +162,33 @@ class _Profile:
         for i, (x, z) in enumerate(self._xz):
             cells.setdefault((int(x // self.CELL_M), int(z // self.CELL_M)), []).append(i)
         self._cells = {k: np.asarray(v) for k, v in cells.items()}
+        # per sample: the path's grade (rise over horizontal run) and its direction in (x, z)
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(rec.x), np.diff(rec.z)))])
+        j0 = np.clip(np.searchsorted(s, s - self.GRADE_SPAN_M, side="left"), 0, rec.n - 1)
+        j1 = np.clip(np.searchsorted(s, s + self.GRADE_SPAN_M, side="right") - 1, 0, rec.n - 1)
+        run = s[j1] - s[j0]
+        moved = run > 0.5
+        self._grade = np.where(moved, (self._y[j1] - self._y[j0]) / np.where(moved, run, 1.0), 0.0)
+        dx, dz = rec.x[j1] - rec.x[j0], rec.z[j1] - rec.z[j0]
+        norm = np.where(moved, np.hypot(dx, dz), 1.0)
+        self._dir = np.column_stack([dx / norm, dz / norm])
 
-    def __call__(self, x: float, z: float) -> float:
+    def _nearest(self, x: float, z: float) -> int:
         cx, cz = int(x // self.CELL_M), int(z // self.CELL_M)
         near = [self._cells[k] for k in ((cx + i, cz + j) for i in (-1, 0, 1) for j in (-1, 0, 1)) if k in self._cells]
         idx = np.concatenate(near) if near else np.arange(len(self._y))
         d = (self._xz[idx, 0] - x) ** 2 + (self._xz[idx, 1] - z) ** 2
-        return float(self._y[idx[int(np.argmin(d))]])
+        return int(idx[int(np.argmin(d))])
+
+    def __call__(self, x: float, z: float) -> float:
+        return float(self._y[self._nearest(x, z)])
+
+    def pitch(self, x: float, z: float, yaw: float) -> float:
+        """The road's slope (rad, positive uphill) for a car at (x, z) heading `yaw`: the
+        recorded path's grade, along the part of it the heading follows."""
+        i = self._nearest(x, z)
+        along = -math.sin(yaw) * self._dir[i, 0] - math.cos(yaw) * self._dir[i, 1]
+        return math.atan(float(self._grade[i]) * along)
 
 
 class _Replay:
@@ -176,7 +200,11 @@ class _Replay:
         options: dict[str, Any] = {}
         if ground != "task terrain":
             # fast: the height at the nearest recorded sample; bullet: a plane at the first sample's height
-            options["ground_height"] = _Profile(rec) if physics == "fast" else float(rec.y[0])
+            if physics == "fast":
+                profile = _Profile(rec)
+                options["ground_height"], options["ground_pitch"] = profile, profile.pitch
+            else:
+                options["ground_height"] = float(rec.y[0])
         self.backend = make_backend(physics, replay_task, **options)
         self.car = EgoCar(replay_task, self.backend)
 

@@ -138,9 +138,12 @@ class EgoCar:
             # the fast backend: driver's aids, powertrain and body in one compiled call
             steer_rad = steer * MAX_WHEEL_ANGLE_RAD
             s.steer_rad = steer_rad
+            slope = body.ground_pitch  # type: ignore[attr-defined]
+            s.pitch = slope(s.x, s.z, s.yaw) if slope is not None else 0.0
             s.x, s.z, s.yaw, s.u, s.v, s.r, free, gas, brake, self.cruise_active, self.cruise_integral = ego_step(
                 self._car, self._aid, st.values, st.ring, dt_s, steer_rad, c.accelerator, c.brake, c.clutch, c.hand_brake,
                 self.cruise_active, self.cruise_target_mps, self.cruise_integral, lead_gap, lead_v, s.x, s.z, s.yaw, s.u, s.v, s.r,
+                s.pitch,
             )  # fmt: skip
             if free < 2:
                 st.ensure_ring_room()
@@ -154,7 +157,7 @@ class EgoCar:
                 lead_gap, lead_v,
             )  # fmt: skip
             if physics_on:  # a backend of its own (bullet)
-                drive, brake_force = self.powertrain.forces(dt_s, v, gas * (1.0 - c.clutch), brake, 0.0, c.hand_brake)
+                drive, brake_force = self.powertrain.forces(dt_s, v, gas * (1.0 - c.clutch), brake, s.pitch, c.hand_brake)
                 body.step(dt_s, steer * MAX_WHEEL_ANGLE_RAD, drive, brake_force)
         self.inputs = CarInputs(steer, gas, brake, c.clutch, c.hand_brake, c.turn_signal or self.inputs.turn_signal, c.horn)
 
@@ -220,7 +223,7 @@ def make_backend(kind: str, task: DrivingTask, **options: Any) -> VehicleBackend
     mass = task.car_model.mass_kg
     spec = VehicleSpec.from_car(task.scenario.driver.car, mass)
     if kind == "fast":
-        return FastVehicle(spec, options.get("ground_height"))
+        return FastVehicle(spec, options.get("ground_height"), options.get("ground_pitch"))
     if kind == "bullet":
         from ...extras import require
 

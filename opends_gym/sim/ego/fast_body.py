@@ -23,10 +23,11 @@ G = 9.81
 class FastVehicle:
     """Planar raycast vehicle; height follows `ground_height`."""
 
-    def __init__(self, spec: VehicleSpec, ground_height: Any = None) -> None:
+    def __init__(self, spec: VehicleSpec, ground_height: Any = None, ground_pitch: Any = None) -> None:
         self.spec = spec
         self.state = BodyState()
         self.ground_height = ground_height  # callable (x, z) -> y, or None for flat
+        self.ground_pitch = ground_pitch  # callable (x, z, yaw) -> the road's slope ahead (rad, uphill positive), or None for flat
         m, w, h = spec.mass_kg, spec.width_m, spec.height_m
         roll_inertia = m * (h * h + w * w) / 12.0  # the bullet chassis box's (bullet.vehicle)
         self._params = body_params(

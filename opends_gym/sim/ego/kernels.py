@@ -47,6 +47,11 @@ RPM_RATE_LIMIT = 5000.0  # rpm per second
 POWER_RPM_MIN, POWER_RPM_MAX = 1500.0, 5100.0
 ENGINE_FORCE_PER_KW = 30.0  # SteeringCar.update: accelerate(30 x P_accel x powerPercentage)
 SPEED_AT_FULL_SHARE_KMH = 140.0  # Transmission.speedAt100PercentMarker
+# Car.getSlope: OpenDS's slope is the chassis pitch less 0.031765 rad (its "correction due to
+# different suspension heights"), so a level chassis reads 1.8 degrees downhill and P_grade
+# (m g v sin(slope)) lowers the load on flat ground: its real drives show it (the AudiS6 of the
+# Countryside logs rests at pitch +0.003 rad on flat road, slope -0.029).
+SLOPE_PITCH_OFFSET_RAD = 0.031765
 BRAKE_FORCE_PER_DECEL_KG = 0.004375  # SteeringCar: maxBrakeForce = 0.004375 x decelerationBrake x mass
 TABLE_STEP = 0.1  # m/s resolution of the automatic gearbox table
 RPM_TABLE_STEP = 10.0
@@ -241,11 +246,13 @@ def best_power_gear(n_gears: int, speed_share: float) -> int:
 
 @inline
 def powertrain_core(car: np.ndarray, gear: int, automatic: bool, engine_on: bool, rpm: float, prev_v: float, fuel_used: float,
-                    fuel_left: float, dt: float, v_mps: float, gas: float, brake: float, slope_rad: float,
+                    fuel_left: float, dt: float, v_mps: float, gas: float, brake: float, pitch_rad: float,
                     hand_brake: bool) -> tuple[int, float, float, float, float, float, float, float, float]:  # fmt: skip
     """One powertrain step at forward speed v (m/s, negative rolling backwards); `car` is
     `car_constants`. OpenDS's order: `Transmission.updateRPM`, `PowerTrain.getPAccel`,
-    `Transmission.performAcceleration`, then the brake of `SteeringCar.update`.
+    `Transmission.performAcceleration`, then the brake of `SteeringCar.update`. `pitch_rad`:
+    the chassis pitch (jME's `toAngles()[0]`, positive nose up; 0 for a level chassis), from
+    which the grade load takes OpenDS's slope (`Car.getSlope`, see SLOPE_PITCH_OFFSET_RAD).
 
     Returns (gear, rpm, drive N, brake N, P_engine kW, P_load kW, fuel litres this step,
     fuel used L, fuel left L). Drive: the four wheels' engine force (30 x P_accel x
@@ -276,7 +283,9 @@ def powertrain_core(car: np.ndarray, gear: int, automatic: bool, engine_on: bool
     dv = speed - prev
     p_engine = full_power_kw(car, rpm) * (-gas if gas < 0.0 else gas)
     m = car[C_PT + P_MASS]
-    sin_slope = (math.sin(-slope_rad if gear < 0 else slope_rad)) if slope_rad != 0.0 else 0.0
+    # Car.getSlope: the chassis pitch less a fixed 0.031765 rad ("due to different suspension heights")
+    slope = pitch_rad - SLOPE_PITCH_OFFSET_RAD
+    sin_slope = math.sin(-slope if gear < 0 else slope)
     inner_kw = 7e-7 * rpm * rpm - 5e-4 * rpm + 10.9
     p_load = (
         (

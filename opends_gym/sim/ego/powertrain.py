@@ -287,18 +287,19 @@ class Powertrain:
         return table[i] + (table[i + 1] - table[i]) * f
 
     def forces(
-        self, dt_s: float, v_mps: float, gas: float, brake: float, slope_rad: float = 0.0, hand_brake: bool = False
+        self, dt_s: float, v_mps: float, gas: float, brake: float, pitch_rad: float = 0.0, hand_brake: bool = False
     ) -> tuple[float, float]:
-        """Advance one physics step at forward speed v (negative when rolling backwards);
-        (drive force N, brake force N). The maths is `ego.kernels.powertrain_step`."""
+        """Advance one physics step at forward speed v (negative when rolling backwards) with
+        the chassis at `pitch_rad` (positive nose up; OpenDS's slope is pitch - 0.031765 rad,
+        `Car.getSlope`); (drive force N, brake force N). The maths is `ego.kernels.powertrain_step`."""
         st = self.state
         if st.values[ef.S_RING_COUNT] + 2.0 > len(st.ring):
             st.ensure_ring_room()
-        return ef.powertrain_step(self._car, st.values, st.ring, dt_s, v_mps, gas, brake, slope_rad, hand_brake)  # type: ignore[no-any-return]
+        return ef.powertrain_step(self._car, st.values, st.ring, dt_s, v_mps, gas, brake, pitch_rad, hand_brake)  # type: ignore[no-any-return]
 
     def step(
-        self, dt_s: float, v_mps: float, gas: float, brake: float, slope_rad: float = 0.0, hand_brake: bool = False
+        self, dt_s: float, v_mps: float, gas: float, brake: float, pitch_rad: float = 0.0, hand_brake: bool = False
     ) -> PowertrainOutput:
         """`forces` with the step's rpm and gear."""
-        drive, brake_force = self.forces(dt_s, v_mps, gas, brake, slope_rad, hand_brake)
+        drive, brake_force = self.forces(dt_s, v_mps, gas, brake, pitch_rad, hand_brake)
         return PowertrainOutput(drive, brake_force, self.state.rpm, self.state.gear)

@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from ...jit import kernel
-from .kernels import body_step, cruise_control, min_speed_gas, powertrain_core
+from .kernels import G, body_step, cruise_control, min_speed_gas, powertrain_core
 
 # the powertrain state (`sim.powertrain.PowertrainState.values`)
 S_GEAR, S_AUTOMATIC, S_ENGINE_ON, S_RPM, S_PREV_V, S_FUEL_USED, S_FUEL_LEFT, S_P_ENGINE, S_P_LOAD = range(9)
@@ -32,7 +32,7 @@ def cruise_params(min_speed_mps: float, suppress_off: bool, acc: bool, emergency
 
 
 @kernel
-def powertrain_step(car: np.ndarray, s: np.ndarray, ring: np.ndarray, dt: float, v_mps: float, gas: float, brake: float, slope_rad: float,
+def powertrain_step(car: np.ndarray, s: np.ndarray, ring: np.ndarray, dt: float, v_mps: float, gas: float, brake: float, pitch_rad: float,
                     hand_brake: bool) -> tuple[float, float]:  # fmt: skip
     """`powertrain_core` on the state slots `s`, plus the consumption display; (drive N, brake N).
 
@@ -53,7 +53,7 @@ def powertrain_step(car: np.ndarray, s: np.ndarray, ring: np.ndarray, dt: float,
         v_mps,
         gas,
         brake,
-        slope_rad,
+        pitch_rad,
         hand_brake,
     )
     s[S_GEAR], s[S_RPM], s[S_PREV_V], s[S_P_ENGINE], s[S_P_LOAD], s[S_FUEL_USED], s[S_FUEL_LEFT] = (
@@ -106,14 +106,19 @@ def drive_inputs(aid: np.ndarray, s: np.ndarray, v: float, gas: float, brake: fl
 @kernel
 def ego_step(car: np.ndarray, aid: np.ndarray, s: np.ndarray, ring: np.ndarray, dt: float, steer_rad: float, gas: float, brake: float,
              clutch: float, hand_brake: bool, cruise_on: bool, cruise_target: float, cruise_integral: float, lead_gap: float,
-             lead_v: float, x: float, z: float, yaw: float, u: float, v: float,
-             r: float) -> tuple[float, float, float, float, float, float, int, float, float, bool, float]:  # fmt: skip
-    """`drive_inputs`, `powertrain_step` and `body_step` of the single env's car (flat road):
-    the body's (x, z, yaw, u, v, r), the free rows left in `ring`, the applied (gas, brake)
-    and the cruise control's (on, integral)."""
+             lead_v: float, x: float, z: float, yaw: float, u: float, v: float, r: float,
+             pitch: float) -> tuple[float, float, float, float, float, float, int, float, float, bool, float]:  # fmt: skip
+    """`drive_inputs`, `powertrain_step` and `body_step` of the single env's car: the body's
+    (x, z, yaw, u, v, r), the free rows left in `ring`, the applied (gas, brake) and the cruise
+    control's (on, integral). `pitch`: the road's slope ahead (rad, positive uphill; 0 on the
+    flat road of every World), which pitches the chassis (the powertrain's grade load) and
+    pulls the car back by g sin(pitch)."""
     gas, brake, cruise_on, cruise_integral = drive_inputs(
         aid, s, u, gas, brake, dt, cruise_on, cruise_target, cruise_integral, lead_gap, lead_v
     )
-    drive, brake_n = powertrain_step(car, s, ring, dt, u, gas * (1.0 - clutch), brake, 0.0, hand_brake)
+    # level chassis on a flat road: pitch 0, which OpenDS's Car.getSlope reads as slightly downhill
+    drive, brake_n = powertrain_step(car, s, ring, dt, u, gas * (1.0 - clutch), brake, pitch, hand_brake)
+    if pitch != 0.0:
+        u -= G * math.sin(pitch) * dt
     x, z, yaw, u, v, r = body_step(car, x, z, yaw, u, v, r, dt, steer_rad, drive, brake_n, 0.0)
     return x, z, yaw, u, v, r, ring.shape[0] - int(s[S_RING_COUNT]), gas, brake, cruise_on, cruise_integral
