@@ -42,6 +42,9 @@ class TrainConfig:
     eval_episodes: int = 2
     output: str = "runs/{name}"
     progress_bar: bool = True
+    stop_at: dict[str, list[float]] = field(
+        default_factory=dict
+    )  # vec_env native: metric -> [low, high] of an evaluation that ends the run
     rllib: dict[str, Any] = field(default_factory=dict)  # framework rllib: num_env_runners, iterations, train_batch_size, ...
     name: str = ""
 
@@ -52,6 +55,9 @@ class TrainConfig:
             raise ValueError(f"framework must be one of {', '.join(FRAMEWORKS)}, not {self.framework!r}")
         if self.vec_env not in VEC_ENVS:
             raise ValueError(f"vec_env must be one of {', '.join(VEC_ENVS)}, not {self.vec_env!r}")
+        for metric, bounds in self.stop_at.items():
+            if not (isinstance(bounds, list | tuple) and len(bounds) == 2 and all(isinstance(b, int | float) for b in bounds)):
+                raise ValueError(f"stop_at: {metric} needs [low, high], not {bounds!r}")
         for key in ("total_steps", "n_envs", "checkpoint_every_steps", "eval_every_steps"):
             if int(getattr(self, key)) <= 0:
                 raise ValueError(f"{key} must be positive")

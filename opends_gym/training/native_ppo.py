@@ -24,13 +24,19 @@ generator seeded with `seed`.
 
 Outputs in the run folder: `model.zip`, `model.vecnormalize.pkl`, `checkpoints/`
 (`model_<N>_steps.zip` with `model_vecnormalize_<N>_steps.pkl`, as SB3's callback names
-them), `curve.csv` (env steps, wall seconds, mean return of the last 10 episodes, and the
-evaluation's metrics where one ran), `metrics.json` (the final evaluation).
+them), `curve.csv` (per rollout: env steps, wall seconds with and without the evaluations, the
+mean return of the last 10 episodes, and the evaluation's metrics where one ran),
+`evaluations.npz` (as SB3's EvalCallback writes it), `metrics.json` (the final evaluation).
+
+`stop_at` in the config (metric: [low, high], e.g. lane_changes_correct: [18, 18]) ends
+the run at the first evaluation whose mean metrics are all within bounds; that checkpoint
+is the run's `model.zip`.
 """
 
 from __future__ import annotations
 
 import csv
+import json
 import math
 import time
 from collections.abc import Callable
@@ -42,9 +48,10 @@ import gymnasium as gym
 import numpy as np
 
 from ..extras import require
+from ..jsonsafe import json_safe
 from .config import TrainConfig
 
-Progress = Callable[[int, int, str], None]  # (env steps done, total, note)
+Progress = Callable[[int, str], None]  # (env steps done of total_steps, a note: the last returns)
 
 
 @dataclass(frozen=True)
@@ -168,6 +175,20 @@ def train(
         torch.set_num_threads(threads)
 
 
+def gae(rew: np.ndarray, val: np.ndarray, term: np.ndarray, end: np.ndarray, gamma: float, lam: float) -> tuple[np.ndarray, np.ndarray]:
+    """Generalised advantage estimates and returns of a (steps, envs) rollout; `val` has one
+    more row (the values of the observations after the last step). A chain stops where an
+    episode ends (`end`), and only a terminated episode's last step has no bootstrap value:
+    a truncated one is worth the value of its last observation."""
+    adv = np.zeros_like(rew)
+    last = np.zeros(rew.shape[1], dtype=rew.dtype)
+    for t in reversed(range(rew.shape[0])):
+        delta = rew[t] + gamma * val[t + 1] * (~term[t]) - val[t]
+        last = delta + gamma * lam * (~end[t]) * last
+        adv[t] = last
+    return adv, adv + val[:-1]
+
+
 def desync(envs: Any, rng: np.random.Generator, limit: int = 100_000) -> np.ndarray:
     """Spread the envs over the course of an episode; returns the observations after it.
 
@@ -222,7 +243,10 @@ class _Run:
         self.curve: list[dict[str, Any]] = []
         self.t0 = time.perf_counter()
         self.update_s = 0.0  # of which in the policy updates
-        self.eval_s = 0.0  # wall time spent evaluating checkpoints (in wall_s, not in train_s)
+        self.eval_s = 0.0
+        self.evaluations: list[tuple[int, list[float]]] = []
+        self.last_metrics: dict[str, Any] = {}
+        self.stopped_at: int | None = None  # wall time spent evaluating checkpoints (in wall_s, not in train_s)
 
     # ---------------------------------------------------------------- helpers
     def _obs(self, obs: np.ndarray, update: bool) -> np.ndarray:
@@ -289,7 +313,7 @@ class _Run:
                 resetting = terminated | truncated
                 obs = self._obs(obs_raw, update=t + 1 < s.n_steps)
             b_val[s.n_steps] = self._value(obs)
-            adv, ret = self._gae(b_rew, b_val, b_term, b_end)
+            adv, ret = gae(b_rew, b_val, b_term, b_end, s.gamma, s.gae_lambda)
             started = time.perf_counter()
             self._update(b_obs[b_valid], b_act[b_valid], b_logp[b_valid], adv[b_valid], ret[b_valid])
             self.update_s += time.perf_counter() - started
@@ -302,30 +326,37 @@ class _Run:
             if done_steps >= next_checkpoint or k == rollouts - 1:
                 next_checkpoint += cfg.checkpoint_every_steps
                 self._save(self.out / "checkpoints" / f"model_{self.model.num_timesteps}_steps.zip", checkpoint=True)
+            stop = False
             if done_steps >= next_eval and k < rollouts - 1:
                 next_eval += cfg.eval_every_steps
-                row.update(self._evaluate(self.out / "checkpoints" / f"model_{self.model.num_timesteps}_steps.zip"))
+                checkpoint = self.out / "checkpoints" / f"model_{self.model.num_timesteps}_steps.zip"
+                if not checkpoint.is_file():
+                    self._save(checkpoint, checkpoint=True)
+                row.update(self._evaluate(checkpoint))
+                stop = self._meets_stop_at(row)
             self.curve.append(row)
             if self.progress is not None:
                 note = f"return {row['mean_return_last_10']:.1f}" if math.isfinite(row["mean_return_last_10"]) else ""
-                self.progress(min(done_steps, cfg.total_steps), cfg.total_steps, note)
+                self.progress(min(done_steps, cfg.total_steps), note)
+            if stop:
+                self.stopped_at = self.model.num_timesteps
+                break
         self._save(self.out / "model.zip", checkpoint=False)
-        final = self._evaluate(self.out / "model.zip", full=True)
-        self.curve[-1].update({k: v for k, v in final.items() if k != "full"})
+        if self.stopped_at is None:
+            final = self._evaluate(self.out / "model.zip", full=True)
+            self.curve[-1].update({k: v for k, v in final.items() if k != "full"})
+            metrics = dict(final["full"])
+        else:  # the evaluation that met `stop_at` scored this very model
+            metrics = dict(self.last_metrics)
+        metrics.update(total_steps=self.model.num_timesteps, wall_s=round(time.perf_counter() - self.t0, 2), stopped_at=self.stopped_at)
+        (self.out / "metrics.json").write_text(json.dumps(json_safe(metrics), indent=2), encoding="utf-8")
         self._write_curve()
-        return dict(final["full"])
+        return metrics
 
-    def _gae(self, rew: np.ndarray, val: np.ndarray, term: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Generalised advantage estimates; a chain stops where an episode ends, and only a
-        terminated episode's last step has no bootstrap value."""
-        s = self.s
-        adv = np.zeros_like(rew)
-        last = np.zeros(rew.shape[1], dtype=np.float32)
-        for t in reversed(range(rew.shape[0])):
-            delta = rew[t] + s.gamma * val[t + 1] * (~term[t]) - val[t]
-            last = delta + s.gamma * s.gae_lambda * (~end[t]) * last
-            adv[t] = last
-        return adv, adv + val[:-1]
+    def _meets_stop_at(self, row: dict[str, Any]) -> bool:
+        """Whether the evaluation in `row` meets every bound of the config's `stop_at`."""
+        bounds = self.cfg.stop_at
+        return bool(bounds) and all(low <= row.get(f"eval_{k}", math.nan) <= high for k, (low, high) in bounds.items())
 
     def _update(self, obs: np.ndarray, act: np.ndarray, logp: np.ndarray, adv: np.ndarray, ret: np.ndarray) -> None:
         import torch
@@ -372,11 +403,18 @@ class _Run:
         started = time.perf_counter()
         metrics = self.score(self.cfg, model)
         self.eval_s += time.perf_counter() - started
+        self.last_metrics = metrics
         mean = metrics.get("mean", {})
-        row = {f"eval_{k}": v for k, v in mean.items() if k in EVAL_KEYS}
+        returns = [float(e.get("return", math.nan)) for e in metrics.get("episodes", [])]
+        self.evaluations.append((self.model.num_timesteps, returns))
+        row = {f"eval_{k}": v for k, v in mean.items() if k in (*EVAL_KEYS, *self.cfg.stop_at)}
         return {**row, "full": metrics} if full else row
 
     def _write_curve(self) -> None:
+        if self.evaluations:  # as SB3's EvalCallback writes it (agents/plot_curves.py reads it)
+            width = max(len(r) for _, r in self.evaluations)
+            results = np.array([r + [math.nan] * (width - len(r)) for _, r in self.evaluations])
+            np.savez(self.out / "evaluations.npz", timesteps=np.array([t for t, _ in self.evaluations]), results=results)
         keys: list[str] = []
         for row in self.curve:
             keys += [k for k in row if k not in keys]
