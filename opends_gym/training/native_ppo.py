@@ -246,7 +246,8 @@ class _Run:
         self.eval_s = 0.0
         self.evaluations: list[tuple[int, list[float]]] = []
         self.last_metrics: dict[str, Any] = {}
-        self.stopped_at: int | None = None  # wall time spent evaluating checkpoints (in wall_s, not in train_s)
+        self.stopped_at: int | None = None
+        self.eval_note = ""  # wall time spent evaluating checkpoints (in wall_s, not in train_s)
 
     # ---------------------------------------------------------------- helpers
     def _obs(self, obs: np.ndarray, update: bool) -> np.ndarray:
@@ -337,6 +338,10 @@ class _Run:
             self.curve.append(row)
             if self.progress is not None:
                 note = f"return {row['mean_return_last_10']:.1f}" if math.isfinite(row["mean_return_last_10"]) else ""
+                evaluated = {k.removeprefix("eval_"): v for k, v in row.items() if k.startswith("eval_")}
+                if evaluated:  # the evaluation of this step, shown until the next one
+                    self.eval_note = "  eval " + " ".join(f"{k} {v:.4g}" for k, v in evaluated.items())
+                note += self.eval_note
                 self.progress(min(done_steps, cfg.total_steps), note)
             if stop:
                 self.stopped_at = self.model.num_timesteps
