@@ -113,14 +113,20 @@ class _Background:
     is raised as before."""
 
     def __init__(self) -> None:
+        self._fresh()
+        self.local = threading.local()
+        self.python_calls = 0  # top-level kernel calls that ran as Python (a count, for tests)
+        self.compiled = 0
+
+    def _fresh(self) -> None:
+        """An empty queue and no thread: at start, and in a forked child (the native batch's
+        shard workers), which inherits the parent's queue but not its thread."""
         self.jobs: queue.Queue[tuple[Any, tuple[Any, ...]]] = queue.Queue()
         self.queued: set[tuple[int, tuple[Any, ...]]] = set()
         self.failed: set[int] = set()
-        self.local = threading.local()
         self.thread: threading.Thread | None = None
         self.lock = threading.Lock()
-        self.python_calls = 0  # top-level kernel calls that ran as Python (a count, for tests)
-        self.compiled = 0
+        self.busy = threading.Lock()  # held while compiling: a fork waits for it (see below)
         self.stopping = False
 
     def enabled(self) -> bool:
@@ -166,9 +172,10 @@ class _Background:
         while True:
             dispatcher, types = self.jobs.get()
             try:
-                if not self.stopping:
-                    dispatcher.compile(types)
-                    self.compiled += 1
+                with self.busy:
+                    if not self.stopping:
+                        dispatcher.compile(types)
+                        self.compiled += 1
             except Exception:  # the caller's thread compiles it again and raises
                 self.failed.add(id(dispatcher))
             finally:
@@ -200,6 +207,14 @@ class _Background:
 
 _BACKGROUND = _Background()
 atexit.register(_BACKGROUND.finish)
+if hasattr(os, "register_at_fork"):
+    # a fork (the native batch's shard workers) waits for the compile in progress: the child
+    # would inherit numba's compiler lock held by a thread it does not have
+    os.register_at_fork(
+        before=lambda: _BACKGROUND.busy.acquire(),
+        after_in_parent=lambda: _BACKGROUND.busy.release(),
+        after_in_child=_BACKGROUND._fresh,
+    )
 
 
 def wait_compiled() -> None:
@@ -215,8 +230,15 @@ def compile_status() -> dict[str, int]:
     return {"python_calls": _BACKGROUND.python_calls, "compiled": _BACKGROUND.compiled, "pending": _BACKGROUND.pending()}
 
 
+# kernels that compile in their first call, as numba does: the native batch's loops over
+# hundreds or thousands of envs run as Python would take longer than their compile (and
+# slow it, holding the GIL), so a batch waits for its machine code once per machine
+_COMPILE_IN_CALL = ("opends_gym.vector",)
+
+
 def _background(dispatcher: Any) -> Any:
-    if hasattr(dispatcher, "_compile_for_args"):  # (not under NUMBA_DISABLE_JIT: a plain function)
+    module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+    if hasattr(dispatcher, "_compile_for_args") and not module.startswith(_COMPILE_IN_CALL):  # (NUMBA_DISABLE_JIT: a function)
         _BACKGROUND.hook(dispatcher)
     return dispatcher
 

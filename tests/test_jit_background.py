@@ -49,6 +49,20 @@ print(json.dumps({"first": first, "second": second, "after_first": after_first, 
 """
 
 
+FORK = r"""
+import json, os
+from opends_gym import jit
+jit.py_hypot(3.0, 4.0)  # queued (or compiling) in the parent when it forks
+pid = os.fork()
+if pid == 0:  # the child compiles on its own thread, and the compile finishes
+    jit.py_hypot(3.0, 4.0)
+    jit.wait_compiled()
+    os._exit(0 if jit.compile_status()["pending"] == 0 else 3)
+_, status = os.waitpid(pid, 0)
+print(json.dumps({"child": os.waitstatus_to_exitcode(status)}))
+"""
+
+
 def _child(code: str, cache: Path) -> dict:
     env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": str(ROOT), "OPENDS_GYM_JIT_BACKGROUND": "1"}
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
@@ -87,6 +101,12 @@ def test_the_background_compile_fills_the_cache_and_takes_over(tmp_path: Path) -
     assert list(cache.rglob("*.nbi")) and list(cache.rglob("*.nbc"))  # numba's index and code files, per machine
     again = _child(HYPOT, cache)  # a later process loads the cache (in the background too)
     assert again["second"] == out["first"]
+
+
+def test_a_forked_child_compiles_on_its_own_thread(tmp_path: Path) -> None:
+    """The native batch forks its shard workers: a child must not wait on the parent's
+    queue (it has no thread to serve it) nor on a compile lock held by the parent's."""
+    assert _child(FORK, tmp_path / "cache") == {"child": 0}
 
 
 def test_background_off_compiles_in_the_first_call(tmp_path: Path) -> None:

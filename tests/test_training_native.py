@@ -104,3 +104,17 @@ def test_advantages_bootstrap_truncation_but_not_termination() -> None:
     assert terminated[0, 0] == pytest.approx(1 - 0.5)  # no value after a terminal step
     assert truncated[0, 0] == pytest.approx(1 + 0.9 * 0.5 - 0.5)  # the last observation's value
     assert terminated[1, 0] == truncated[1, 0] == pytest.approx(1 + 0.9 * 0.5 - 0.5)  # the next episode, not chained back
+
+
+def test_the_lct_ppo_config_trains_natively_and_on_ray() -> None:
+    """`opends-gym train lct_ppo` trains on the native batch until the shipped policy's bar;
+    its `rllib:` block is valid, so `--set framework=rllib` runs the same file on Ray."""
+    from opends_gym.resources import resolve_config
+    from opends_gym.training.native_ppo import NativePpoSettings
+    from opends_gym.training.rllib import RllibSettings
+
+    cfg, _ = load_train_config(resolve_config("lct_ppo"), {"framework": "rllib"})
+    assert cfg.vec_env == "native" and cfg.stop_at["lane_changes_correct"] == [18, 18]
+    NativePpoSettings.from_block("", dict(cfg.hyperparameters))
+    settings = RllibSettings.from_block(dict(cfg.rllib))
+    assert settings.train_batch_size == cfg.n_envs * cfg.hyperparameters["n_steps"]
