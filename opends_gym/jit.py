@@ -39,6 +39,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar, cast
 
+import numpy as np
 from numba import njit
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -98,6 +99,18 @@ def _register_cache_stamp() -> None:
 _register_cache_stamp()
 
 
+def _boxed(value: Any) -> Any:
+    """A kernel's result as numba returns it to Python: numpy scalars (what a kernel run as
+    Python gives for array elements) as Python's float, int and bool, inside tuples too, so
+    callers see the same types whichever way the kernel ran (Gymnasium's vector infos, for
+    one, build arrays by the type of the first value)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, tuple):
+        return tuple(_boxed(v) for v in value)
+    return value
+
+
 class _Background:
     """One daemon thread that compiles (or loads from the cache) the kernels called from
     Python before their machine code exists; meanwhile those calls run the Python function.
@@ -151,7 +164,7 @@ class _Background:
             self.python_calls += 1
             self.local.python_depth = getattr(self.local, "python_depth", 0) + 1
             try:
-                return py_func(*args)
+                return _boxed(py_func(*args))
             finally:
                 self.local.python_depth -= 1
 
