@@ -336,6 +336,8 @@ class _Run:
                 row.update(self._evaluate(checkpoint))
                 stop = self._meets_stop_at(row)
             self.curve.append(row)
+            if "eval_return" in row:  # (so far: a run stopped by hand keeps its curve)
+                self._write_curve()
             if self.progress is not None:
                 note = f"return {row['mean_return_last_10']:.1f}" if math.isfinite(row["mean_return_last_10"]) else ""
                 evaluated = {k.removeprefix("eval_"): v for k, v in row.items() if k.startswith("eval_")}
