@@ -118,3 +118,19 @@ def test_the_lct_ppo_config_trains_natively_and_on_ray() -> None:
     NativePpoSettings.from_block("", dict(cfg.hyperparameters))
     settings = RllibSettings.from_block(dict(cfg.rllib))
     assert settings.train_batch_size == cfg.n_envs * cfg.hyperparameters["n_steps"]
+
+
+def test_a_native_run_resumes_with_its_normaliser(native_run: Path, tmp_path: Path) -> None:
+    import pickle
+
+    from stable_baselines3 import PPO
+
+    cfg, base = _config(tmp_path, total_steps=2048)
+    train(cfg, base, tmp_path / "more", resume=native_run)
+    assert PPO.load(str(tmp_path / "more" / "model.zip")).num_timesteps == 40960 + 2048
+    with (native_run / "model.vecnormalize.pkl").open("rb") as f:
+        before = pickle.load(f).obs_rms.count
+    with (tmp_path / "more" / "model.vecnormalize.pkl").open("rb") as f:
+        assert pickle.load(f).obs_rms.count > before  # the saved statistics, carried on
+    with pytest.raises(ValueError, match="nothing to resume"):
+        train(cfg, base, tmp_path / "bad", resume=tmp_path)
