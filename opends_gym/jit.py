@@ -16,7 +16,10 @@ kernels (issue 9). The settings matter for results, so they live here, once:
   `py_func`, with the same results, see below) while one background thread compiles it (or
   loads it from the cache) and swaps it in. So the first step after a fresh install, or the
   first step of a new process while numba loads its typing registries (0.3-0.6 s), does
-  not freeze for the compile (4-18 s before this); see `_Background`.
+  not freeze for the compile (4-18 s on an idle host; `benchmarks/cold_start.py`); see
+  `_Background`. A process finishes the queued compiles at exit, so the cache fills once
+  per machine. The native batch's kernels (`opends_gym.vector`) compile in their first
+  call, as before: a batch of thousands of envs run as Python is slower than its compile.
 
 numba's `math.sin/cos/tan/atan/atan2/tanh/sqrt` call the same C library functions as
 CPython's `math` (checked in the tests), and `%` on floats has Python's semantics. Only

@@ -1,11 +1,10 @@
 """PPO on the native batch (`vec_env: native`): minutes to a trained driver on two cores.
 
-Why: SB3's PPO steps its envs one Python call per env and trains small minibatches; on two
-cores the documented 1M-step LCT run took ~9 min, most of it in Python glue and ~40k
-gradient steps. Here the envs are one `NativeVectorEnv` (hundreds of envs as numpy
-arrays, one call per batched step), the policy acts on the whole batch with one torch call,
-and the update uses large minibatches, so the environment costs little and the gradient
-work is a few thousand steps.
+Why: SB3's PPO steps its envs one Python call per env and trains minibatches of 256; on
+two cores the documented 1M-step LCT run took ~9 min (~40k gradient steps). Here the envs
+are one `NativeVectorEnv` (a hundred or more envs as numpy arrays, one call per batched
+step), the policy acts on the whole batch with one torch call, and the updates use
+minibatches of thousands, so a run to the LCT's bar takes a few thousand gradient steps.
 
 The policy is SB3's own `ActorCriticPolicy` inside a `stable_baselines3.PPO` object and the
 normaliser an SB3 `VecNormalize`: the run folder holds `model.zip` and
@@ -18,9 +17,8 @@ out of the loss; the observation returned when an episode ends is its last one, 
 bootstraps a truncated episode (a terminated one gets none).
 
 Deterministic for a seed on one machine: the envs are seeded `seed + i`, torch's generator
-with `seed`, torch runs single-threaded (`torch_threads`, default 1: the 2-core hosts this
-was tuned on step the envs in the other core's time) and minibatches come from a numpy
-generator seeded with `seed`.
+with `seed`, torch runs `torch_threads` threads (default 1) and minibatches come from a
+numpy generator seeded with `seed` (tested: two runs give the same curve).
 
 Outputs in the run folder: `model.zip`, `model.vecnormalize.pkl`, `checkpoints/`
 (`model_<N>_steps.zip` with `model_vecnormalize_<N>_steps.pkl`, as SB3's callback names
