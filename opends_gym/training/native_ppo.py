@@ -136,7 +136,8 @@ def train(
     """Train per `cfg` with PPO on the native batch; returns the final evaluation (also in
     `metrics.json`). `evaluate(cfg, model.zip)` scores a checkpoint (default: the single
     env through `--agent`'s driver, as `opends-gym run` does)."""
-    require("rl", "torch", "opends-gym train (vec_env: native)")
+    for module in ("stable_baselines3", "torch"):
+        require("rl", module, "opends-gym train")
     import torch
     from stable_baselines3 import PPO
 
