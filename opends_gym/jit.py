@@ -10,7 +10,16 @@ kernels (issue 9). The settings matter for results, so they live here, once:
   when that folder is read-only), so only the first process on a machine compiles; later
   processes (SubprocVecEnv workers included) load it. The cache key includes a hash of all
   kernel modules (`_kernel_sources_stamp`), since a kernel inlines kernels of other files;
-* `nogil=True`: the native batch steps shards in threads.
+* `nogil=True`: the native batch steps shards in threads;
+* compiled in the background (`OPENDS_GYM_JIT_BACKGROUND`, default on): a kernel called
+  from Python for argument types it has no machine code for yet runs as plain Python (its
+  `py_func`, with the same results, see below) while one background thread compiles it (or
+  loads it from the cache) and swaps it in. So the first step after a fresh install, or the
+  first step of a new process while numba loads its typing registries (0.3-0.6 s), does
+  not freeze for the compile (4-18 s on an idle host; `benchmarks/cold_start.py`); see
+  `_Background`. A process finishes the queued compiles at exit, so the cache fills once
+  per machine. The native batch's kernels (`opends_gym.vector`) compile in their first
+  call, as before: a batch of thousands of envs run as Python is slower than its compile.
 
 `parallel_kernel` adds numba's `parallel=True` for the native batch's whole-batch steps:
 their `prange` loops run chunks of envs on numba's thread pool (`NUMBA_NUM_THREADS`, by
@@ -33,15 +42,19 @@ results: kernels use only what Python and numba agree on.
 
 from __future__ import annotations
 
+import atexit
 import functools
 import hashlib
 import math
 import os
+import queue
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar, cast
 
 import numba
+import numpy as np
 from numba import njit
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -109,11 +122,166 @@ def _choose_threading_layer() -> None:
 
 
 _choose_threading_layer()
+def _boxed(value: Any) -> Any:
+    """A kernel's result as numba returns it to Python: numpy scalars (what a kernel run as
+    Python gives for array elements) as Python's float, int and bool, inside tuples too, so
+    callers see the same types whichever way the kernel ran (Gymnasium's vector infos, for
+    one, build arrays by the type of the first value)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, tuple):
+        return tuple(_boxed(v) for v in value)
+    return value
+
+
+class _Background:
+    """One daemon thread that compiles (or loads from the cache) the kernels called from
+    Python before their machine code exists; meanwhile those calls run the Python function.
+
+    How: numba's dispatcher, finding no machine code for the argument types of a call, asks
+    its `_compile_for_args(*args)` for a callable and calls it; a non-compiled callable is
+    called as Python ("re-enter interpreter" in numba's `_dispatcher.cpp`). Each kernel gets
+    an instance-level `_compile_for_args` that queues the compile and returns the Python
+    function. Kernels called from that Python function (and kernels called while the
+    background thread itself compiles) take the same path without queuing: the outer
+    kernel's compile compiles them. Once compiled, calls go to the machine code without
+    passing here. A compile that fails is retried in the caller's thread, where its error
+    is raised as before."""
+
+    def __init__(self) -> None:
+        self._fresh()
+        self.local = threading.local()
+        self.python_calls = 0  # top-level kernel calls that ran as Python (a count, for tests)
+        self.compiled = 0
+
+    def _fresh(self) -> None:
+        """An empty queue and no thread: at start, and in a forked child (the native batch's
+        shard workers), which inherits the parent's queue but not its thread."""
+        self.jobs: queue.Queue[tuple[Any, tuple[Any, ...]]] = queue.Queue()
+        self.queued: set[tuple[int, tuple[Any, ...]]] = set()
+        self.failed: set[int] = set()
+        self.thread: threading.Thread | None = None
+        self.lock = threading.Lock()
+        self.busy = threading.Lock()  # held while compiling: a fork waits for it (see below)
+        self.stopping = False
+
+    def enabled(self) -> bool:
+        return os.environ.get("OPENDS_GYM_JIT_BACKGROUND", "1") not in ("0", "false", "no")
+
+    def hook(self, dispatcher: Any) -> None:
+        original = dispatcher._compile_for_args
+
+        def compile_for_args(*args: Any, **kws: Any) -> Any:
+            if getattr(self.local, "python_depth", 0) > 0:  # inside a kernel running as Python
+                return dispatcher.py_func
+            if threading.current_thread() is self.thread or id(dispatcher) in self.failed or not self.enabled():
+                return original(*args, **kws)
+            types = tuple(dispatcher.typeof_pyval(a) for a in args)
+            self.submit(dispatcher, types)
+            return self._as_python(dispatcher.py_func)
+
+        dispatcher._compile_for_args = compile_for_args
+
+    def _as_python(self, py_func: Callable[..., Any]) -> Callable[..., Any]:
+        def run(*args: Any) -> Any:
+            self.python_calls += 1
+            self.local.python_depth = getattr(self.local, "python_depth", 0) + 1
+            try:
+                return _boxed(py_func(*args))
+            finally:
+                self.local.python_depth -= 1
+
+        return run
+
+    def submit(self, dispatcher: Any, types: tuple[Any, ...]) -> None:
+        key = (id(dispatcher), types)
+        with self.lock:
+            if key in self.queued or self.stopping:
+                return
+            self.queued.add(key)
+            self.jobs.put((dispatcher, types))
+            if self.thread is None:
+                self.thread = threading.Thread(target=self._work, name="opends-gym-jit", daemon=True)
+                self.thread.start()
+
+    def _work(self) -> None:
+        while True:
+            dispatcher, types = self.jobs.get()
+            try:
+                with self.busy:
+                    if not self.stopping:
+                        dispatcher.compile(types)
+                        self.compiled += 1
+            except Exception:  # the caller's thread compiles it again and raises
+                self.failed.add(id(dispatcher))
+            finally:
+                self.jobs.task_done()
+
+    def wait(self) -> None:
+        """Block until every queued compile has finished."""
+        self.jobs.join()
+
+    def pending(self) -> int:
+        return self.jobs.unfinished_tasks
+
+    def finish(self, timeout_s: float = 120.0) -> None:
+        """At exit: let the queued compiles finish (at most `timeout_s`), so their machine
+        code lands in the cache and the next process loads it instead of running Python; a
+        short-lived process (one `opends-gym run`) would otherwise never fill the cache."""
+        if self.thread is None or not self.pending():
+            return
+        done = threading.Event()
+
+        def join() -> None:
+            self.jobs.join()
+            done.set()
+
+        threading.Thread(target=join, daemon=True).start()
+        done.wait(timeout_s)
+        self.stopping = True  # (a compile still running is cut off with the process: numba writes its cache files whole or not at all)
+
+
+_BACKGROUND = _Background()
+atexit.register(_BACKGROUND.finish)
+if hasattr(os, "register_at_fork"):
+    # a fork (the native batch's shard workers) waits for the compile in progress: the child
+    # would inherit numba's compiler lock held by a thread it does not have
+    os.register_at_fork(
+        before=lambda: _BACKGROUND.busy.acquire(),
+        after_in_parent=lambda: _BACKGROUND.busy.release(),
+        after_in_child=_BACKGROUND._fresh,
+    )
+
+
+def wait_compiled() -> None:
+    """Block until the kernels queued for background compilation are compiled (benchmarks
+    and tests call this; a program never needs to)."""
+    _BACKGROUND.wait()
+
+
+def compile_status() -> dict[str, int]:
+    """How the kernels ran so far in this process: `python_calls` (kernel calls that ran as
+    Python while their compile was pending), `compiled` (background compiles finished),
+    `pending` (queued or running)."""
+    return {"python_calls": _BACKGROUND.python_calls, "compiled": _BACKGROUND.compiled, "pending": _BACKGROUND.pending()}
+
+
+# kernels that compile in their first call, as numba does: the native batch's loops over
+# hundreds or thousands of envs run as Python would take longer than their compile (and
+# slow it, holding the GIL), so a batch waits for its machine code once per machine
+_COMPILE_IN_CALL = ("opends_gym.vector",)
+
+
+def _background(dispatcher: Any) -> Any:
+    module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+    if hasattr(dispatcher, "_compile_for_args") and not module.startswith(_COMPILE_IN_CALL):  # (NUMBA_DISABLE_JIT: a function)
+        _BACKGROUND.hook(dispatcher)
+    return dispatcher
 
 
 def kernel(fn: F) -> F:
     """Compile `fn` with the project's numba settings (see the module docstring)."""
-    return cast(F, njit(cache=True, nogil=True)(fn))
+    return cast(F, _background(njit(cache=True, nogil=True)(fn)))
 
 
 def parallel_kernel(fn: F) -> F:
@@ -126,7 +294,7 @@ def inline(fn: F) -> F:
     functions passes every array as a struct of seven words and updates its reference count,
     which costs more than the small helpers themselves. Call it only from kernels (numba
     would compile it afresh in every process that calls it from Python)."""
-    return cast(F, njit(cache=True, nogil=True, inline="always")(fn))
+    return cast(F, _background(njit(cache=True, nogil=True, inline="always")(fn)))
 
 
 @kernel

@@ -54,10 +54,22 @@ def run(args: argparse.Namespace) -> int:
             print(f"opends-gym train: {args.config}: {e}", file=sys.stderr)
             return 2
     else:
-        from ..training.sb3 import train
-
+        resume = Path(args.resume).resolve() if args.resume else None
         try:
-            metrics = train(cfg, base, out, resume=Path(args.resume).resolve() if args.resume else None)
+            if cfg.vec_env == "native":
+                from ..training.native_ppo import train as train_native
+                from .progress import ProgressBar
+
+                bar = ProgressBar(cfg.total_steps, label="env steps") if cfg.progress_bar else None
+                try:
+                    metrics = train_native(cfg, base, out, resume=resume, progress=bar.update if bar else None)
+                finally:
+                    if bar is not None:
+                        bar.close()
+            else:
+                from ..training.sb3 import train
+
+                metrics = train(cfg, base, out, resume=resume)
         except ValueError as e:
             print(f"opends-gym train: {e}", file=sys.stderr)
             return 2

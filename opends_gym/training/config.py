@@ -17,6 +17,7 @@ from ..hints import meant
 
 ALGORITHMS = ("ppo", "sac", "a2c", "td3")
 FRAMEWORKS = ("sb3", "rllib")
+VEC_ENVS = ("dummy", "subproc", "native")
 
 
 @dataclass(frozen=True)
@@ -29,7 +30,7 @@ class TrainConfig:
     env_kwargs: dict[str, Any] = field(default_factory=dict)
     total_steps: int = 100_000
     n_envs: int = 4
-    vec_env: str = "dummy"  # dummy | subproc
+    vec_env: str = "dummy"  # dummy | subproc (SB3 over single envs) | native (our PPO on the native batch)
     seed: int = 0
     normalize_observations: bool = True
     normalize_rewards: bool = True
@@ -41,6 +42,9 @@ class TrainConfig:
     eval_episodes: int = 2
     output: str = "runs/{name}"
     progress_bar: bool = True
+    stop_at: dict[str, list[float]] = field(
+        default_factory=dict
+    )  # vec_env native: metric -> [low, high] of an evaluation that ends the run
     rllib: dict[str, Any] = field(default_factory=dict)  # framework rllib: num_env_runners, iterations, train_batch_size, ...
     name: str = ""
 
@@ -49,8 +53,11 @@ class TrainConfig:
             raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)}, not {self.algorithm!r}")
         if self.framework not in FRAMEWORKS:
             raise ValueError(f"framework must be one of {', '.join(FRAMEWORKS)}, not {self.framework!r}")
-        if self.vec_env not in ("dummy", "subproc"):
-            raise ValueError(f"vec_env must be 'dummy' or 'subproc', not {self.vec_env!r}")
+        if self.vec_env not in VEC_ENVS:
+            raise ValueError(f"vec_env must be one of {', '.join(VEC_ENVS)}, not {self.vec_env!r}")
+        for metric, bounds in self.stop_at.items():
+            if not (isinstance(bounds, list | tuple) and len(bounds) == 2 and all(isinstance(b, int | float) for b in bounds)):
+                raise ValueError(f"stop_at: {metric} needs [low, high], not {bounds!r}")
         for key in ("total_steps", "n_envs", "checkpoint_every_steps", "eval_every_steps"):
             if int(getattr(self, key)) <= 0:
                 raise ValueError(f"{key} must be positive")

@@ -116,9 +116,15 @@ def write_curve(monitor_dir: Path, out_csv: Path, window: int = 10, start_steps:
     rows: list[tuple[float, float, int]] = []  # (wall time, return, length)
     for f in sorted(monitor_dir.glob("*.monitor.csv")):
         with f.open(encoding="utf-8") as fh:
-            fh.readline()  # the JSON header line
+            header = fh.readline().lstrip("#")  # the JSON header line, with the env's start time
+            try:
+                start = float(json.loads(header).get("t_start", 0.0))
+            except (ValueError, AttributeError):
+                start = 0.0
             for row in csv.DictReader(fh):
-                rows.append((float(row["t"]), float(row["r"]), int(row["l"])))
+                # by the episode's end on the clock: each Monitor's `t` counts from its own
+                # env's creation, and the envs are created one after the other
+                rows.append((start + float(row["t"]), float(row["r"]), int(row["l"])))
     rows.sort()
     curve: list[tuple[int, float]] = []
     steps = start_steps

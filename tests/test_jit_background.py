@@ -1,0 +1,118 @@
+"""Kernels compile in a background thread: a first call with no machine code runs the
+kernel as Python instead of waiting for numba, with the same results, and the compiled code
+lands in the machine's cache (`opends_gym.jit`)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import opends_gym  # noqa: F401
+from opends_gym import jit
+
+ROOT = Path(__file__).resolve().parent.parent
+
+LCT_STEPS = r"""
+import json, os, sys
+import gymnasium as gym
+import numpy as np
+import opends_gym
+from opends_gym import jit
+env = gym.make("OpenDS/LaneChangeTest-v0")
+obs, _ = env.reset(seed=3)
+first = jit.compile_status()
+rows = [obs.tolist()]
+actions = np.random.default_rng(0).uniform(-0.05, 0.05, (40, 2)).astype(np.float32)
+for a in actions:
+    obs, reward, *_ = env.step(a)
+    rows.append(obs.tolist() + [reward])
+print(json.dumps({"status": first, "rows": rows}))
+sys.stdout.flush()
+os._exit(0)  # (not waiting for the background compiles: this test is about the calls before them)
+"""
+
+HYPOT = r"""
+import json
+from opends_gym import jit
+first = jit.py_hypot(3e-310, 4e-310)
+after_first = jit.compile_status()
+jit.wait_compiled()
+second = jit.py_hypot(3e-310, 4e-310)
+print(json.dumps({"first": first, "second": second, "after_first": after_first, "after_second": jit.compile_status()}))
+"""
+
+
+FORK = r"""
+import json, os
+from opends_gym import jit
+jit.py_hypot(3.0, 4.0)  # queued (or compiling) in the parent when it forks
+pid = os.fork()
+if pid == 0:  # the child compiles on its own thread, and the compile finishes
+    jit.py_hypot(3.0, 4.0)
+    jit.wait_compiled()
+    os._exit(0 if jit.compile_status()["pending"] == 0 else 3)
+_, status = os.waitpid(pid, 0)
+print(json.dumps({"child": os.waitstatus_to_exitcode(status)}))
+"""
+
+
+def _child(code: str, cache: Path) -> dict:
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": str(ROOT), "OPENDS_GYM_JIT_BACKGROUND": "1"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_first_steps_with_an_empty_cache_run_as_python_with_the_compiled_results(tmp_path: Path) -> None:
+    """A fresh install (empty numba cache): reset and the first steps do not wait for the
+    compile, they run the kernels as Python while it proceeds, and give exactly what the
+    compiled kernels give."""
+    cold = _child(LCT_STEPS, tmp_path / "cache")
+    assert cold["status"]["python_calls"] > 0 and cold["status"]["pending"] > 0  # reset returned before any compile finished
+
+    env = gym.make("OpenDS/LaneChangeTest-v0")
+    env.reset(seed=0)
+    env.step(np.zeros(2, dtype=np.float32))
+    jit.wait_compiled()  # this process: compiled (or loaded from the repository's cache)
+    obs, _ = env.reset(seed=3)
+    rows = [obs.tolist()]
+    for a in np.random.default_rng(0).uniform(-0.05, 0.05, (40, 2)).astype(np.float32):
+        obs, reward, *_ = env.step(a)
+        rows.append(obs.tolist() + [reward])
+    calls = jit.compile_status()["python_calls"]
+    env.step(np.zeros(2, dtype=np.float32))
+    assert jit.compile_status()["python_calls"] == calls  # compiled now: no call runs as Python
+    assert cold["rows"] == rows  # bit for bit (JSON floats round-trip exactly)
+
+
+def test_the_background_compile_fills_the_cache_and_takes_over(tmp_path: Path) -> None:
+    cache = tmp_path / "cache"
+    out = _child(HYPOT, cache)
+    assert out["first"] == out["second"] == math.hypot(3e-310, 4e-310)
+    assert out["after_first"]["python_calls"] == 1 and out["after_first"]["pending"] == 1
+    assert out["after_second"]["python_calls"] == 1 and out["after_second"]["compiled"] == 1  # the second call ran compiled
+    assert list(cache.rglob("*.nbi")) and list(cache.rglob("*.nbc"))  # numba's index and code files, per machine
+    again = _child(HYPOT, cache)  # a later process loads the cache (in the background too)
+    assert again["second"] == out["first"]
+
+
+def test_a_forked_child_compiles_on_its_own_thread(tmp_path: Path) -> None:
+    """The native batch forks its shard workers: a child must not wait on the parent's
+    queue (it has no thread to serve it) nor on a compile lock held by the parent's."""
+    assert _child(FORK, tmp_path / "cache") == {"child": 0}
+
+
+def test_background_off_compiles_in_the_first_call(tmp_path: Path) -> None:
+    code = "import json\nfrom opends_gym import jit\njit.py_hypot(3.0, 4.0)\nprint(json.dumps(jit.compile_status()))"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PYTHONPATH": str(ROOT), "OPENDS_GYM_JIT_BACKGROUND": "0"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout) == {"python_calls": 0, "compiled": 0, "pending": 0}
+    assert list(tmp_path.rglob("*.nbi"))
