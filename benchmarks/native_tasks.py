@@ -4,8 +4,8 @@ Per round, for the native LaneChangeTest, BrakeReaction and ThreeVehiclePlatoon 
 (4,096 envs, random actions with resets, metrics on: `throughput.py`'s goal rows, measured
 by its own `measure_native`): env-steps per second, this process's CPU share and CPU time
 per env-step (comparable on a shared host), and each task's rate as a share of the LCT's.
-With `--profile`, one cProfile'd run per task: the episodes that end per env-step and the
-share of the step spent scoring ended episodes (`BatchCore.episodes_metrics`, the single
+With `--profile`, one cProfile'd run per task: the episodes that end per env-step, the share
+of them that ended with a collision, and the share of the step spent scoring ended episodes (`BatchCore.episodes_metrics`, the single
 env's own metric code per episode).
 
     python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile]
@@ -30,26 +30,28 @@ import throughput as tp
 TASKS = ("LaneChangeTest", "BrakeReaction", "ThreeVehiclePlatoon")
 
 
-def profile(env_id: str, n: int, steps: int) -> tuple[float, float]:
-    """(episodes ended per env-step, share of step time in episode scoring) over `steps` steps."""
+def profile(env_id: str, n: int, steps: int) -> tuple[float, float, float]:
+    """(episodes ended per env-step, the share of them that ended with a collision, share of
+    step time in episode scoring) over `steps` steps."""
     vec = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
     vec.reset(seed=0)
     vec.action_space.seed(0)
     actions = [vec.action_space.sample() for _ in range(steps + 3)]
     for a in actions[:3]:
         vec.step(a)
-    ends = 0
+    ends = collided = 0
     pr = cProfile.Profile()
     pr.enable()
     for a in actions[3:]:
-        _, _, term, trunc, _ = vec.step(a)
+        _, _, term, trunc, info = vec.step(a)
         ends += int(np.sum(term | trunc))
+        collided += int(np.sum(term & (info["new_collisions"] > 0)))
     pr.disable()
     vec.close()
     stats = pstats.Stats(pr).stats  # type: ignore[attr-defined]
     total = sum(v[3] for k, v in stats.items() if k[2] == "step" and k[0].endswith("vector/env.py"))
     scoring = sum(v[3] for k, v in stats.items() if k[2] == "episodes_metrics")
-    return ends / (n * steps), scoring / total if total else float("nan")
+    return ends / (n * steps), collided / ends if ends else float("nan"), scoring / total if total else float("nan")
 
 
 def table(rates: dict[str, list[float]], cpu: dict[str, list[float]]) -> None:
@@ -86,11 +88,11 @@ def main() -> None:
     if args.rounds:
         table(rates, cpu)
     if args.profile:
-        print("\n| task | episodes ended per env-step | step time scoring ended episodes (cProfile) |")
-        print("|---|---:|---:|")
+        print("\n| task | episodes ended per env-step | of them with a collision | step time scoring ended episodes (cProfile) |")
+        print("|---|---:|---:|---:|")
         for task in TASKS:
-            ends, share = profile(cases[task].env_id, args.envs, 20)
-            print(f"| {task} | {100 * ends:.2f} % | {100 * share:.0f} % |", flush=True)
+            ends, collided, share = profile(cases[task].env_id, args.envs, 20)
+            print(f"| {task} | {100 * ends:.2f} % | {100 * collided:.0f} % | {100 * share:.0f} % |", flush=True)
 
 
 if __name__ == "__main__":
