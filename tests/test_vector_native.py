@@ -290,13 +290,26 @@ def test_many_chunks_step_each_env_as_alone() -> None:
     computes for each env what a batch of that env alone computes (observations, rewards,
     flags, info and episode metrics, through autoresets); what a step returns is the caller's
     (the next step leaves it unchanged)."""
+    assert _chunks_as_alone(LCT, lct_driver, {**SHORT[LCT], "max_episode_s": 8.0}, steps=120) >= 3
+
+
+@pytest.mark.parametrize("env_id", [BRAKE, PLATOON])
+def test_brake_and_platoon_batches_over_chunks_step_each_env_as_alone(env_id: str) -> None:
+    """The brake and platoon batches, over more envs than one chunk, give each env what a
+    batch of that env alone gives (stimuli, traffic, autoresets and episode metrics included)."""
+    assert _chunks_as_alone(env_id, follow_driver, {**SHORT[env_id], "max_episode_s": 16.0, "policy_hz": 5}, steps=90) >= 3
+
+
+def _chunks_as_alone(env_id: str, driver: Policy, kw: dict[str, Any], steps: int) -> int:
+    """Steps a batch of 2 chunks + 3 envs and one of 3 of its envs (first, in the middle chunk,
+    last) in lockstep, the middle one steered off the road now and then; compares every
+    output of the three. Returns the episodes that ended among them."""
     from opends_gym.vector.kernels import CHUNK_ENVS
 
-    kw = {**SHORT[LCT], "max_episode_s": 8.0}
     n = 2 * CHUNK_ENVS + 3
     picks = [0, CHUNK_ENVS + 1, n - 1]
-    big = gym.make_vec(LCT, num_envs=n, vectorization_mode="vector_entry_point", **kw)
-    small = gym.make_vec(LCT, num_envs=len(picks), vectorization_mode="vector_entry_point", **kw)
+    big = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kw)
+    small = gym.make_vec(env_id, num_envs=len(picks), vectorization_mode="vector_entry_point", **kw)
     seeds = [100 + i for i in range(n)]
     obs, _ = big.reset(seed=seeds)
     obs_s, _ = small.reset(seed=[seeds[e] for e in picks])
@@ -304,8 +317,8 @@ def test_many_chunks_step_each_env_as_alone() -> None:
     rng = np.random.default_rng(5)
     ends = 0
     held: tuple[Any, ...] = ()
-    for t in range(120):
-        a = lct_driver(obs, rng, n)
+    for t in range(steps):
+        a = driver(obs, rng, n)
         a[picks[1], 0] = rng.uniform(-0.4, 0.4)  # (off the road: an early end in a middle chunk)
         out = big.step(a)
         out_s = small.step(a[picks])
@@ -323,6 +336,6 @@ def test_many_chunks_step_each_env_as_alone() -> None:
                     _same(f"step {t} metric {mk}", info[key][mk][picks], mv)
             else:
                 _same(f"step {t} info {key}", info[key][picks], value)
-    assert ends >= 3
     big.close()
     small.close()
+    return ends

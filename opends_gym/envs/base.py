@@ -444,8 +444,13 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         lat = self.trace.col("lateral_m")
         if len(lat) == 0:
             return 0
-        off = np.fromiter((self._off_road_at(float(v)) for v in lat), dtype=bool, count=len(lat))
+        off = self._off_road_mask(lat)
         return int(np.count_nonzero(off[1:] & ~off[:-1]) + off[0])
+
+    def _off_road_mask(self, lateral_m: np.ndarray) -> np.ndarray:
+        """`_off_road_at` of each lateral position (envs with a plain road-width test do it as
+        one array operation: episode scoring runs it over the whole trace)."""
+        return np.fromiter((self._off_road_at(float(v)) for v in lateral_m), dtype=bool, count=len(lateral_m))
 
     def _distance_m(self) -> float:
         """Metres driven (the jumps of resets to the last lane position left out)."""

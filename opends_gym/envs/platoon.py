@@ -160,6 +160,11 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
         half_road = len(self.world.road.lanes) * cfg.lane_width_m / 2
         return abs(lateral_m) > half_road + cfg.off_road_margin_m
 
+    def _off_road_mask(self, lateral_m: np.ndarray) -> np.ndarray:
+        cfg: Any = self.config
+        half_road = len(self.world.road.lanes) * cfg.lane_width_m / 2
+        return np.abs(np.asarray(lateral_m, dtype=np.float64)) > half_road + cfg.off_road_margin_m
+
     def _task_terminated(self) -> bool:
         return bool(self.config.end_when_past_lead) and self._past_lead()  # type: ignore[attr-defined]
 

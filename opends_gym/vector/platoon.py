@@ -28,6 +28,8 @@ from ..sim.traffic.routes import TURN_CODES
 from ..sim.triggers.core import CompiledAction
 from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore
+from .kernels import CHUNK_ENVS
+from .platoon_step import _hook_range, _lead_range, lead_measures, platoon_hook
 from .traffic import FlatTraffic
 
 KINDS = ("brakeLight", "leadingCarTurnSignal", "followerCarTurnSignal", "speedReduction", "emergencyBrake")
@@ -90,6 +92,18 @@ class PlatoonBatch(BatchCore):
         self.lead_v = np.zeros(n)
         self.gap_m = np.full(n, np.inf)
         self.lead_speed_mps = np.full(n, np.nan)
+        self._half_len = np.ascontiguousarray(self.traffic.half[:, 1])
+        lb, fb = self.spec.leading_car, self.spec.follower_car
+        band, lat_band = self.spec.longitudinal_tolerance, self.spec.lateral_tolerance
+        assert band is not None and lat_band is not None, "the native batch needs both tolerance bands"
+        self._band = tuple(
+            float(v)
+            for v in (self.nominal, BAND_GAIN, lb.min_distance_m, lb.max_distance_m, FOLLOWER_GAIN_PER_S, FOLLOWER_CATCH_UP_MPS,
+                      fb.min_distance_m, fb.max_distance_m, band.lower_bound_m, band.upper_bound_m, lat_band.lower_bound_m,
+                      lat_band.upper_bound_m, self.dev_cap, self.dev_per_m, self.ttc_weight, self.ttc_threshold, self.repeat, SR)
+        )  # fmt: skip
+        # chunks on numba's threads (False: the serial twins, for thread shards and batches of one chunk)
+        self.parallel = n > CHUNK_ENVS
 
     # ------------------------------------------------------------------ reset
     def _reset_task(self, idx: np.ndarray) -> None:
@@ -113,16 +127,16 @@ class PlatoonBatch(BatchCore):
         return self.traffic.new_hits(rows, box[0], box[1], box[2], self.car_half)
 
     def _lead_measures(self) -> None:
-        s = self.s
-        j, gap, v, length = self.traffic.lead(s.x, s.z, s.yaw, s.u)
-        found = j >= 0
-        self.lead_j, self.lead_gap, self.lead_v = j, gap, v
-        self.gap_m = np.where(found & np.isfinite(gap), gap, np.inf)  # (trace columns, read by name)
-        self.lead_speed_mps = np.where(found & np.isfinite(gap), v, np.nan)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            self.headway = np.where(found & np.isfinite(gap) & (s.u > 0.0), (gap + length) / s.u, np.inf)
-            closing = s.u - v
-            self.ttc = np.where(found & np.isfinite(gap) & (closing > 0.0), np.maximum(gap, 0.0) / closing, np.inf)
+        s, st = self.s, self.traffic.st
+        args = (s.x, s.z, s.yaw, s.u, st.pos, st.yaw, st.speed, st.enabled, self._half_len, self.traffic.c, self.traffic.ego_length,
+                self.lead_j, self.lead_gap, self.lead_v, self.headway, self.ttc)  # fmt: skip
+        if self.parallel:
+            lead_measures(*args)
+        else:
+            _lead_range(0, self.n, *args)
+        fin = (self.lead_j >= 0) & np.isfinite(self.lead_gap)
+        self.gap_m = np.where(fin, self.lead_gap, np.inf)  # (trace columns, read by name)
+        self.lead_speed_mps = np.where(fin, self.lead_v, np.nan)
 
     def vehicle_slots(self, k: int) -> np.ndarray | None:
         s = self.s
@@ -193,41 +207,16 @@ class PlatoonBatch(BatchCore):
         self.on[es, slots] = False
 
     def _on_physics_step(self, rows: np.ndarray, k: int, c: BatchControls) -> None:
-        s, _t = self.s, self.t
-        busy = (self.on & (self.kind >= SR) & (self.car == self.lead_i)).any(axis=1)
-        st, nc = self.traffic.st, self.traffic.c
-        lb, fb = self.spec.leading_car, self.spec.follower_car
-        gap = self._distance_to(self.lead_i)
-        hold_lead = rows & ~busy
-        target = np.where(
-            gap > lb.max_distance_m,
-            np.maximum(0.0, self.nominal - BAND_GAIN * (gap - lb.max_distance_m)),
-            np.where(gap < lb.min_distance_m, self.nominal + BAND_GAIN * (lb.min_distance_m - gap), np.nan),
-        )
-        lead_rows = np.arange(self.n) * nc + self.lead_i
-        st.ov_speed[lead_rows] = np.where(hold_lead, np.where(np.isnan(target), np.nan, np.maximum(0.0, target)), st.ov_speed[lead_rows])
-        st.ov_decel[lead_rows] = np.where(hold_lead, np.nan, st.ov_decel[lead_rows])
-        if self.with_follower:
-            busy_f = (self.on & (self.kind >= SR) & (self.car == self.follow_i)).any(axis=1)
-            d = self._distance_to(self.follow_i)
-            wanted = 0.5 * (fb.min_distance_m + fb.max_distance_m)
-            ft = s.u + FOLLOWER_GAIN_PER_S * (-d - wanted)
-            ft = np.minimum(np.maximum(0.0, ft), self.nominal + FOLLOWER_CATCH_UP_MPS)
-            f_rows = np.arange(self.n) * nc + self.follow_i
-            hold_f = rows & ~busy_f
-            st.ov_speed[f_rows] = np.where(hold_f, np.maximum(0.0, ft), st.ov_speed[f_rows])
-            st.ov_decel[f_rows] = np.where(hold_f, np.nan, st.ov_decel[f_rows])
+        """The band control, deviations and reward shares in one compiled pass (`platoon_hook`),
+        then the stimuli (their reactions, results and ends)."""
+        s, st = self.s, self.traffic.st
+        args = (rows, s.x, s.z, s.yaw, s.u, st.pos, st.ov_speed, st.ov_decel, self.traffic.c, self.on, self.kind, self.car, self.lead_i,
+                self.follow_i, bool(self.with_follower), self._band, self.offset, self.ttc, self.lon_dev, self.reward_acc)  # fmt: skip
+        if self.parallel:
+            platoon_hook(*args)
+        else:
+            _hook_range(0, self.n, *args)
         self._stimuli_step(rows, c, first=k == 0)
-        lon = gap
-        band, lat_band = self.spec.longitudinal_tolerance, self.spec.lateral_tolerance
-        assert band is not None and lat_band is not None, "the native batch needs both tolerance bands"
-        self.lon_dev = np.where(rows, np.maximum(np.maximum(0.0, band.lower_bound_m - lon), lon - band.upper_bound_m), self.lon_dev)
-        lat = np.maximum(np.maximum(0.0, lat_band.lower_bound_m - self.offset), self.offset - lat_band.upper_bound_m)
-        dev = np.minimum(self.lon_dev + lat, self.dev_cap)
-        self.reward_acc = np.where(rows, self.reward_acc - self.dev_per_m * dev / self.repeat, self.reward_acc)
-        if self.ttc_weight > 0.0:  # the single env's `_ttc_penalty`, same arithmetic
-            ttc_pen = self.ttc_weight * np.maximum(0.0, 1.0 - self.ttc / self.ttc_threshold) / self.repeat
-            self.reward_acc = np.where(rows, self.reward_acc - ttc_pen, self.reward_acc)
         if self.ring is not None:  # the lon_dev row of this step (written with the trace row just before)
             self.ring.set_last("lon_dev", self.lon_dev)
 

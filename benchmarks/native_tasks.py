@@ -1,0 +1,99 @@
+"""The native brake and platoon batches next to the native LCT's: rate, CPU time, what it goes to.
+
+Per round, for the native LaneChangeTest, BrakeReaction and ThreeVehiclePlatoon batches
+(4,096 envs, random actions with resets, metrics on: `throughput.py`'s goal rows, measured
+by its own `measure_native`): env-steps per second, this process's CPU share and CPU time
+per env-step (comparable on a shared host), and each task's rate as a share of the LCT's.
+With `--profile`, one cProfile'd run per task: the episodes that end per env-step, the share
+of them that ended with a collision, and the share of the step spent scoring ended episodes (`BatchCore.episodes_metrics`, the single
+env's own metric code per episode).
+
+    python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile]
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import logging
+import pstats
+import statistics
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import throughput as tp
+
+TASKS = ("LaneChangeTest", "BrakeReaction", "ThreeVehiclePlatoon")
+
+
+def profile(env_id: str, n: int, steps: int) -> tuple[float, float, float]:
+    """(episodes ended per env-step, the share of them that ended with a collision, share of
+    step time in episode scoring) over `steps` steps."""
+    vec = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    vec.reset(seed=0)
+    vec.action_space.seed(0)
+    actions = [vec.action_space.sample() for _ in range(steps + 3)]
+    for a in actions[:3]:
+        vec.step(a)
+    ends = collided = 0
+    pr = cProfile.Profile()
+    pr.enable()
+    for a in actions[3:]:
+        _, _, term, trunc, info = vec.step(a)
+        ends += int(np.sum(term | trunc))
+        collided += int(np.sum(term & (info["new_collisions"] > 0)))
+    pr.disable()
+    vec.close()
+    stats = pstats.Stats(pr).stats  # type: ignore[attr-defined]
+    total = sum(v[3] for k, v in stats.items() if k[2] == "step" and k[0].endswith("vector/env.py"))
+    scoring = sum(v[3] for k, v in stats.items() if k[2] == "episodes_metrics")
+    return ends / (n * steps), collided / ends if ends else float("nan"), scoring / total if total else float("nan")
+
+
+def table(rates: dict[str, list[float]], cpu: dict[str, list[float]]) -> None:
+    """The rounds' medians and ranges as a markdown table."""
+    print("\n| task | env-steps/s: rounds | median | of the LCT's | CPU ns per env-step: median (range) |")
+    print("|---|---|---:|---:|---:|")
+    lct = statistics.median(rates["LaneChangeTest"])
+    for task in TASKS:
+        r, c = rates[task], cpu[task]
+        print(f"| {task} | {', '.join(f'{x / 1e3:,.1f}k' for x in r)} | {statistics.median(r) / 1e3:,.1f}k | "
+              f"{100 * statistics.median(r) / lct:.1f} % | {statistics.median(c):,.0f} ({min(c):,.0f}-{max(c):,.0f}) |")  # fmt: skip
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--envs", type=int, default=4096)
+    ap.add_argument("--seconds", type=float, default=3.0)
+    ap.add_argument("--rounds", type=int, default=1)
+    ap.add_argument("--profile", action="store_true")
+    args = ap.parse_args()
+    logging.disable(logging.WARNING)
+    cases = {c.label: c for c in tp.opends_cases()}
+    rates: dict[str, list[float]] = {t: [] for t in TASKS}
+    cpu: dict[str, list[float]] = {t: [] for t in TASKS}
+    for k in range(args.rounds):
+        cells = []
+        for task in TASKS:
+            row = tp.measure_native(cases[task], "fast", args.envs, args.seconds, memory=False)
+            assert row is not None and not row.note, f"{task}: no native batch ({row.note if row else 'none'})"
+            rates[task].append(row.steps_per_s)
+            cpu[task].append(1e9 / row.steps_per_cpu_s)
+            cells.append(f"{task} {row.steps_per_s:,.0f}/s ({100 * row.cpu_share:.0f} % CPU, {cpu[task][-1]:,.0f} CPU ns/env-step)")
+        print(f"round {k + 1}: " + " | ".join(cells), flush=True)
+    if args.rounds:
+        table(rates, cpu)
+    if args.profile:
+        print("\n| task | episodes ended per env-step | of them with a collision | step time scoring ended episodes (cProfile) |")
+        print("|---|---:|---:|---:|")
+        for task in TASKS:
+            ends, collided, share = profile(cases[task].env_id, args.envs, 20)
+            print(f"| {task} | {100 * ends:.2f} % | {100 * collided:.0f} % | {100 * share:.0f} % |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
