@@ -258,3 +258,15 @@ def test_display_keys_change_only_the_view() -> None:
     assert not view.command("toggle_headlight")
     view.show_message("Bitte bremsen", 2.0, now=100.0)
     assert view.messages(101.0) == ["Bitte bremsen"] and view.messages(102.5) == []
+
+
+def test_camera_key_reaches_the_outside_camera_and_comes_back() -> None:
+    from opends_gym.human.view_state import ViewState
+    from opends_gym.task import load_task
+
+    view = ViewState.from_settings(load_task("ReactionTest").settings)
+    seen = [view.camera_mode]
+    for _ in range(5):
+        view.command("toggle_cam")
+        seen.append(view.camera_mode)
+    assert seen == ["ego", "chase", "top", "outside", "static_back", "ego"]

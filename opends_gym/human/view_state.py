@@ -11,7 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-CAMERA_MODES = ("ego", "chase", "top", "static_back")  # toggle_cam cycles these
+# toggle_cam cycles these: OpenDS's SimulatorCam.changeCamera goes ego -> chase -> top -> outside
+# (the fixed `outsideCamPosition` camera) -> ego; static_back (a settings-only mode there) stays last
+CAMERA_MODES = ("ego", "chase", "top", "outside", "static_back")
 WEATHER_KEYS = {
     "snow_inc5": ("snowing_percent", 5.0),
     "snow_dec5": ("snowing_percent", -5.0),
