@@ -255,7 +255,7 @@ def test_display_keys_change_only_the_view() -> None:
         assert view.command(cmd)
     assert (view.camera_mode, view.mirror, view.top_view) == ("top", True, True)
     assert view.weather({"fog_percent": 95.0, "snowing_percent": 2.0}) == {"fog_percent": 100.0, "snowing_percent": 0.0}
-    assert not view.command("toggle_headlight")
+    assert not view.command("toggle_cinematics")
     view.show_message("Bitte bremsen", 2.0, now=100.0)
     assert view.messages(101.0) == ["Bitte bremsen"] and view.messages(102.5) == []
 

@@ -15,10 +15,12 @@ from opends_gym.task import load_task
 from opends_gym.task.model_scene import AmbientLight
 
 
-def _view(task: object) -> np.ndarray:
+def _view(task: object, headlights: bool = True) -> np.ndarray:
     world = World(task)  # type: ignore[arg-type]
     world.run(0.5)
-    return np.asarray(make_renderer("driver_view", world).render(160, 90), float)
+    view = make_renderer("driver_view", world)
+    view.headlights = headlights
+    return np.asarray(view.render(160, 90), float)
 
 
 def test_dim_scene_lights_make_night_with_headlights() -> None:
@@ -34,3 +36,12 @@ def test_dim_scene_lights_make_night_with_headlights() -> None:
     assert night[road_ahead].mean() > 0.6 * day[road_ahead].mean()
     side = (slice(80, 90), slice(0, 10))  # the same distance, outside the beam
     assert night[side].mean() < 0.2 * day[side].mean()
+    dark = _view(dim, headlights=False)  # toggle_headlight in the drive window
+    assert dark[road_ahead].mean() < 0.2 * day[road_ahead].mean()
+
+
+def test_headlight_key_toggles_the_beam() -> None:
+    from opends_gym.human.view_state import ViewState
+
+    view = ViewState.from_settings(load_task("ReactionTest").settings)
+    assert view.headlights and view.command("toggle_headlight") and not view.headlights

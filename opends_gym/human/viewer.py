@@ -75,6 +75,7 @@ class DriveViewer:
         v = overlay.view
         c = self.composer
         c.view.camera_mode = v.camera_mode
+        c.view.headlights = v.headlights
         mirror = self.base_mirror_mode if self.base_mirror_mode != "off" else "back_only"
         c.mirror_mode = mirror if v.mirror else "off"
         c.top_view = v.top_view or self.base_top_view

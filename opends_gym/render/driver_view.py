@@ -87,6 +87,7 @@ class DriverViewRenderer:
         self.scene = self.stage.scene
         self.precipitation = Precipitation()
         self.daylight = daylight(world) if weather else 1.0  # the scene's lights (night.py): fixed per task
+        self.headlights = True  # the ego's low beam (seen at night); the drive window's toggle_headlight
         self._target: Offscreen | None = None
         self._layout: tuple[Any, ...] = ()
         self._cams: list[Any] = []
@@ -185,7 +186,7 @@ class DriverViewRenderer:
             if night:
                 for vp, cam in views:
                     x, y, w, h = pixel_rect(width, height, vp)
-                    beam = self.inside_car(cam) and not cam.mirror
+                    beam = self.headlights and self.inside_car(cam) and not cam.mirror
                     darken(frame[y : y + h, x : x + w], depth[y : y + h, x : x + w], self.daylight, beam, cam.focal_px(w, h))
         return frame
 
