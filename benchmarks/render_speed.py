@@ -52,6 +52,23 @@ def env_steps(observation: str) -> Callable[[], object]:
     return step
 
 
+def view_frames(width: int, height: int) -> Callable[[], object]:
+    """The driver view alone (no env step) on the LCT after 300 steps: the steadier figure on a loaded host."""
+    import gymnasium as gym
+    import numpy as np
+
+    import opends_gym  # noqa: F401
+    from opends_gym.render import make_renderer
+
+    env = gym.make(f"OpenDS/{TASK}-v0")
+    env.reset(seed=0)
+    zero = np.zeros(env.action_space.shape, np.float32)
+    for _ in range(300):
+        env.step(zero)
+    view = make_renderer("driver_view", env.unwrapped.world)  # type: ignore[attr-defined]
+    return lambda: view.render(width, height)
+
+
 def window_frames(width: int, height: int) -> Callable[[], object]:
     import dataclasses
 
@@ -97,6 +114,7 @@ def main() -> None:
         ("env steps, kinematics", "-", 0.0, env_steps("kinematics")),
         ("env steps, driver_view", "84x84", 5000.0, env_steps("driver_view")),
         ("env steps, topdown", "84x84", 2000.0, env_steps("topdown")),
+        ("driver_view frame alone", "84x84", 0.0, view_frames(84, 84)),
         ("human window", "1280x720", 30.0, window_frames(1280, 720)),
     ]
     if args.gpu:

@@ -255,6 +255,18 @@ def test_display_keys_change_only_the_view() -> None:
         assert view.command(cmd)
     assert (view.camera_mode, view.mirror, view.top_view) == ("top", True, True)
     assert view.weather({"fog_percent": 95.0, "snowing_percent": 2.0}) == {"fog_percent": 100.0, "snowing_percent": 0.0}
-    assert not view.command("toggle_headlight")
+    assert not view.command("toggle_cinematics")
     view.show_message("Bitte bremsen", 2.0, now=100.0)
     assert view.messages(101.0) == ["Bitte bremsen"] and view.messages(102.5) == []
+
+
+def test_camera_key_reaches_the_outside_camera_and_comes_back() -> None:
+    from opends_gym.human.view_state import ViewState
+    from opends_gym.task import load_task
+
+    view = ViewState.from_settings(load_task("ReactionTest").settings)
+    seen = [view.camera_mode]
+    for _ in range(5):
+        view.command("toggle_cam")
+        seen.append(view.camera_mode)
+    assert seen == ["ego", "chase", "top", "outside", "static_back", "ego"]

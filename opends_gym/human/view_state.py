@@ -11,7 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-CAMERA_MODES = ("ego", "chase", "top", "static_back")  # toggle_cam cycles these
+# toggle_cam cycles these: OpenDS's SimulatorCam.changeCamera goes ego -> chase -> top -> outside
+# (the fixed `outsideCamPosition` camera) -> ego; static_back (a settings-only mode there) stays last
+CAMERA_MODES = ("ego", "chase", "top", "outside", "static_back")
 WEATHER_KEYS = {
     "snow_inc5": ("snowing_percent", 5.0),
     "snow_dec5": ("snowing_percent", -5.0),
@@ -31,6 +33,7 @@ class ViewState:
     show_messages: bool = True
     show_key_mapping: bool = False
     show_stats: bool = False
+    headlights: bool = True  # the low beam, seen only at night (render/night.py); toggle_headlight (OpenDS: KEY_L)
     weather_offset: dict[str, float] = field(default_factory=dict)
     _messages: list[tuple[str, float]] = field(default_factory=list)  # (text, until, wall clock)
 
@@ -54,6 +57,8 @@ class ViewState:
             self.show_key_mapping = not self.show_key_mapping
         elif cmd == "toggle_stats":
             self.show_stats = not self.show_stats
+        elif cmd == "toggle_headlight":
+            self.headlights = not self.headlights
         elif cmd in WEATHER_KEYS:
             name, delta = WEATHER_KEYS[cmd]
             self.weather_offset[name] = self.weather_offset.get(name, 0.0) + delta

@@ -16,6 +16,7 @@ from typing import Any
 from .view_state import Overlay
 
 HEADLESS_DRIVERS = ("offscreen", "dummy")
+WINDOW_PER_SCREEN_ENV = "OPENDS_GYM_WINDOW_PER_SCREEN"  # 1: one window per OpenDS screen instead of one wide window
 HOLD_COLOUR = (250, 220, 80)
 STATUS_COLOUR = (255, 120, 90)
 
@@ -35,14 +36,24 @@ def init_headless_pygame() -> None:
 class DriveViewer:
     """A window showing the composed view and the session overlay."""
 
-    def __init__(self, world: Any, settings: Any, width: int, height: int, title: str = "opends-gym drive") -> None:
+    def __init__(
+        self, world: Any, settings: Any, width: int, height: int, title: str = "opends-gym drive", window_per_screen: bool | None = None
+    ) -> None:
         os.environ.setdefault("SDL_JOYSTICK_ALLOW_BACKGROUND_EVENTS", "1")
         from ..render.compose import ViewComposer
+        from ..render.screen_windows import ScreenWindows
         from ..render.window import FrameWindow
 
         self.world = world
         self.settings = settings
-        self.window = FrameWindow(width, height, title=title)
+        if window_per_screen is None:
+            window_per_screen = os.environ.get(WINDOW_PER_SCREEN_ENV, "").strip() in ("1", "true", "yes")
+        screens = max(1, int(getattr(getattr(settings, "general", None), "number_of_screens", None) or 1))
+        self.window: Any
+        if window_per_screen and screens > 1:  # the same wide frame, one slice (width / screens) per window
+            self.window = ScreenWindows(screens, width // screens, height, title=title)
+        else:
+            self.window = FrameWindow(width, height, title=title)
         from ..render import _pg
 
         driver = _pg.pygame().display.get_driver()
@@ -64,6 +75,7 @@ class DriveViewer:
         v = overlay.view
         c = self.composer
         c.view.camera_mode = v.camera_mode
+        c.view.headlights = v.headlights
         mirror = self.base_mirror_mode if self.base_mirror_mode != "off" else "back_only"
         c.mirror_mode = mirror if v.mirror else "off"
         c.top_view = v.top_view or self.base_top_view
@@ -97,7 +109,10 @@ class DriveViewer:
         if overlay.view.show_stats and overlay.snapshot is not None:
             s = overlay.snapshot
             _pg.text(surface, f"t {s.t_s:7.2f} s  fps {self.window.clock.get_fps():5.1f}", (8, sh - size - 4), size, (230, 230, 230))
-        pg.display.flip()
+        if hasattr(self.window, "flip"):
+            self.window.flip()  # one window per screen
+        else:
+            pg.display.flip()
         self.window.clock.tick()  # measures the frame rate for the stats line; never waits
 
     def save_png(self, path: str) -> None:

@@ -23,6 +23,7 @@ import numpy as np
 from . import _pg, meshes
 from .camera import OPENDS_FAR_M, OPENDS_VFOV_DEG, Camera
 from .engine import Offscreen, panda
+from .night import DARK_BELOW, darken, daylight
 from .stage import CARD_BIT0, DEPTH_BIT, INSIDE_BIT, ORDER_SKY, OUTSIDE_BIT, Stage
 from .weather import Fog, Precipitation, fog_for, weather_of
 
@@ -85,6 +86,8 @@ class DriverViewRenderer:
         self.show_hood = bool(getattr(self._general, "show_hood", False))
         self.scene = self.stage.scene
         self.precipitation = Precipitation()
+        self.daylight = daylight(world) if weather else 1.0  # the scene's lights (night.py): fixed per task
+        self.headlights = True  # the ego's low beam (seen at night); the drive window's toggle_headlight
         self._target: Offscreen | None = None
         self._layout: tuple[Any, ...] = ()
         self._cams: list[Any] = []
@@ -175,8 +178,16 @@ class DriverViewRenderer:
         if weather is None:
             weather = weather_of(self.world) if self.weather else {}
         fog = fog_for(weather)
-        if fog is not None:
-            self._fog(frame, self._depth_pass(width, height, views), views, fog)
+        night = self.daylight < DARK_BELOW
+        if fog is not None or night:
+            depth = self._depth_pass(width, height, views)
+            if fog is not None:
+                self._fog(frame, depth, views, fog)
+            if night:
+                for vp, cam in views:
+                    x, y, w, h = pixel_rect(width, height, vp)
+                    beam = self.headlights and self.inside_car(cam) and not cam.mirror
+                    darken(frame[y : y + h, x : x + w], depth[y : y + h, x : x + w], self.daylight, beam, cam.focal_px(w, h))
         return frame
 
     def blit_views(self, surface: Any, views: Sequence[tuple[Viewport, Camera]]) -> None:
@@ -184,7 +195,7 @@ class DriverViewRenderer:
         Panda3D's buffer (no numpy copy: what keeps a 1280x720 window fast)."""
         pg = _pg.pygame()
         w, h = surface.get_size()
-        if self.weather and fog_for(weather_of(self.world)) is not None:
+        if self.daylight < DARK_BELOW or (self.weather and fog_for(weather_of(self.world)) is not None):
             surface.blit(_pg.from_array(self.render_views(w, h, views)), (0, 0))
             return
         target = self._draw_views(w, h, views)

@@ -21,6 +21,9 @@ import numpy as np
 PIPES = {"tinydisplay": "p3tinydisplay", "gl": "pandagl", "egl": "p3headlessgl"}
 PIPE_ENV = "OPENDS_GYM_RENDER_PIPE"
 _STATE: dict[str, Any] = {}
+# frames up to this many pixels are read through `Texture.getRamImageAs` (84x84: 6.6 against 9.7 us
+# of CPU); larger ones through numpy's plane copies (1280x720: 1.1 against 2.2 ms)
+SMALL_FRAME_PX = 256 * 256
 
 PRC = """
 window-type none
@@ -104,6 +107,9 @@ class Offscreen:
 
     def rgb(self) -> np.ndarray:
         """The last frame as a writable uint8 (height, width, 3), top row first."""
+        if self.width * self.height <= SMALL_FRAME_PX:  # Panda3D's own BGRA->RGB, then one flipped copy
+            rgb = np.frombuffer(self.color.getRamImageAs("RGB"), np.uint8).reshape(self.height, self.width, 3)
+            return rgb[::-1].copy()
         raw = np.frombuffer(memoryview(self.color.getRamImage()), np.uint8)
         bgr = raw.reshape(self.height, self.width, -1)[::-1]
         out = np.empty((self.height, self.width, 3), np.uint8)
