@@ -1,6 +1,6 @@
 """Agents that `opends-gym run` (and benchmarks) can drive an env with, by spec string.
 
-Why: one place turns `--agent random`, `constant:0,0.5`, `rule`, `distracted:heavy` or
+Why: one place turns `--agent random`, `constant:0,0.5`, `rule`, `distracted:heavy`, `participant:7:cognitive` or
 `ppo:PATH` into an object with `reset(env, seed)` and `act(obs, info)`, so the CLI, the
 benchmarks and the tests run every driver the same way.
 """
@@ -72,6 +72,20 @@ def _distracted(arg: str) -> Agent:
     return DistractedDriver(arg or "moderate")
 
 
+def _participant(arg: str) -> Agent:
+    """`participant:ID` or `participant:ID:LOAD`: participant ID of the standard population."""
+    from .participant import ParticipantDriver
+    from .population import LOADS, POPULATION_SEED, draw_participant
+
+    ident, _, load = arg.partition(":")
+    if not ident.isdigit():
+        raise ValueError(f"give a participant number: participant:ID[:LOAD] with LOAD one of {', '.join(LOADS)}, not {arg!r}")
+    load = load or "baseline"
+    if load not in LOADS:
+        raise ValueError(f"unknown load {load!r}{did_you_mean(load, LOADS)}; use one of {', '.join(LOADS)}")
+    return ParticipantDriver(None, draw_participant(int(ident), POPULATION_SEED), load)
+
+
 def _policy(algorithm: str) -> Callable[[str], Agent]:
     def make(arg: str) -> Agent:
         from .policy import PolicyDriver
@@ -88,6 +102,7 @@ AGENT_FACTORIES: dict[str, Callable[[str], Agent]] = {
     "constant": lambda arg: ConstantAgent(tuple(float(v) for v in arg.split(",")) if arg else (0.0, 0.5)),
     "rule": _rule,
     "distracted": _distracted,
+    "participant": _participant,
     "ppo": _policy("ppo"),
     "sac": _policy("sac"),
 }

@@ -164,7 +164,15 @@ MANOEUVRE_OFFSET_M = 0.5
 MANOEUVRE_HEADING_RAD = 0.02
 
 # percept fields that carry discrete stimuli (delayed by the reaction delay)
-_STIMULUS_FIELDS = ("target_lateral_m", "lane_change_pending", "sign_distance_m", "brake_to_mps", "brake_hard", "press_reaction")
+_STIMULUS_FIELDS = (
+    "target_lateral_m",
+    "lane_change_pending",
+    "sign_distance_m",
+    "brake_to_mps",
+    "brake_hard",
+    "press_reaction",
+    "drt_onset_s",
+)
 
 
 class DistractedDriver:

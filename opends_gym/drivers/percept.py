@@ -54,6 +54,7 @@ class Percept:
     aim: tuple[float, float] | None = None  # on a route: the point to steer at, (ahead, left) m in the car's frame
     curve_speed_mps: float = math.inf  # on a route: the fastest speed that takes the curves ahead
     route_left_m: float = math.inf  # on a route: how far it goes on
+    drt_onset_s: float | None = None  # a DRT stimulus is shown: when it came on
 
 
 Reader = Callable[[Any, Percept], Percept]
@@ -296,5 +297,19 @@ def perceive(env: Any, info: dict[str, Any] | None = None) -> Percept:
             p = reader(base, p)
             break
     if info and float(info.get("drt_stimulus_on", 0.0)) > 0.0:
-        p = replace(p, press_reaction=True)
+        drt = find_drt(env)
+        onsets = getattr(drt, "onsets", None)
+        p = replace(p, press_reaction=True, drt_onset_s=float(onsets[-1]) if onsets else None)
     return p
+
+
+def find_drt(env: Any) -> Any:
+    """The Detection Response Task wrapper around `env`, or None (walks `.env`)."""
+    from ..envs.drt import DetectionResponseTask
+
+    e = env
+    while e is not None:
+        if isinstance(e, DetectionResponseTask):
+            return e
+        e = getattr(e, "env", None)
+    return None

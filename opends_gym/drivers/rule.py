@@ -51,6 +51,7 @@ class RuleParams:
     contre_response_s: float = 0.25  # ConTRe: time to close the bar gap
     contre_bar_speed_mps: float = 1.0
     route_end_margin_m: float = 10.0  # stop this far before the end of the known route
+    drt_min_rt_s: float = 0.1  # ISO 17488 counts a DRT response sooner than 100 ms as premature: wait this long
 
 
 @dataclass
@@ -105,10 +106,17 @@ class RuleDriver:
         return Intent(
             steering=steer,
             pedal=pedal,
-            reaction=p.press_reaction,
+            reaction=self._press(p),
             target_lateral_m=p.target_lateral_m,
             target_speed_mps=p.brake_to_mps if p.brake_to_mps is not None else p.cruise_mps,
         )
+
+    def _press(self, p: Percept) -> bool:
+        """Hold the reaction button for a stimulus; a DRT stimulus only once the press (on
+        the next physics step) lands `drt_min_rt_s` or more after its onset."""
+        if not p.press_reaction:
+            return False
+        return p.drt_onset_s is None or p.t_s - p.drt_onset_s >= self.params.drt_min_rt_s
 
     def _steer(self, p: Percept) -> float:
         """Stanley onto a path that ramps to the target lateral at the lane-change gradient;

@@ -1,0 +1,145 @@
+"""The virtual population against the published human values (opends_gym/drivers/literature.csv).
+
+A lean population (10 participants, short tasks) is driven once per task and load; each
+asserted literature row must hold: the attentive mean and between-participant SD inside the
+published range, each load effect's raw difference and Cohen's d inside its range.
+docs/gen_calibration.py runs the same comparison on a bigger population for the docs.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import opends_gym  # noqa: F401
+from opends_gym.drivers.agents import make_agent
+from opends_gym.drivers.calibration import Comparison, effect, level, literature, runs
+from opends_gym.drivers.episodes import run_episode
+from opends_gym.drivers.participant import ParticipantDriver
+from opends_gym.drivers.population import LOADS, POPULATION_SEED, draw_participant, sample_population
+from opends_gym.drivers.rule import RuleDriver
+from opends_gym.envs.drt import DetectionResponseTask
+
+N = 10
+
+
+@pytest.fixture(scope="module")
+def sim() -> dict[tuple[str, str], list[dict[str, float]]]:
+    pop = sample_population(N)
+    r = runs(short=True)
+    plan = {
+        "lct": LOADS,
+        "lct_visual_drt": ("baseline", "visual_manual"),
+        "brake_expected": ("baseline", "cognitive"),
+        "brake_unexpected": ("baseline",),
+        "platoon": LOADS,
+        "lane_change": ("baseline",),
+    }
+    return {(name, load): r[name](pop, load, 0) for name, loads in plan.items() for load in loads}
+
+
+def col(sim: dict[tuple[str, str], list[dict[str, float]]], run: str, load: str, key: str) -> list[float]:
+    return [row[key] for row in sim[(run, load)]]
+
+
+# literature row -> (run, measure, loaded condition or None for a level)
+CHECKS = {
+    "drt_rt_baseline": ("lct", "drt_mean_rt_s", None),
+    "drt_hit_baseline": ("lct", "drt_hit_rate", None),
+    "drt_rt_cognitive": ("lct", "drt_mean_rt_s", "cognitive"),
+    "drt_hit_cognitive": ("lct", "drt_hit_rate", "cognitive"),
+    "drt_rt_tactile_visual_manual": ("lct", "drt_mean_rt_s", "visual_manual"),
+    "drt_hit_visual_visual_manual": ("lct_visual_drt", "drt_hit_rate", "visual_manual"),
+    "brake_rt_expected": ("brake_expected", "brake_rt_s", None),
+    "brake_rt_unexpected": ("brake_unexpected", "brake_rt_s", None),
+    "brake_rt_cognitive": ("brake_expected", "brake_rt_s", "cognitive"),
+    "sdlp_baseline": ("platoon", "sdlp_m", None),
+    "sdlp_visual_manual": ("platoon", "sdlp_m", "visual_manual"),
+    "sdlp_cognitive": ("platoon", "sdlp_m", "cognitive"),
+    "mdev_baseline": ("lct", "mdev_basic_m", None),
+    "mdev_visual_manual": ("lct", "mdev_basic_m", "visual_manual"),
+    "mdev_cognitive": ("lct", "mdev_basic_m", "cognitive"),
+    "time_headway": ("platoon", "time_headway_s", None),
+    "lane_change_duration": ("lane_change", "lane_change_s", None),
+}
+
+
+def compare(sim: dict[tuple[str, str], list[dict[str, float]]], key: str) -> Comparison:
+    row = literature()[key]
+    run, measure, loaded = CHECKS[key]
+    base = col(sim, run, "baseline", measure)
+    return level(row, base) if loaded is None else effect(row, base, col(sim, run, loaded, measure))
+
+
+def test_every_literature_row_has_a_source_and_a_check() -> None:
+    rows = literature()
+    assert set(CHECKS) | {"glance_duration"} == set(rows)
+    for row in rows.values():
+        assert row.source and row.published and row.verified
+        assert row.low <= row.high
+
+
+@pytest.mark.parametrize("key", [k for k in CHECKS if literature()[k].asserted == "yes"])
+def test_population_matches_the_literature(sim: dict[tuple[str, str], list[dict[str, float]]], key: str) -> None:
+    c = compare(sim, key)
+    r = c.row
+    published = f"[{r.low}, {r.high}] (SD [{r.sd_low}, {r.sd_high}], d [{r.d_low}, {r.d_high}])"
+    assert c.ok, f"{key}: model {c.value:.3f} (SD {c.sd:.3f}, d {c.d:.2f}) vs published {published}"
+
+
+def test_glances_only_under_visual_manual_load_and_last_as_published(sim: dict[tuple[str, str], list[dict[str, float]]]) -> None:
+    row = literature()["glance_duration"]
+    vm = np.array(col(sim, "lct", "visual_manual", "glance_s"))
+    assert row.low <= float(np.nanmean(vm)) <= row.high
+    # cognitive load concentrates the gaze: shorter scanning glances only, and fewer of them
+    assert np.nanmean(col(sim, "lct", "cognitive", "glance_s")) < row.low
+
+
+def test_cognitive_effect_on_mdev_is_smaller_than_the_visual_manual_one(sim: dict[tuple[str, str], list[dict[str, float]]]) -> None:
+    assert compare(sim, "mdev_cognitive").value < compare(sim, "mdev_visual_manual").value
+
+
+def test_participants_differ_and_are_reproducible() -> None:
+    a, b = sample_population(5), sample_population(5)
+    assert a == b
+    assert draw_participant(3) == sample_population(8)[3]
+    assert len({p.select_s for p in a}) == 5
+    assert sample_population(3, seed=1) != sample_population(3, seed=2)
+
+
+def test_participant_spec_drives_like_the_agent_interface() -> None:
+    env = DetectionResponseTask(gym.make("OpenDS/LaneChangeTest-v0", action="continuous_buttons", signs=2))
+    agent = make_agent("participant:7:cognitive")
+    assert isinstance(agent, ParticipantDriver) and agent.params == draw_participant(7, POPULATION_SEED) and agent.load == "cognitive"
+    first = run_episode(env, agent, 3).metrics
+    again = run_episode(env, make_agent("participant:7:cognitive"), 3).metrics
+    assert first["drt_mean_rt_s"] == again["drt_mean_rt_s"] and first["mdev_basic_m"] == again["mdev_basic_m"]
+    with pytest.raises(ValueError, match="unknown load"):
+        make_agent("participant:1:sleepy")
+    with pytest.raises(ValueError, match="participant number"):
+        make_agent("participant:x")
+
+
+def test_driver_constructed_on_an_env_acts_and_lists_glances() -> None:
+    env = DetectionResponseTask(gym.make("OpenDS/LaneChangeTest-v0", action="continuous_buttons", signs=2))
+    obs, _ = env.reset(seed=0)
+    driver = ParticipantDriver(env, draw_participant(2), "visual_manual", seed=0)
+    for _ in range(400):
+        obs, _, term, trunc, _ = env.step(driver.act(obs))
+        if term or trunc:
+            break
+    assert driver.glances and all(0.0 <= s < e for s, e in driver.glances)
+    driver.reset(0)
+    assert driver.glances == []
+
+
+def test_rule_driver_never_presses_a_drt_button_within_100_ms() -> None:
+    env = DetectionResponseTask(gym.make("OpenDS/LaneChangeTest-v0", action="continuous_buttons", signs=3))
+    m = run_episode(env, RuleDriver(), 0).metrics
+    drt = env
+    rts = [r - max(o for o in drt.onsets if o <= r) for r in drt.responses]
+    assert m["drt_premature"] == 0 and m["drt_hit_rate"] == 1.0
+    assert min(rts) >= 0.1 and math.isfinite(m["drt_mean_rt_s"])
