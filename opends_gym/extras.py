@@ -21,6 +21,7 @@ EXTRAS: dict[str, tuple[str, tuple[str, ...]]] = {
     "video": ("video recording (Gymnasium's RecordVideo)", ("moviepy",)),
     "bench": ("the highway-env comparison benchmark", ("highway_env",)),
     "cluster": ("Ray RLlib training", ("ray", "tensorboardX")),
+    "study": ("the study runner's table, statistics and report", ("statsmodels", "scipy", "pandas", "pyarrow", "matplotlib")),
 }
 
 

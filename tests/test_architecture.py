@@ -28,7 +28,7 @@ LAYERS = [
     "record",
     "vector",
 ]
-LAYERS += ["training", "human", "data", "cli", "__init__"]
+LAYERS += ["training", "human", "study", "data", "cli", "__init__"]
 
 
 def _modules() -> dict[str, tuple[Path, bool]]:
