@@ -108,6 +108,30 @@ def drive(env: gym.Env[Any, Any], source: str, kind: str, seed: int | None, opti
     return ep
 
 
+def collect(env: gym.Env[Any, Any], agent: Any, seed: int) -> Episode:
+    """One episode of `agent` (drivers.agents) on `env`, as `drive` would have recorded it."""
+    obs, info = env.reset(seed=seed)
+    agent.reset(env, seed)
+    keys = [k for k, v in info.items() if _scalar(v)]
+    ep = Episode(f"agent {getattr(agent, 'name', agent)}", "agent", seed, [obs], infos={k: [float(info[k])] for k in keys})
+    ep.env_spec, ep.observation_space, ep.action_space = env.spec, env.observation_space, env.action_space
+    while True:
+        action = agent.act(obs, info)
+        obs, reward, terminated, truncated, info = env.step(action)
+        ep.observations.append(obs)
+        ep.actions.append(np.asarray(action, dtype=np.float32))
+        ep.rewards.append(float(reward))
+        ep.terminations.append(bool(terminated))
+        ep.truncations.append(bool(truncated))
+        for k in keys:
+            v = info.get(k, math.nan)
+            ep.infos[k].append(float(v) if _scalar(v) else math.nan)
+        if terminated or truncated:
+            break
+    ep.metrics = scalar_metrics(info.get("episode_metrics", {}))
+    return ep
+
+
 def _recorded_actions(rec: Any) -> list[tuple[Any, dict[str, Any]]]:
     from ..record import messages as M  # noqa: N812
     from ..record.schemas import ACTIONS

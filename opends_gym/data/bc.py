@@ -1,0 +1,105 @@
+"""Behaviour cloning from a Minari dataset: a small torch MLP regressed onto the recorded actions.
+
+Why our own trainer: `imitation` pins older gymnasium and stable-baselines3 than ours. BC is
+supervised regression (Pomerleau 1989, ALVINN; Bain and Sammut 1995): minimise the mean
+squared error between the network's action and the driver's for every recorded observation.
+Observations are standardised with the dataset's mean and standard deviation (saved with the
+weights, `drivers.bc`); actions are scaled to [-1, 1] from the action space's bounds. CPU,
+seeded, full-batch order from a seeded permutation: the same dataset and seed give the same clone.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..drivers.bc import SETTINGS, WEIGHTS, build_mlp
+from ..errors import UserError
+from ..extras import require
+
+
+@dataclass(frozen=True)
+class BCConfig:
+    epochs: int = 30
+    batch_size: int = 256
+    lr: float = 1e-3
+    hidden: tuple[int, ...] = (256, 256)
+    seed: int = 0
+    weight_decay: float = 0.0
+
+
+def dataset_arrays(ds: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(observations, actions) of every step of a Minari dataset (the observation each action was taken at)."""
+    obs, act = [], []
+    for ep in ds.iterate_episodes():
+        o = np.asarray(ep.observations, dtype=np.float32)
+        a = np.asarray(ep.actions, dtype=np.float32)
+        if o.ndim != 2 or a.ndim != 2:
+            raise UserError(f"{ds.id}: behaviour cloning needs vector observations and actions, got {o.shape[1:]} and {a.shape[1:]}")
+        obs.append(o[: len(a)])
+        act.append(a)
+    if not obs:
+        raise UserError(f"{ds.id}: the dataset has no episodes")
+    return np.concatenate(obs), np.concatenate(act)
+
+
+def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> dict[str, Any]:
+    """Train a clone on Minari dataset `dataset`, save it in folder `out`; returns its summary."""
+    minari = require("data", "minari", "behaviour cloning from a Minari dataset")
+    torch = require("rl", "torch", "behaviour cloning")
+    try:
+        ds = minari.load_dataset(dataset)
+    except (FileNotFoundError, ValueError) as e:
+        raise UserError(f"no Minari dataset {dataset!r} under MINARI_DATASETS_PATH: {e}") from None
+    space = ds.action_space
+    if not hasattr(space, "low"):
+        raise UserError(f"{dataset}: behaviour cloning needs a Box action space, the dataset has {space}")
+    obs, act = dataset_arrays(ds)
+    obs = np.nan_to_num(obs, posinf=0.0, neginf=0.0)
+    mean = obs.mean(axis=0)
+    std = np.maximum(obs.std(axis=0), 1e-6)
+    low, high = np.asarray(space.low, dtype=np.float32), np.asarray(space.high, dtype=np.float32)
+    target = np.clip(2.0 * (act - low) / (high - low) - 1.0, -1.0, 1.0)
+    x = torch.from_numpy(((obs - mean) / std).astype(np.float32))
+    y = torch.from_numpy(target.astype(np.float32))
+    gen = torch.Generator().manual_seed(config.seed)
+    torch.manual_seed(config.seed)
+    net = build_mlp(x.shape[1], y.shape[1], config.hidden)
+    opt = torch.optim.Adam(net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+    losses = []
+    for _ in range(config.epochs):
+        order = torch.randperm(len(x), generator=gen)
+        total = 0.0
+        for i in range(0, len(x), config.batch_size):
+            idx = order[i : i + config.batch_size]
+            loss = torch.nn.functional.mse_loss(net(x[idx]), y[idx])
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            total += loss.item() * len(idx)
+        losses.append(total / len(x))
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    torch.save(net.state_dict(), folder / WEIGHTS)
+    summary = {
+        "dataset": ds.id,
+        "env_id": ds.env_spec.id if ds.env_spec is not None else "",
+        "episodes": int(ds.total_episodes),
+        "steps": int(len(x)),
+        "final_mse": losses[-1] if losses else math.nan,
+        **{k: list(v) if isinstance(v, tuple) else v for k, v in asdict(config).items()},
+    }
+    settings = {
+        **summary,
+        "obs_mean": mean.tolist(),
+        "obs_std": std.tolist(),
+        "action_low": low.tolist(),
+        "action_high": high.tolist(),
+    }
+    (folder / SETTINGS).write_text(json.dumps(settings, indent=1), encoding="utf-8")
+    return {**summary, "out": str(folder), "loss_per_epoch": losses}
