@@ -74,7 +74,13 @@ def countryside(epochs: int, seconds: float, tmp: Path) -> dict[str, object]:
     t_end = float(env.unwrapped.world.t_s)
     env.close()
     dist = np.sqrt(((xz[:, None, :] - path[None, :, :]) ** 2).sum(axis=2)).min(axis=1)
-    return {"logs": len(logs), "steps": sum(e.steps for e in episodes), "driven_s": t_end, "max_distance_m": float(dist.max()), "mean_distance_m": float(dist.mean())}
+    return {
+        "logs": len(logs),
+        "steps": sum(e.steps for e in episodes),
+        "driven_s": t_end,
+        "max_distance_m": float(dist.max()),
+        "mean_distance_m": float(dist.mean()),
+    }
 
 
 def main() -> None:

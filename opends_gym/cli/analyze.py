@@ -24,7 +24,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-png", action="store_true", help="with --report: skip the PNG files")
     p.add_argument("--export-opends", default=None, metavar="DIR", help="write carData.txt, reactionData.xml, drivingTaskLog.txt")
     p.add_argument("--json", action="store_true", help="print the measures as one JSON object")
-    p.add_argument("--against", default=None, metavar="STUDY_OR_POPULATION", help="percentiles among virtual participants: a study folder/table or population:N[:LOAD]")
+    p.add_argument(
+        "--against",
+        default=None,
+        metavar="STUDY_OR_POPULATION",
+        help="percentiles among virtual participants: a study folder/table or population:N[:LOAD]",
+    )
     p.add_argument("--condition", default=None, help="with --against STUDY: the condition (default: baseline, or the only one)")
     p.add_argument("--study-task", default=None, help="with --against STUDY: the study's task (default: the only one)")
     p.add_argument("--env", default=None, metavar="ENV_ID", help="with --against population: the env of a person's drive or a carData log")

@@ -4,7 +4,9 @@ Why our own trainer: `imitation` pins older gymnasium and stable-baselines3 than
 supervised regression (Pomerleau 1989, ALVINN; Bain and Sammut 1995): minimise the mean
 squared error between the network's action and the driver's for every recorded observation.
 Observations are standardised with the dataset's mean and standard deviation (saved with the
-weights, `drivers.bc`); actions are scaled to [-1, 1] from the action space's bounds. CPU,
+weights, `drivers.bc`; a feature constant in the data keeps its scale, and standardised values are
+clipped to +-10 as stable-baselines3's VecNormalize clips them, so a new episode's features stay
+in the range the network saw); actions are scaled to [-1, 1] from the action space's bounds. CPU,
 seeded, full-batch order from a seeded permutation: the same dataset and seed give the same clone.
 """
 
@@ -18,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from ..drivers.bc import SETTINGS, WEIGHTS, build_mlp
+from ..drivers.bc import CLIP, SETTINGS, WEIGHTS, build_mlp
 from ..errors import UserError
 from ..extras import require
 
@@ -62,27 +64,19 @@ def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> di
     obs, act = dataset_arrays(ds)
     obs = np.nan_to_num(obs, posinf=0.0, neginf=0.0)
     mean = obs.mean(axis=0)
-    std = np.maximum(obs.std(axis=0), 1e-6)
+    std = obs.std(axis=0)
+    std = np.where(std < 1e-6, 1.0, std)  # a feature constant in the data: no scale to learn from it
     low, high = np.asarray(space.low, dtype=np.float32), np.asarray(space.high, dtype=np.float32)
     target = np.clip(2.0 * (act - low) / (high - low) - 1.0, -1.0, 1.0)
-    x = torch.from_numpy(((obs - mean) / std).astype(np.float32))
+    x = torch.from_numpy(np.clip((obs - mean) / std, -CLIP, CLIP).astype(np.float32))
     y = torch.from_numpy(target.astype(np.float32))
-    gen = torch.Generator().manual_seed(config.seed)
-    torch.manual_seed(config.seed)
-    net = build_mlp(x.shape[1], y.shape[1], config.hidden)
-    opt = torch.optim.Adam(net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
-    losses = []
-    for _ in range(config.epochs):
-        order = torch.randperm(len(x), generator=gen)
-        total = 0.0
-        for i in range(0, len(x), config.batch_size):
-            idx = order[i : i + config.batch_size]
-            loss = torch.nn.functional.mse_loss(net(x[idx]), y[idx])
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            total += loss.item() * len(idx)
-        losses.append(total / len(x))
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)  # a small MLP: one thread is ~10x faster than threads contending for busy cores
+    try:
+        with torch.random.fork_rng(devices=[]):  # seeded weights without moving the caller's torch RNG
+            net, losses = _fit(torch, x, y, config)
+    finally:
+        torch.set_num_threads(threads)
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     torch.save(net.state_dict(), folder / WEIGHTS)
@@ -103,3 +97,24 @@ def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> di
     }
     (folder / SETTINGS).write_text(json.dumps(settings, indent=1), encoding="utf-8")
     return {**summary, "out": str(folder), "loss_per_epoch": losses}
+
+
+def _fit(torch: Any, x: Any, y: Any, config: BCConfig) -> tuple[Any, list[float]]:
+    """Adam on the mean squared error, minibatches in a seeded order; the loss of each epoch."""
+    gen = torch.Generator().manual_seed(config.seed)
+    torch.manual_seed(config.seed)
+    net = build_mlp(x.shape[1], y.shape[1], config.hidden)
+    opt = torch.optim.Adam(net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+    losses = []
+    for _ in range(config.epochs):
+        order = torch.randperm(len(x), generator=gen)
+        total = 0.0
+        for i in range(0, len(x), config.batch_size):
+            idx = order[i : i + config.batch_size]
+            loss = torch.nn.functional.mse_loss(net(x[idx]), y[idx])
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            total += loss.item() * len(idx)
+        losses.append(total / len(x))
+    return net, losses

@@ -15,8 +15,6 @@ import warnings
 from collections.abc import Sequence
 from typing import Any
 
-import numpy as np
-
 from ..errors import UserError
 from ..extras import require
 from .episodes import Episode
@@ -74,9 +72,7 @@ def write_dataset(name: str, episodes: Sequence[Episode], description: str = "",
     with warnings.catch_warnings():  # Minari's reminders about unset author, e-mail and permalink
         warnings.filterwarnings("ignore", message=r"`(code_permalink|author|author_email|eval_env)` is set to None", category=UserWarning)
         ds = _create(minari, ident, episodes, description, author)
-    meta = [
-        {"source": ep.source, "kind": ep.kind, **{f"metric/{k}": v for k, v in sorted(ep.metrics.items())}} for ep in episodes
-    ]
+    meta = [{"source": ep.source, "kind": ep.kind, **{f"metric/{k}": v for k, v in sorted(ep.metrics.items())}} for ep in episodes]
     ds.storage.update_episode_metadata(meta, episode_indices=range(len(episodes)))
     return ds
 

@@ -20,6 +20,7 @@ from ..extras import require
 from ..resources import ResourceNotFound, policies_dir
 
 WEIGHTS, SETTINGS = "bc.pt", "bc.json"
+CLIP = 10.0  # standardised observations are clipped to +-CLIP (as stable-baselines3's VecNormalize)
 
 
 def build_mlp(obs_dim: int, act_dim: int, hidden: tuple[int, ...]) -> Any:
@@ -71,7 +72,7 @@ class BCDriver:
             raise ValueError(f"clone {self.folder} expects observations of shape ({len(self.mean)},), the env gives {shape}")
 
     def act(self, obs: Any, info: dict[str, Any]) -> Any:
-        x = (np.asarray(obs, dtype=np.float32) - self.mean) / self.std
+        x = np.clip(np.nan_to_num((np.asarray(obs, dtype=np.float32) - self.mean) / self.std, posinf=CLIP, neginf=-CLIP), -CLIP, CLIP)
         with self._torch.no_grad():
-            y = self.net(self._torch.from_numpy(np.nan_to_num(x, posinf=10.0, neginf=-10.0))).numpy()
+            y = self.net(self._torch.from_numpy(x.astype(np.float32))).numpy()
         return (self.low + (y + 1.0) * 0.5 * (self.high - self.low)).astype(np.float32)

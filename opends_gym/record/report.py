@@ -308,7 +308,12 @@ def percentiles_page(a: Analysis, percentiles: Percentiles) -> Figure:
     ax = fig.add_axes((0.05, 0.06, 0.9, 0.8))
     ax.axis("off")
     cells = [[m, _fmt(v), _fmt(p), _fmt(med), str(n)] for m, v, p, n, med in rows]
-    table = ax.table(cellText=cells, colLabels=["metric", "drive", "percentile %", "population median", "participants"], loc="upper center", cellLoc="left")
+    table = ax.table(
+        cellText=cells,
+        colLabels=["metric", "drive", "percentile %", "population median", "participants"],
+        loc="upper center",
+        cellLoc="left",
+    )
     table.auto_set_font_size(False)
     table.set_fontsize(8)
     for (r, _), cell in table.get_celld().items():
