@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import sys
 from dataclasses import asdict
+from typing import Any
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -53,7 +54,8 @@ def run(args: argparse.Namespace) -> int:
     except (ValueError, OSError) as e:
         print(f"analyze: {e}", file=sys.stderr)
         return 2
-    placements, against_label = [], ""
+    placements: list[Any] = []
+    against_label = ""
     if args.against:
         from ..data.against import against
 

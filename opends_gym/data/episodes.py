@@ -143,6 +143,11 @@ def _recorded_actions(rec: Any) -> list[tuple[Any, dict[str, Any]]]:
     return out
 
 
+def _policy_hz(env: gym.Env[Any, Any]) -> float:
+    base: Any = env.unwrapped
+    return float(base.config.policy_hz)
+
+
 def held_inputs(t_s: np.ndarray, steering: np.ndarray, pedal: np.ndarray, policy_hz: float) -> list[np.ndarray]:
     """Continuous actions at the policy rate from inputs sampled at `t_s` (each held to the next
     sample): one per policy step from t = 0 to the last sample."""
@@ -194,7 +199,7 @@ def from_recording(path: str | Path, env_id: str | None = None, env_kwargs: dict
     pedal = np.asarray([float(m.get("accelerator", 0.0)) - float(m.get("brake", 0.0)) for m in controls])
     env = _input_env(env_id, meta.get("task_path") or None, str(p), env_kwargs or {})
     try:
-        hz = float(env.unwrapped.config.policy_hz)
+        hz = _policy_hz(env)
         return drive(env, str(p), "controls", meta.get("seed"), None, held_inputs(t, steer, pedal, hz))
     finally:
         env.close()
@@ -209,7 +214,7 @@ def from_cardata(path: str | Path, env_id: str | None, task: str | None, env_kwa
     pedal = np.where(rec.brake > 0.0, -rec.brake, np.maximum(rec.gas, 0.0))
     env = _input_env(env_id, task, str(p), env_kwargs or {})
     try:
-        hz = float(env.unwrapped.config.policy_hz)
+        hz = _policy_hz(env)
         return drive(env, str(p), "cardata", None, None, held_inputs(rec.sim_t, rec.steering, pedal, hz))
     finally:
         env.close()
