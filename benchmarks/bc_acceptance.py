@@ -5,7 +5,7 @@
    participant's mean MDEV (mdev_basic_m), SDLP (sdlp_m) and lane-change latency
    (mean_lane_change_latency_s) are compared (goal: within 15 %).
 2. Countryside: the real OpenDS drives in tests/data/opends-drives are exported through the task's
-   env, a clone is trained on them and drives the task for 60 s; the figure is the largest distance
+   env (from each log's first touch of a control: --trim-idle), a clone is trained on them and drives the task for 60 s; the figure is the largest distance
    from the clone's path to the nearest point of the paths those logs recorded (goal: 5 m), and
    how far the clone drove (`driven_m`: a clone that stays at the start is trivially on the path).
 
@@ -63,7 +63,7 @@ def countryside(epochs: int, seconds: float, tmp: Path) -> dict[str, object]:
 
     task = str(DRIVES / "Countryside")
     logs = sorted((DRIVES / "drives").glob("*/carData*.txt"))
-    episodes = [load_episode(p, None, task) for p in logs]
+    episodes = [load_episode(p, None, task, trim_idle=True) for p in logs]
     write_dataset("bench/countryside", episodes)
     train_bc("bench/countryside-v0", tmp / "cs-clone", BCConfig(epochs=epochs))
     path = np.concatenate([np.c_[c.columns["x_m"], c.columns["z_m"]] for c in map(read_cardata, logs)])

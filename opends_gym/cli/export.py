@@ -17,6 +17,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--env", default=None, metavar="ENV_ID", help="env of person drives and carData logs (env recordings use their own)")
     p.add_argument("--task", default=None, help="driving task of carData logs (default: the generic env on their 'Driving Task:')")
     p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
+    p.add_argument("--trim-idle", action="store_true", help="person drives and carData logs start at the first touch of a control")
     p.add_argument("--author", default=None, help="dataset author (Minari metadata)")
 
 
@@ -32,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
         kwargs[key] = _parse_value(value)
     episodes = []
     for path in args.drives:
-        ep = load_episode(path, args.env, args.task, kwargs)
+        ep = load_episode(path, args.env, args.task, kwargs, args.trim_idle)
         print(f"{path}: {ep.steps} steps ({ep.kind}) on {ep.env_spec.id}", file=sys.stderr)
         episodes.append(ep)
     ds = write_dataset(ident, episodes, author=args.author)

@@ -173,7 +173,9 @@ def _input_env(env_id: str | None, task: str | None, source: str, env_kwargs: di
     return env
 
 
-def from_recording(path: str | Path, env_id: str | None = None, env_kwargs: dict[str, Any] | None = None) -> Episode:
+def from_recording(
+    path: str | Path, env_id: str | None = None, env_kwargs: dict[str, Any] | None = None, trim_idle: bool = False
+) -> Episode:
     """An MCAP recording: its actions through its own env, or its controls through `env_id`."""
     from ..record.mcap_io import read_recording
     from ..record.schemas import ACTIONS, CONTROLS
@@ -197,31 +199,46 @@ def from_recording(path: str | Path, env_id: str | None = None, env_kwargs: dict
     t = np.asarray([float(m["t_s"]) for m in controls])
     steer = np.asarray([float(m.get("steering", 0.0)) for m in controls])
     pedal = np.asarray([float(m.get("accelerator", 0.0)) - float(m.get("brake", 0.0)) for m in controls])
+    i0 = first_input(steer, pedal) if trim_idle else 0
     env = _input_env(env_id, meta.get("task_path") or None, str(p), env_kwargs or {})
     try:
         hz = _policy_hz(env)
-        return drive(env, str(p), "controls", meta.get("seed"), None, held_inputs(t, steer, pedal, hz))
+        return drive(env, str(p), "controls", meta.get("seed"), None, held_inputs(t[i0:], steer[i0:], pedal[i0:], hz))
     finally:
         env.close()
 
 
-def from_cardata(path: str | Path, env_id: str | None, task: str | None, env_kwargs: dict[str, Any] | None = None) -> Episode:
-    """An OpenDS carData.txt: its steering, gas and brake through `env_id` (or the task's generic env)."""
+def first_input(steering: np.ndarray, pedal: np.ndarray) -> int:
+    """The first sample where the driver touches a control (0 when they never do)."""
+    touched = np.flatnonzero((steering != 0.0) | (pedal != 0.0))
+    return int(touched[0]) if touched.size else 0
+
+
+def from_cardata(
+    path: str | Path, env_id: str | None, task: str | None, env_kwargs: dict[str, Any] | None = None, trim_idle: bool = False
+) -> Episode:
+    """An OpenDS carData.txt: its steering, gas and brake through `env_id` (or the task's generic env).
+    `trim_idle` starts at the first sample where a control is touched (a log that waits at the start
+    teaches a clone to wait)."""
     from ..record.conform import Recorded
 
     p = Path(path)
     rec = Recorded(p)
     pedal = np.where(rec.brake > 0.0, -rec.brake, np.maximum(rec.gas, 0.0))
+    i0 = first_input(rec.steering, pedal) if trim_idle else 0
     env = _input_env(env_id, task, str(p), env_kwargs or {})
     try:
         hz = _policy_hz(env)
-        return drive(env, str(p), "cardata", None, None, held_inputs(rec.sim_t, rec.steering, pedal, hz))
+        return drive(env, str(p), "cardata", None, None, held_inputs(rec.sim_t[i0:], rec.steering[i0:], pedal[i0:], hz))
     finally:
         env.close()
 
 
-def load_episode(path: str | Path, env_id: str | None = None, task: str | None = None, env_kwargs: dict[str, Any] | None = None) -> Episode:
-    """Any drive file: MCAP (by its magic bytes) or an OpenDS carData.txt."""
+def load_episode(
+    path: str | Path, env_id: str | None = None, task: str | None = None, env_kwargs: dict[str, Any] | None = None, trim_idle: bool = False
+) -> Episode:
+    """Any drive file: MCAP (by its magic bytes) or an OpenDS carData.txt; `trim_idle` drops a person's
+    or log's leading samples without input (env recordings are replayed whole)."""
     from ..record.mcap_walk import MAGIC
 
     p = Path(path)
@@ -230,5 +247,5 @@ def load_episode(path: str | Path, env_id: str | None = None, task: str | None =
     with p.open("rb") as f:
         magic = f.read(len(MAGIC))
     if magic == MAGIC:
-        return from_recording(p, env_id, env_kwargs)
-    return from_cardata(p, env_id, task, env_kwargs)
+        return from_recording(p, env_id, env_kwargs, trim_idle)
+    return from_cardata(p, env_id, task, env_kwargs, trim_idle)
