@@ -6,8 +6,9 @@
    (mean_lane_change_latency_s) are compared (goal: within 15 %).
 2. Countryside: the real OpenDS drives in tests/data/opends-drives are exported through the task's
    env (from each log's first touch of a control: --trim-idle), a clone is trained on them and
-   drives the task for 60 s; the figure is the largest distance from the clone's path to the nearest point of the paths those logs recorded (goal: 5 m), and
-   how far the clone drove (`driven_m`: a clone that stays at the start is trivially on the path).
+   drives the task for 60 s; the figure is the largest distance from the clone's path to the
+   nearest point of the paths those logs recorded (goal: 5 m), and how far the clone drove
+   (`driven_m`: a clone that stays at the start is trivially on the path).
 
     PYTHONPATH=. python benchmarks/bc_acceptance.py --drives 200 --eval 20      # the full acceptance
     PYTHONPATH=. python benchmarks/bc_acceptance.py --drives 10 --eval 5        # a quick look
