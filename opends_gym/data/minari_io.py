@@ -25,6 +25,7 @@ _VERSIONED = re.compile(r".*-v\d+$")
 
 def dataset_id(name: str) -> str:
     """Minari's `[namespace/]name-vN`: `-v0` is added to a name without a version."""
+    require("data", "minari", "the Minari dataset")
     from minari.dataset.minari_dataset import parse_dataset_id
 
     ident = name if _VERSIONED.fullmatch(name) else f"{name}-v0"
