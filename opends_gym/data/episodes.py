@@ -74,37 +74,48 @@ def make_env(env_id: str, kwargs: dict[str, Any]) -> gym.Env[Any, Any]:
     return gym.make(env_id, **kwargs)
 
 
+def _start(env: gym.Env[Any, Any], source: str, kind: str, seed: int | None, obs: Any, info: dict[str, Any]) -> Episode:
+    """An episode holding the reset's observation and numeric info keys (the keys every step records)."""
+    keys = [k for k, v in info.items() if _scalar(v)]
+    ep = Episode(source, kind, seed, [obs], infos={k: [float(info[k])] for k in keys})
+    ep.env_spec, ep.observation_space, ep.action_space = env.spec, env.observation_space, env.action_space
+    return ep
+
+
+def _step(env: gym.Env[Any, Any], ep: Episode, action: Any) -> tuple[Any, dict[str, Any], bool]:
+    """Step `env`, append the step to `ep`; returns the observation, info and whether the episode ended."""
+    obs, reward, terminated, truncated, info = env.step(action)
+    ep.observations.append(obs)
+    ep.actions.append(action)
+    ep.rewards.append(float(reward))
+    ep.terminations.append(bool(terminated))
+    ep.truncations.append(bool(truncated))
+    for k, values in ep.infos.items():
+        v = info.get(k, math.nan)
+        values.append(float(v) if _scalar(v) else math.nan)
+    if terminated or truncated:
+        ep.metrics = scalar_metrics(info.get("episode_metrics", {}))
+    return obs, info, bool(terminated or truncated)
+
+
 def drive(env: gym.Env[Any, Any], source: str, kind: str, seed: int | None, options: Any, actions: Any) -> Episode:
     """Reset `env` and step it with `actions` (an iterable of actions or of (action, hooks)) until
     the episode or the actions end."""
     obs, info = env.reset(seed=seed, options=options)
-    keys = [k for k, v in info.items() if _scalar(v)]
-    ep = Episode(source, kind, seed, [obs], infos={k: [float(info[k])] for k in keys})
-    ep.env_spec, ep.observation_space, ep.action_space = env.spec, env.observation_space, env.action_space
+    ep = _start(env, source, kind, seed, obs, info)
     base: Any = env.unwrapped
-    info = {}
     for item in actions:
         action, hooks = item if isinstance(item, tuple) else (item, {})
         if hooks.get("engine_key") is not None:
             base.turn_engine_key(bool(hooks["engine_key"]))
         if hooks.get("reset_position"):
             base.reset_position()
-        obs, reward, terminated, truncated, info = env.step(action)
-        ep.observations.append(obs)
-        ep.actions.append(action)
-        ep.rewards.append(float(reward))
-        ep.terminations.append(bool(terminated))
-        ep.truncations.append(bool(truncated))
-        for k in keys:
-            v = info.get(k, math.nan)
-            ep.infos[k].append(float(v) if _scalar(v) else math.nan)
-        if terminated or truncated:
+        if _step(env, ep, action)[2]:
             break
     if not ep.actions:
         raise UserError(f"{source}: the drive has no input to step the env with")
     if not (ep.terminations[-1] or ep.truncations[-1]):
         ep.truncations[-1] = True  # the drive ended here, the env had not
-    ep.metrics = scalar_metrics(info.get("episode_metrics", {}))
     return ep
 
 
@@ -112,23 +123,12 @@ def collect(env: gym.Env[Any, Any], agent: Any, seed: int) -> Episode:
     """One episode of `agent` (drivers.agents) on `env`, as `drive` would have recorded it."""
     obs, info = env.reset(seed=seed)
     agent.reset(env, seed)
-    keys = [k for k, v in info.items() if _scalar(v)]
-    ep = Episode(f"agent {getattr(agent, 'name', agent)}", "agent", seed, [obs], infos={k: [float(info[k])] for k in keys})
-    ep.env_spec, ep.observation_space, ep.action_space = env.spec, env.observation_space, env.action_space
-    while True:
+    ep = _start(env, f"agent {getattr(agent, 'name', agent)}", "agent", seed, obs, info)
+    box = env.action_space if isinstance(env.action_space, gym.spaces.Box) else None
+    done = False
+    while not done:
         action = agent.act(obs, info)
-        obs, reward, terminated, truncated, info = env.step(action)
-        ep.observations.append(obs)
-        ep.actions.append(np.asarray(action, dtype=np.float32))
-        ep.rewards.append(float(reward))
-        ep.terminations.append(bool(terminated))
-        ep.truncations.append(bool(truncated))
-        for k in keys:
-            v = info.get(k, math.nan)
-            ep.infos[k].append(float(v) if _scalar(v) else math.nan)
-        if terminated or truncated:
-            break
-    ep.metrics = scalar_metrics(info.get("episode_metrics", {}))
+        obs, info, done = _step(env, ep, np.asarray(action, dtype=box.dtype) if box is not None else action)
     return ep
 
 
