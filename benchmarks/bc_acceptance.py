@@ -5,7 +5,7 @@
    participant's mean MDEV (mdev_basic_m), SDLP (sdlp_m) and lane-change latency
    (mean_lane_change_latency_s) are compared (goal: within 15 %).
 2. Countryside: the real OpenDS drives in tests/data/opends-drives are exported through the task's
-   env (from each log's first touch of a control: --trim-idle), a clone is trained on them and
+   env (from each log's first gas: --trim-idle), a clone is trained on them and
    drives the task for 60 s; the figure is the largest distance from the clone's path to the
    nearest point of the paths those logs recorded (goal: 5 m), and how far the clone drove
    (`driven_m`: a clone that stays at the start is trivially on the path).
@@ -80,6 +80,7 @@ def countryside(epochs: int, seconds: float, tmp: Path) -> dict[str, object]:
         "logs": len(logs),
         "steps": sum(e.steps for e in episodes),
         "driven_s": t_end,
+        "driven_m": float(np.hypot(*np.diff(xz, axis=0).T).sum()),  # a clone that stands still is trivially on the path
         "max_distance_m": float(dist.max()),
         "mean_distance_m": float(dist.mean()),
     }

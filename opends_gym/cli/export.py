@@ -17,7 +17,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--env", default=None, metavar="ENV_ID", help="env of person drives and carData logs (env recordings use their own)")
     p.add_argument("--task", default=None, help="driving task of carData logs (default: the generic env on their 'Driving Task:')")
     p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
-    p.add_argument("--trim-idle", action="store_true", help="person drives and carData logs start at the first touch of a control")
+    p.add_argument(
+        "--trim-idle", action="store_true", help="person drives and carData logs start at their first gas (not waiting at the start)"
+    )
     p.add_argument("--author", default=None, help="dataset author (Minari metadata)")
 
 

@@ -199,7 +199,7 @@ def from_recording(
     t = np.asarray([float(m["t_s"]) for m in controls])
     steer = np.asarray([float(m.get("steering", 0.0)) for m in controls])
     pedal = np.asarray([float(m.get("accelerator", 0.0)) - float(m.get("brake", 0.0)) for m in controls])
-    i0 = first_input(steer, pedal) if trim_idle else 0
+    i0 = first_gas(pedal) if trim_idle else 0
     env = _input_env(env_id, meta.get("task_path") or None, str(p), env_kwargs or {})
     try:
         hz = _policy_hz(env)
@@ -208,24 +208,24 @@ def from_recording(
         env.close()
 
 
-def first_input(steering: np.ndarray, pedal: np.ndarray) -> int:
-    """The first sample where the driver touches a control (0 when they never do)."""
-    touched = np.flatnonzero((steering != 0.0) | (pedal != 0.0))
-    return int(touched[0]) if touched.size else 0
+def first_gas(pedal: np.ndarray) -> int:
+    """The first sample where the driver gives gas, sets off (0 when they never do)."""
+    gas = np.flatnonzero(pedal > 0.0)
+    return int(gas[0]) if gas.size else 0
 
 
 def from_cardata(
     path: str | Path, env_id: str | None, task: str | None, env_kwargs: dict[str, Any] | None = None, trim_idle: bool = False
 ) -> Episode:
     """An OpenDS carData.txt: its steering, gas and brake through `env_id` (or the task's generic env).
-    `trim_idle` starts at the first sample where a control is touched (a log that waits at the start
-    teaches a clone to wait)."""
+    `trim_idle` starts at the first gas (a log that waits at the start, steering or not, teaches a
+    clone to wait)."""
     from ..record.conform import Recorded
 
     p = Path(path)
     rec = Recorded(p)
     pedal = np.where(rec.brake > 0.0, -rec.brake, np.maximum(rec.gas, 0.0))
-    i0 = first_input(rec.steering, pedal) if trim_idle else 0
+    i0 = first_gas(pedal) if trim_idle else 0
     env = _input_env(env_id, task, str(p), env_kwargs or {})
     try:
         hz = _policy_hz(env)
@@ -238,7 +238,7 @@ def load_episode(
     path: str | Path, env_id: str | None = None, task: str | None = None, env_kwargs: dict[str, Any] | None = None, trim_idle: bool = False
 ) -> Episode:
     """Any drive file: MCAP (by its magic bytes) or an OpenDS carData.txt; `trim_idle` drops a person's
-    or log's leading samples without input (env recordings are replayed whole)."""
+    or log's samples before the first gas (env recordings are replayed whole)."""
     from ..record.mcap_walk import MAGIC
 
     p = Path(path)
