@@ -154,3 +154,22 @@ def test_population_spec_errors_are_one_line(recording: tuple[Path, dict], capsy
     assert main(["analyze", str(path), "--against", "population:x"]) == 2
     err = capsys.readouterr().err
     assert "population:N[:LOAD]" in err and len(err.strip().splitlines()) == 1
+
+
+def test_analyze_against_a_simulated_population(recording: tuple[Path, dict], capsys: pytest.CaptureFixture[str]) -> None:
+    from opends_gym.data.against import percentile_rank
+    from opends_gym.data.episodes import make_env
+    from opends_gym.drivers.agents import make_agent
+    from opends_gym.drivers.episodes import run_episode
+
+    path, run = recording
+    assert main(["analyze", str(path), "--against", "population:2", "--json"]) == 0
+    against = json.loads(capsys.readouterr().out)["against"]
+    assert against["reference"] == "2 virtual participants (baseline) on OpenDS/LaneChangeTest-v0"
+    row = against["metrics"]["sdlp_m"]
+    assert row["value"] == pytest.approx(run["sdlp_m"]) and row["n"] == 2
+    # the same participants on the recording's env (its 6 s limit), seeded by their number
+    env = make_env("OpenDS/LaneChangeTest-v0", {"max_episode_s": 6.0})
+    pop = [run_episode(env, make_agent(f"participant:{i}"), i).metrics["sdlp_m"] for i in range(2)]
+    env.close()
+    assert row["percentile"] == pytest.approx(percentile_rank(run["sdlp_m"], pop))
