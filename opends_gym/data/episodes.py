@@ -4,11 +4,12 @@ Why replay: a dataset's observations, rewards and info metrics must be exactly w
 for those actions, so every drive is driven again through the env (`gymnasium.make`, so the env
 spec travels with the dataset):
 
-* an env recording (`opends-gym run`, a study) holds the policy's actions (`/actions`): they are
-  fed as `record.replay` feeds them (ignition key and position resets included), from the
+* an env recording (`opends-gym run`; `opends-gym drive` and a study's human blocks, whose
+  sessions step the same env at the session's policy rate) holds the actions (`/actions`): fed
+  as `record.replay` feeds them (ignition key and position resets included), from the
   recorded seed and reset options: the episode is the recorded one, step for step;
-* a World-level recording (`opends-gym drive`, a person) holds `/controls` at the physics rate,
-  and an OpenDS `carData.txt` holds steering, gas and brake at its own rate (OpenDS's
+* a World-level recording (a `World` driven directly, without an env) holds `/controls` at the
+  physics rate, and an OpenDS `carData.txt` holds steering, gas and brake at its own rate (OpenDS's
   `DataWriter`, rows 50 ms or more apart, wall-clock stamped): the inputs held at the start of
   each policy step (zero-order hold, as the drive was) become a continuous action
   `[steering, gas - brake]` (OpenDS's steering sign, + left; brake wins where both are
