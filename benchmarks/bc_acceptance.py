@@ -29,7 +29,7 @@ DRIVES = ROOT / "tests" / "data" / "opends-drives"
 METRICS = ("mdev_basic_m", "sdlp_m", "mean_lane_change_latency_s")
 
 
-def lct(participant: int, drives: int, evaluate: int, epochs: int, tmp: Path) -> dict[str, object]:
+def lct(participant: int, drives: int, evaluate: int, epochs: int, tmp: Path, history: int = 1) -> dict[str, object]:
     from opends_gym.data.bc import BCConfig, train_bc
     from opends_gym.data.episodes import collect, make_env
     from opends_gym.data.minari_io import write_dataset
@@ -40,13 +40,19 @@ def lct(participant: int, drives: int, evaluate: int, epochs: int, tmp: Path) ->
     agent = make_agent(spec)
     episodes = [collect(env, agent, seed) for seed in range(drives)]
     write_dataset("bench/lct-participant", episodes)
-    summary = train_bc("bench/lct-participant-v0", tmp / "lct-clone", BCConfig(epochs=epochs))
+    summary = train_bc("bench/lct-participant-v0", tmp / "lct-clone", BCConfig(epochs=epochs, history=history))
     clone = make_agent(f"bc:{tmp / 'lct-clone'}")
     seeds = range(10_000, 10_000 + evaluate)
     person = [collect(env, agent, s).metrics for s in seeds]
     cloned = [collect(env, clone, s).metrics for s in seeds]
     env.close()
-    out: dict[str, object] = {"participant": spec, "drives": drives, "eval_episodes": evaluate, "train_mse": summary["final_mse"]}
+    out: dict[str, object] = {
+        "participant": spec,
+        "history": history,
+        "drives": drives,
+        "eval_episodes": evaluate,
+        "train_mse": summary["final_mse"],
+    }
     for m in METRICS:
         a = float(np.nanmean([e.get(m, np.nan) for e in person]))
         b = float(np.nanmean([e.get(m, np.nan) for e in cloned]))
@@ -92,6 +98,7 @@ def main() -> None:
     ap.add_argument("--drives", type=int, default=200)
     ap.add_argument("--eval", type=int, default=20)
     ap.add_argument("--epochs", type=int, default=30)
+    ap.add_argument("--history", type=int, default=1, help="observations the LCT clone sees (drivers.bc)")
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--skip-lct", action="store_true")
     ap.add_argument("--skip-countryside", action="store_true")
@@ -105,7 +112,7 @@ def main() -> None:
         if not args.skip_countryside:
             result["countryside"] = countryside(args.epochs, args.seconds, Path(d))
         if not args.skip_lct:
-            result["lct"] = lct(args.participant, args.drives, args.eval, args.epochs, Path(d))
+            result["lct"] = lct(args.participant, args.drives, args.eval, args.epochs, Path(d), args.history)
         result["wall_s"] = time.perf_counter() - start
     print(json.dumps(result, indent=1))
 

@@ -95,7 +95,7 @@ def test_behaviour_clone_learns_the_actions_and_drives_as_an_agent(
     env = make_env("OpenDS/LaneChangeTest-v0", {"max_episode_s": 3.0})
     ds = write_dataset("test/bc", [collect(env, make_agent("constant:0.02,0.7"), seed) for seed in (0, 1)])
     out = tmp_path / "clone"
-    assert main(["train", "bc", "test/bc-v0", "--out", str(out), "--epochs", "300"]) == 0
+    assert main(["train", "bc", "test/bc-v0", "--out", str(out), "--epochs", "300", "--history", "3"]) == 0
     assert json.loads(capsys.readouterr().out)["steps"] == ds.total_steps
     clone = make_agent(f"bc:{out}")
     obs, info = env.reset(seed=7)  # a new episode: the clone acts as the driver it was cloned from

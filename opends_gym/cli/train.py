@@ -21,6 +21,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--total-steps", type=int, default=None, help="override total_steps")
     p.add_argument("--output", "--out", default=None, help="run folder (default: the config's `output`; bc: bc-<dataset>)")
     p.add_argument("--epochs", type=int, default=None, help="with bc: training epochs (default 30)")
+    p.add_argument("--history", type=int, default=1, help="with bc: recent observations the clone sees (default 1)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a top-level config key (repeatable)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--resume", default=None, metavar="RUN_DIR", help="continue a finished run (its model.zip) for --total-steps more")
@@ -33,7 +34,7 @@ def _train_bc(args: argparse.Namespace) -> int:
     if not args.dataset:
         print("opends-gym train: bc needs a dataset: opends-gym train bc DATASET [--out FOLDER]", file=sys.stderr)
         return 2
-    config = BCConfig() if args.epochs is None else BCConfig(epochs=args.epochs)
+    config = BCConfig(history=args.history) if args.epochs is None else BCConfig(epochs=args.epochs, history=args.history)
     out = Path(args.output) if args.output else Path("bc-" + args.dataset.replace("/", "-"))
     summary = train_bc(args.dataset, out, config)
     summary.pop("loss_per_epoch")

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from ..drivers.bc import CLIP, SETTINGS, WEIGHTS, build_mlp
+from ..drivers.bc import CLIP, SETTINGS, WEIGHTS, build_mlp, stack
 from ..errors import UserError
 from ..extras import require
 
@@ -33,17 +33,20 @@ class BCConfig:
     hidden: tuple[int, ...] = (256, 256)
     seed: int = 0
     weight_decay: float = 0.0
+    history: int = 1  # observations the network sees (the current one and history-1 before it)
 
 
-def dataset_arrays(ds: Any) -> tuple[np.ndarray, np.ndarray]:
-    """(observations, actions) of every step of a Minari dataset (the observation each action was taken at)."""
+def dataset_arrays(ds: Any, history: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """(observations, actions) of every step of a Minari dataset (the observation each action was
+    taken at, with the `history - 1` before it as `drivers.bc.stack` stacks them)."""
     obs, act = [], []
     for ep in ds.iterate_episodes():
         o = np.asarray(ep.observations, dtype=np.float32)
         a = np.asarray(ep.actions, dtype=np.float32)
         if o.ndim != 2 or a.ndim != 2:
             raise UserError(f"{ds.id}: behaviour cloning needs vector observations and actions, got {o.shape[1:]} and {a.shape[1:]}")
-        obs.append(o[: len(a)])
+        frames = [o[i] for i in range(len(a))]
+        obs.append(np.asarray([stack(frames[: i + 1], history) for i in range(len(a))]) if history > 1 else o[: len(a)])
         act.append(a)
     if not obs:
         raise UserError(f"{ds.id}: the dataset has no episodes")
@@ -61,7 +64,9 @@ def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> di
     space = ds.action_space
     if not hasattr(space, "low"):
         raise UserError(f"{dataset}: behaviour cloning needs a Box action space, the dataset has {space}")
-    obs, act = dataset_arrays(ds)
+    if config.history < 1:
+        raise UserError(f"history must be at least 1, not {config.history}")
+    obs, act = dataset_arrays(ds, config.history)
     obs = np.nan_to_num(obs, posinf=0.0, neginf=0.0)
     mean = obs.mean(axis=0)
     std = obs.std(axis=0)
