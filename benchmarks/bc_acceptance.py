@@ -10,7 +10,7 @@
    nearest point of the paths those logs recorded (goal: 5 m), and how far the clone drove
    (`driven_m`: a clone that stays at the start is trivially on the path).
 
-    PYTHONPATH=. python benchmarks/bc_acceptance.py --drives 200 --eval 20      # the full acceptance
+    PYTHONPATH=. python benchmarks/bc_acceptance.py --drives 200 --eval 20 --history 15   # the full acceptance
     PYTHONPATH=. python benchmarks/bc_acceptance.py --drives 10 --eval 5        # a quick look
 """
 
