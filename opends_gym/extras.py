@@ -22,6 +22,7 @@ EXTRAS: dict[str, tuple[str, tuple[str, ...]]] = {
     "bench": ("the highway-env comparison benchmark", ("highway_env",)),
     "cluster": ("Ray RLlib training", ("ray", "tensorboardX")),
     "study": ("the study runner's table, statistics and report", ("statsmodels", "scipy", "pandas", "pyarrow", "matplotlib")),
+    "data": ("Minari datasets (opends-gym export --minari, train bc)", ("minari",)),
 }
 
 

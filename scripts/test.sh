@@ -4,7 +4,7 @@
 # run pytest.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-source "$ROOT/scripts/_env.sh" "dev,rl,cluster,bullet,report,can,docs,study"
+source "$ROOT/scripts/_env.sh" "dev,rl,cluster,bullet,report,can,docs,study,data"
 cd "$ROOT"
 # The drive-window test (tests/test_human_window.py) runs a real window under Xvfb.
 # Install it once if missing (root, or sudo without a password); quiet, never fatal here.

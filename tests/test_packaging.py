@@ -96,6 +96,8 @@ MISSING = [
     ("rl", "stable_baselines3", ["train", "lct_ppo", "--total-steps", "64"]),
     ("bullet", "pybullet", ["run", "LaneChangeTest", "--physics", "bullet", "--max-seconds", "1"]),
     ("cluster", "ray", ["train", "rllib_ppo", "--total-steps", "64"]),
+    ("data", "minari", ["export", "missing.mcap", "--minari", "test/x"]),
+    ("data", "minari", ["train", "bc", "test/x-v0"]),
     ("can", "cantools", ["drive", "--input", "can-bus:virtual:pkg-missing", "--no-window", "--fast", "--duration", "0.2"]),
 ]
 

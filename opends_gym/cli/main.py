@@ -29,6 +29,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("replay", "opends_gym.cli.replay", "re-simulate a recorded drive and check it is exact"),
     ("analyze", "opends_gym.cli.analyze", "drive measures, CSV and PDF report of a recording or OpenDS carData.txt"),
     ("conform", "opends_gym.cli.conform", "replay a real OpenDS carData.txt open loop through the vehicle model and compare"),
+    ("export", "opends_gym.cli.export", "turn recordings and OpenDS carData.txt logs into a Minari dataset"),
     ("study", "opends_gym.cli.study", "run a study (participants x conditions x tasks) on virtual participants or a person"),
     ("train", "opends_gym.cli.train", "train a baseline policy from a YAML config or a bundled one by name"),
 )

@@ -34,7 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--agent",
         default="rule",
         help="rule (default) | distracted[:LEVEL] | ppo:NAME|PATH | sac:NAME|PATH (NAME: opends-gym list --policies)"
-        " | random | constant[:STEER,PEDAL]",
+        " | bc:FOLDER (opends-gym train bc) | random | constant[:STEER,PEDAL]",
     )
     p.add_argument("--episodes", type=int, default=1)
     p.add_argument("--seed", type=int, default=0)

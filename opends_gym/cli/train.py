@@ -16,15 +16,39 @@ from .run import _parse_value
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("config", help="a training config: a YAML file or a bundled config by name (lct_ppo, ...)")
+    p.add_argument("config", help="a training config: a YAML file or a bundled config by name (lct_ppo, ...), or bc")
+    p.add_argument("dataset", nargs="?", default=None, help="with bc: the Minari dataset to clone (opends-gym export --minari)")
     p.add_argument("--total-steps", type=int, default=None, help="override total_steps")
-    p.add_argument("--output", default=None, help="run folder (default: the config's `output`)")
+    p.add_argument("--output", "--out", default=None, help="run folder (default: the config's `output`; bc: bc-<dataset>)")
+    p.add_argument("--epochs", type=int, default=None, help="with bc: training epochs (default 30)")
+    p.add_argument("--history", type=int, default=1, help="with bc: recent observations the clone sees (default 1)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a top-level config key (repeatable)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--resume", default=None, metavar="RUN_DIR", help="continue a finished run (its model.zip) for --total-steps more")
 
 
+def _train_bc(args: argparse.Namespace) -> int:
+    """`train bc DATASET [--out FOLDER]`: behaviour cloning (opends_gym.data.bc); drive it with --agent bc:FOLDER."""
+    from ..data.bc import BCConfig, train_bc
+
+    if not args.dataset:
+        print("opends-gym train: bc needs a dataset: opends-gym train bc DATASET [--out FOLDER]", file=sys.stderr)
+        return 2
+    config = BCConfig(history=args.history) if args.epochs is None else BCConfig(epochs=args.epochs, history=args.history)
+    out = Path(args.output) if args.output else Path("bc-" + args.dataset.replace("/", "-"))
+    summary = train_bc(args.dataset, out, config)
+    summary.pop("loss_per_epoch")
+    dump_json(summary, sys.stdout, indent=2)
+    print(f"drive it with --agent bc:{out}", file=sys.stderr)
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.config == "bc":
+        return _train_bc(args)
+    if args.dataset is not None:
+        print(f"opends-gym train: unexpected argument {args.dataset!r} (only train bc takes a dataset)", file=sys.stderr)
+        return 2
     from ..resources import ResourceNotFound, resolve_config
     from ..training import load_train_config
 

@@ -1,7 +1,7 @@
 """Agents that `opends-gym run` (and benchmarks) can drive an env with, by spec string.
 
 Why: one place turns `--agent random`, `constant:0,0.5`, `rule`, `distracted:heavy`, `participant:7:cognitive` or
-`ppo:PATH` into an object with `reset(env, seed)` and `act(obs, info)`, so the CLI, the
+`ppo:PATH` or `bc:FOLDER` into an object with `reset(env, seed)` and `act(obs, info)`, so the CLI, the
 benchmarks and the tests run every driver the same way.
 """
 
@@ -97,6 +97,15 @@ def _policy(algorithm: str) -> Callable[[str], Agent]:
     return make
 
 
+def _bc(arg: str) -> Agent:
+    """`bc:NAME`: a behaviour clone saved by `opends-gym train bc` (folder) or bundled by name."""
+    from .bc import BCDriver
+
+    if not arg:
+        raise ValueError("give the saved clone: bc:FOLDER (from opends-gym train bc)")
+    return BCDriver(arg)
+
+
 AGENT_FACTORIES: dict[str, Callable[[str], Agent]] = {
     "random": lambda arg: RandomAgent(),
     "constant": lambda arg: ConstantAgent(tuple(float(v) for v in arg.split(",")) if arg else (0.0, 0.5)),
@@ -105,6 +114,7 @@ AGENT_FACTORIES: dict[str, Callable[[str], Agent]] = {
     "participant": _participant,
     "ppo": _policy("ppo"),
     "sac": _policy("sac"),
+    "bc": _bc,
 }
 
 

@@ -296,11 +296,40 @@ def timeseries_page(a: Analysis) -> Figure:
     return fig
 
 
-def write_report(a: Analysis, pdf_path: str | Path, png: bool = True) -> list[str]:
-    """Write the PDF (and `<stem>_<n>_<page>.png` beside it); returns the page names in order."""
+Percentiles = tuple[str, list[tuple[str, float, float, int, float]]]  # reference, (metric, value, percentile %, n, median)
+
+
+def percentiles_page(a: Analysis, percentiles: Percentiles) -> Figure:
+    """The drive's metrics with their percentile among a reference population (`analyze --against`)."""
+    label, rows = percentiles
+    fig = plt.figure(figsize=A4_LANDSCAPE)
+    fig.text(0.04, 0.95, "Against the virtual population", fontsize=16, weight="bold", va="top")
+    fig.text(0.04, 0.91, label, fontsize=9, va="top", family="monospace")
+    ax = fig.add_axes((0.05, 0.06, 0.9, 0.8))
+    ax.axis("off")
+    cells = [[m, _fmt(v), _fmt(p), _fmt(med), str(n)] for m, v, p, n, med in rows]
+    table = ax.table(
+        cellText=cells,
+        colLabels=["metric", "drive", "percentile %", "population median", "participants"],
+        loc="upper center",
+        cellLoc="left",
+    )
+    table.auto_set_font_size(False)
+    table.set_fontsize(8)
+    for (r, _), cell in table.get_celld().items():
+        if r == 0:
+            cell.set_text_props(weight="bold")
+    return fig
+
+
+def write_report(a: Analysis, pdf_path: str | Path, png: bool = True, percentiles: Percentiles | None = None) -> list[str]:
+    """Write the PDF (and `<stem>_<n>_<page>.png` beside it); returns the page names in order.
+    `percentiles` (from `analyze --against`) adds a page after the summary."""
     out = Path(pdf_path)
     out.parent.mkdir(parents=True, exist_ok=True)
     pages: list[tuple[str, Figure]] = [("summary", summary_page(a))]
+    if percentiles is not None:
+        pages.append(("percentiles", percentiles_page(a, percentiles)))
     if a.drive.reactions:
         pages.append(("reactions", reactions_page(a)))
     pages += [("path" if k == 0 else f"path{k + 1}", f) for k, f in enumerate(path_pages(a))]

@@ -1,0 +1,43 @@
+"""`opends-gym export DRIVES... --minari NAME [--env ENV_ID] [--task TASK]`: drives into a Minari dataset.
+
+DRIVES are MCAP recordings (`run`, `drive`, a study) and OpenDS carData.txt logs; each is driven
+through the env at its policy rate (`opends_gym.data.episodes`) and written with the env spec
+(`opends_gym.data.minari_io`) under MINARI_DATASETS_PATH.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("drives", nargs="+", help="MCAP recordings and/or OpenDS carData.txt logs")
+    p.add_argument("--minari", required=True, metavar="NAME", help="dataset id, [NAMESPACE/]NAME[-vN] (-v0 added)")
+    p.add_argument("--env", default=None, metavar="ENV_ID", help="env of person drives and carData logs (env recordings use their own)")
+    p.add_argument("--task", default=None, help="driving task of carData logs (default: the generic env on their 'Driving Task:')")
+    p.add_argument("--env-arg", action="append", default=[], metavar="KEY=VALUE", help="extra env option (repeatable)")
+    p.add_argument(
+        "--trim-idle", action="store_true", help="person drives and carData logs start at their first gas (not waiting at the start)"
+    )
+    p.add_argument("--author", default=None, help="dataset author (Minari metadata)")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..data.episodes import load_episode
+    from ..data.minari_io import dataset_id, write_dataset
+    from .run import _parse_value
+
+    ident = dataset_id(args.minari)
+    kwargs = {}
+    for item in args.env_arg:
+        key, _, value = item.partition("=")
+        kwargs[key] = _parse_value(value)
+    episodes = []
+    for path in args.drives:
+        ep = load_episode(path, args.env, args.task, kwargs, args.trim_idle)
+        print(f"{path}: {ep.steps} steps ({ep.kind}) on {ep.env_spec.id}", file=sys.stderr)
+        episodes.append(ep)
+    ds = write_dataset(ident, episodes, author=args.author)
+    print(f"wrote Minari dataset {ident}: {ds.total_episodes} episodes, {ds.total_steps} steps")
+    return 0

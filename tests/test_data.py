@@ -1,0 +1,175 @@
+"""Drives as data: Minari export round trip, behaviour cloning, a drive against a population."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import minari
+import numpy as np
+import pytest
+
+from opends_gym.cli.main import main
+
+from .conftest import DRIVES
+
+COUNTRYSIDE = DRIVES / "Countryside"
+SHORT_LOG = DRIVES / "drives" / "2019_01_04-11_26_07" / "carData(3).txt"
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
+    """A 6 s LCT run of the rule driver, recorded, with the metrics `run` printed."""
+    d = tmp_path_factory.mktemp("rec")
+    out = d / "run.json"
+    import contextlib
+    import io
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["run", "--agent", "rule", "--max-seconds", "6", "--seed", "3", "--record", str(d / "lct.mcap"), "--json"]) == 0
+    out.write_text(buf.getvalue())
+    return d / "lct.mcap", json.loads(buf.getvalue())["episodes"][0]
+
+
+@pytest.fixture
+def minari_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
+    return tmp_path / "minari"
+
+
+def test_minari_round_trip_gives_back_the_env_and_the_drive(
+    recording: tuple[Path, dict], minari_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path, run = recording
+    assert main(["export", str(path), "--minari", "test/lct"]) == 0
+    assert "test/lct-v0: 1 episodes, 60 steps" in capsys.readouterr().out
+    ds = minari.load_dataset("test/lct-v0")
+    ep = ds[0]
+    assert ep.actions.shape == (60, 2) and ep.observations.shape[0] == 61
+    assert ep.truncations[-1] and not ep.terminations.any()
+    assert len(ep.infos["speed_kmh"]) == 61
+    meta = next(iter(ds.storage.get_episode_metadata([0])))
+    assert meta["metric/sdlp_m"] == pytest.approx(run["sdlp_m"])
+    # the recovered env is ours and drives the dataset's actions to the dataset's observations and rewards
+    env = ds.recover_environment()
+    assert env.spec.id == "OpenDS/LaneChangeTest-v0"
+    obs, _ = env.reset(seed=3)
+    assert np.array_equal(obs, ep.observations[0])
+    for k, a in enumerate(ep.actions):
+        obs, reward, *_ = env.step(a)
+        assert np.array_equal(obs, ep.observations[k + 1]) and reward == pytest.approx(ep.rewards[k])
+    env.close()
+    # the name is taken now: a second export says so in one line
+    assert main(["export", str(path), "--minari", "test/lct"]) == 2
+    assert "exists already" in capsys.readouterr().err
+
+
+def test_cardata_log_becomes_held_actions_at_the_policy_rate(minari_dir: Path) -> None:
+    from opends_gym.data.episodes import load_episode
+    from opends_gym.data.minari_io import write_dataset
+    from opends_gym.record.conform import Recorded
+
+    ep = load_episode(SHORT_LOG, None, str(COUNTRYSIDE))
+    rec = Recorded(SHORT_LOG)
+    assert ep.kind == "cardata" and ep.env_spec.id == "OpenDS/DrivingTask-v0"
+    for k, a in enumerate(ep.actions):  # the input held at the start of each 0.1 s step
+        row = int(np.searchsorted(rec.sim_t - rec.sim_t[0], k / 10 + 1e-9, side="right")) - 1
+        assert a[0] == pytest.approx(rec.steering[row])
+        assert a[1] == pytest.approx(-rec.brake[row] if rec.brake[row] > 0 else rec.gas[row])
+    trimmed = load_episode(SHORT_LOG, None, str(COUNTRYSIDE), trim_idle=True)  # from the first gas
+    assert trimmed.actions[0][1] > 0 and trimmed.steps < ep.steps
+    ds = write_dataset("test/cs", [ep])
+    assert ds.total_steps == ep.steps
+    assert minari.load_dataset("test/cs-v0").recover_environment().spec.kwargs["task"] == str(COUNTRYSIDE.resolve())
+
+
+def test_behaviour_clone_learns_the_actions_and_drives_as_an_agent(
+    minari_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from opends_gym.data.episodes import collect, make_env
+    from opends_gym.data.minari_io import write_dataset
+    from opends_gym.drivers.agents import make_agent
+
+    env = make_env("OpenDS/LaneChangeTest-v0", {"max_episode_s": 3.0})
+    ds = write_dataset("test/bc", [collect(env, make_agent("constant:0.02,0.7"), seed) for seed in (0, 1)])
+    out = tmp_path / "clone"
+    assert main(["train", "bc", "test/bc-v0", "--out", str(out), "--epochs", "300", "--history", "3"]) == 0
+    assert json.loads(capsys.readouterr().out)["steps"] == ds.total_steps
+    clone = make_agent(f"bc:{out}")
+    obs, info = env.reset(seed=7)  # a new episode: the clone acts as the driver it was cloned from
+    clone.reset(env, 7)
+    for _ in range(10):
+        action = clone.act(obs, info)
+        assert action == pytest.approx([0.02, 0.7], abs=0.1)
+        obs, _, _, _, info = env.step(action)
+    env.close()
+    # the clone is an agent like any other
+    assert main(["run", "--agent", f"bc:{out}", "--max-seconds", "1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["episodes"][0]["steps"] == 10
+
+
+def test_train_bc_without_a_dataset_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["train", "bc"]) == 2
+    assert "bc needs a dataset" in capsys.readouterr().err
+
+
+def test_percentile_rank_is_scipys_mean_kind() -> None:
+    from scipy.stats import percentileofscore
+
+    from opends_gym.data.against import percentile_rank
+
+    pop = [0.1, 0.2, 0.2, 0.3, 0.5]
+    for v in (0.05, 0.2, 0.25, 0.5, 0.9):
+        assert percentile_rank(v, pop) == pytest.approx(percentileofscore(pop, v, kind="mean"))
+
+
+def test_analyze_against_a_study_table(recording: tuple[Path, dict], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path, run = recording
+    table = tmp_path / "table.csv"
+    sdlp = run["sdlp_m"]
+    values = [sdlp * f for f in (0.5, 0.8, 1.2, 1.5)]  # two virtual participants below the drive, two above
+    with table.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["participant", "source", "condition", "task", "trial", "metric", "value"])
+        for i, v in enumerate(values):
+            w.writerow([f"v{i}", "virtual", "baseline", "lct", 0, "sdlp_m", v])
+            w.writerow([f"v{i}", "virtual", "cognitive", "lct", 0, "sdlp_m", 10 * v])
+        w.writerow(["h0", "human", "baseline", "lct", 0, "sdlp_m", 0.0])  # people are not the reference
+    assert main(["analyze", str(path), "--against", str(table), "--json"]) == 0
+    against = json.loads(capsys.readouterr().out)["against"]
+    assert "condition baseline" in against["reference"]
+    row = against["metrics"]["sdlp_m"]
+    assert row["percentile"] == pytest.approx(50.0) and row["n"] == 4
+    assert main(["analyze", str(path), "--against", str(table), "--condition", "cognitive"]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.strip().startswith("sdlp_m") and "%" not in x and len(x.split()) == 5)
+    assert line.split()[2] == "0"  # below every participant under load
+    assert main(["analyze", str(path), "--against", str(table), "--condition", "visual"]) == 2
+    assert "--condition" in capsys.readouterr().err
+
+
+def test_population_spec_errors_are_one_line(recording: tuple[Path, dict], capsys: pytest.CaptureFixture[str]) -> None:
+    path, _ = recording
+    assert main(["analyze", str(path), "--against", "population:x"]) == 2
+    err = capsys.readouterr().err
+    assert "population:N[:LOAD]" in err and len(err.strip().splitlines()) == 1
+
+
+def test_analyze_against_a_simulated_population(recording: tuple[Path, dict], capsys: pytest.CaptureFixture[str]) -> None:
+    from opends_gym.data.against import percentile_rank
+    from opends_gym.data.episodes import make_env
+    from opends_gym.drivers.agents import make_agent
+    from opends_gym.drivers.episodes import run_episode
+
+    path, run = recording
+    assert main(["analyze", str(path), "--against", "population:2", "--json"]) == 0
+    against = json.loads(capsys.readouterr().out)["against"]
+    assert against["reference"] == "2 virtual participants (baseline) on OpenDS/LaneChangeTest-v0"
+    row = against["metrics"]["sdlp_m"]
+    assert row["value"] == pytest.approx(run["sdlp_m"]) and row["n"] == 2
+    # the same participants on the recording's env (its 6 s limit), seeded by their number
+    env = make_env("OpenDS/LaneChangeTest-v0", {"max_episode_s": 6.0})
+    pop = [run_episode(env, make_agent(f"participant:{i}"), i).metrics["sdlp_m"] for i in range(2)]
+    env.close()
+    assert row["percentile"] == pytest.approx(percentile_rank(run["sdlp_m"], pop))
