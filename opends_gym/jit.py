@@ -122,6 +122,8 @@ def _choose_threading_layer() -> None:
 
 
 _choose_threading_layer()
+
+
 def _boxed(value: Any) -> Any:
     """A kernel's result as numba returns it to Python: numpy scalars (what a kernel run as
     Python gives for array elements) as Python's float, int and bool, inside tuples too, so
