@@ -156,7 +156,7 @@ def test_population_spec_errors_are_one_line(recording: tuple[Path, dict], capsy
     assert "population:N[:LOAD]" in err and len(err.strip().splitlines()) == 1
 
 
-def test_analyze_against_a_simulated_population(recording: tuple[Path, dict], capsys: pytest.CaptureFixture[str]) -> None:
+def test_analyze_against_a_simulated_population(recording: tuple[Path, dict], capfd: pytest.CaptureFixture[str]) -> None:
     from opends_gym.data.against import percentile_rank
     from opends_gym.data.episodes import make_env
     from opends_gym.drivers.agents import make_agent
@@ -164,7 +164,7 @@ def test_analyze_against_a_simulated_population(recording: tuple[Path, dict], ca
 
     path, run = recording
     assert main(["analyze", str(path), "--against", "population:2", "--json"]) == 0
-    against = json.loads(capsys.readouterr().out)["against"]
+    against = json.loads(capfd.readouterr().out)["against"]
     assert against["reference"] == "2 virtual participants (baseline) on OpenDS/LaneChangeTest-v0"
     row = against["metrics"]["sdlp_m"]
     assert row["value"] == pytest.approx(run["sdlp_m"]) and row["n"] == 2
