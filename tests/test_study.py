@@ -157,8 +157,9 @@ def test_ray_gives_the_same_table_as_the_process_pool(tiny_runs: tuple[Path, Pat
 def test_the_shipped_example_studies_load_by_name(name: str) -> None:
     study = load_study(name)
     assert study.path.name == f"{name}.yaml" and study.reference == "baseline"
-    loads = {c.load for c in study.conditions}
-    assert loads <= {"baseline", "visual_manual", "cognitive"} and loads <= set(study.stand_in_agents)
+    # every condition is driven by the study's virtual participants, under a load the model has
+    assert [c.load for c in study.conditions] == ["baseline", "visual_manual", "cognitive"]
+    assert study.agent == "participant:{participant}:{load}" and all(c.agent is None for c in study.conditions)
 
 
 def test_on_road_exit_goes_only_to_envs_that_have_the_option(tmp_path: Path) -> None:
