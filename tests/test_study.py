@@ -164,6 +164,7 @@ def test_the_shipped_example_studies_load_by_name(name: str) -> None:
     assert study.agent == "participant:{participant}:{load}"
     assert [c.agent for c in study.conditions if c.agent is not None] == (["rule"] if name == "drivers" else [])
 
+
 def test_on_road_exit_goes_only_to_envs_that_have_the_option(tmp_path: Path) -> None:
     from opends_gym.study.config import env_fields
     from opends_gym.study.design import env_args_for, expand
