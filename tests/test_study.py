@@ -153,12 +153,16 @@ def test_ray_gives_the_same_table_as_the_process_pool(tiny_runs: tuple[Path, Pat
     assert (tmp_path / "ray" / "table.csv").read_bytes() == (tiny_runs[0] / "table.csv").read_bytes()
 
 
-@pytest.mark.parametrize("name", ["lct_load", "brake", "drt"])
+@pytest.mark.parametrize("name", ["lct_load", "brake", "drt", "drivers"])
 def test_the_shipped_example_studies_load_by_name(name: str) -> None:
+    from opends_gym.drivers.population import LOADS
+
     study = load_study(name)
     assert study.path.name == f"{name}.yaml" and study.reference == "baseline"
-    loads = {c.load for c in study.conditions}
-    assert loads <= {"baseline", "visual_manual", "cognitive"} and loads <= set(study.stand_in_agents)
+    # the virtual participants drive under a visual-manual and a cognitive load (the drivers study adds the rule driver)
+    assert {"baseline", "visual_manual", "cognitive"} <= {c.load for c in study.conditions} <= {*LOADS, None}
+    assert study.agent == "participant:{participant}:{load}"
+    assert [c.agent for c in study.conditions if c.agent is not None] == (["rule"] if name == "drivers" else [])
 
 
 def test_on_road_exit_goes_only_to_envs_that_have_the_option(tmp_path: Path) -> None:

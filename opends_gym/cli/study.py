@@ -24,7 +24,8 @@ def positive_int(text: str) -> int:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("study", metavar="STUDY.yaml", help="the study design (docs/studies.md), or a shipped example: lct_load, brake, drt")
+    examples = "lct_load, brake, drt, drivers"
+    p.add_argument("study", metavar="STUDY.yaml", help=f"the study design (docs/studies.md), or a shipped example: {examples}")
     p.add_argument("--out", metavar="DIR", help="results folder (default: ./study-NAME)")
     p.add_argument("--workers", type=positive_int, default=1, help="worker processes for virtual participants (default 1)")
     p.add_argument("--cluster", metavar="ray://HOST:PORT", help="run the virtual participants on this Ray cluster")

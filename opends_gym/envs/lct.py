@@ -222,9 +222,10 @@ class LaneChangeTestEnv(OpenDSEnv):
         g = self.geometry
         d = float(self.world.task.start_pose.position_m[2]) - tr.col("z_m")
         y = tr.col("lateral_m")
+        t, steer = tr.col("t_s"), tr.col("steering") * STEERING_WHEEL_MAX_DEG
         if self.resets:  # score each stretch of road once: the drive up to each exit, not the re-drive after the reset
             first = d >= np.maximum.accumulate(d)
-            d, y = d[first], y[first]
+            d, y, t, steer = d[first], y[first], t[first], steer[first]
         passed = [s for s in self.metric_signs if s.d_m <= d[-1]]
         out: dict[str, float] = {"signs_reached": float(sum(1 for s in self.metric_signs if s.d_m <= self._furthest_m()))}
         fits = fit_lane_changes(d, y, passed, self.lane_laterals, g.visibility_m) if passed else []
@@ -247,8 +248,7 @@ class LaneChangeTestEnv(OpenDSEnv):
         out["lane_change_errors"] = float(len(fits) - correct)
         out["mean_lane_change_latency_s"] = float(np.mean(latencies)) if latencies else math.nan
         if self.config.scoring == "iso26022":  # type: ignore[attr-defined]
-            steer = tr.col("steering") * STEERING_WHEEL_MAX_DEG
-            iso = score_lct_iso(d, tr.col("t_s"), y, steer, passed, self.lane_laterals, self.initial_lane, self.basic, g.visibility_m)
+            iso = score_lct_iso(d, t, y, steer, passed, self.lane_laterals, self.initial_lane, self.basic, g.visibility_m)
             out.update(iso.as_dict())
         return out
 

@@ -8,61 +8,47 @@ every other spec (`distracted:heavy`, `rule`, `ppo:NAME`) is `drivers.agents.mak
 from __future__ import annotations
 
 import functools
-import importlib
 from typing import Any
 
 import gymnasium as gym
 
 from ..drivers.agents import make_agent
-
-POPULATION_MODULE = "opends_gym.drivers.population"
-PARTICIPANT_MODULE = "opends_gym.drivers.participant"
-
-
-def population_available() -> bool:
-    """Whether the virtual participant model (drivers.population / drivers.participant) is installed."""
-    try:
-        importlib.import_module(POPULATION_MODULE)
-        importlib.import_module(PARTICIPANT_MODULE)
-    except ImportError:
-        return False
-    return True
+from ..drivers.participant import ParticipantDriver
+from ..drivers.population import ParticipantParams, sample_population
 
 
 @functools.lru_cache(maxsize=4)
-def population(n: int, seed: int) -> tuple[Any, ...]:
+def population(n: int, seed: int) -> tuple[ParticipantParams, ...]:
     """The study's participants' parameters, drawn once per process (seeded: the same in every worker)."""
-    module = importlib.import_module(POPULATION_MODULE)
-    return tuple(module.sample_population(n, seed))
+    return tuple(sample_population(n, seed))
 
 
 class StudyParticipant:
     """Participant `index` of the study's population under `load`, built per episode (it needs the env)."""
 
-    def __init__(self, params: Any, load: str) -> None:
+    def __init__(self, params: ParticipantParams, load: str) -> None:
         self.params = params
         self.load = load
         self.name = f"participant:{load}"
-        self.driver: Any = None
+        self.driver: ParticipantDriver | None = None
 
     def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
-        cls = importlib.import_module(PARTICIPANT_MODULE).ParticipantDriver
-        self.driver = cls(env, self.params, self.load, seed)
-        if hasattr(self.driver, "reset"):
-            self.driver.reset(env, seed)
+        self.driver = ParticipantDriver(env, self.params, self.load, seed)
+        self.driver.reset(env, seed)
 
     def act(self, obs: Any, info: dict[str, Any]) -> Any:
+        assert self.driver is not None, "reset() first"
         return self.driver.act(obs, info)
+
+    @property
+    def glances(self) -> list[tuple[float, float]] | None:
+        """The driver's off-road glances: `run_episode` turns them into the glance metrics."""
+        return self.driver.glances if self.driver is not None else None
 
 
 def make_trial_agent(spec: str, participants: int, seed: int) -> Any:
-    """`spec` -> agent; `participant:ID[:LOAD]` draws from the study's population when the model is installed."""
+    """`spec` -> agent; `participant:ID[:LOAD]` is participant ID of the study's population."""
     name, _, rest = spec.partition(":")
-    if name == "participant" and not population_available():
-        raise ValueError(
-            "the virtual participant model (opends_gym.drivers.population) is not installed; give the condition an"
-            " 'agent:' or the study 'stand_in_agents:' (e.g. distracted:moderate)"
-        )
     if name == "participant":
         index_text, _, load = rest.partition(":")
         index = int(index_text)

@@ -35,7 +35,6 @@ STUDY_KEYS = (
     "ray",
     "power",
     "bootstrap",
-    "stand_in_agents",
 )
 TASK_KEYS = ("env", "env_args", "metrics", "drt", "max_seconds")
 CONDITION_KEYS = ("load", "agent", "env_args", "drt", "instructions")
@@ -116,7 +115,6 @@ class Study:
     ray: bool
     power: PowerSpec = field(default_factory=PowerSpec)
     bootstrap: int = 2000
-    stand_in_agents: dict[str, str] = field(default_factory=dict)  # load -> agent without the participant model
 
     def condition(self, name: str) -> ConditionSpec:
         return next(c for c in self.conditions if c.name == name)
@@ -225,7 +223,6 @@ def load_study(path: str | Path, participants: int | None = None) -> Study:
         ray=top.get("ray", bool, False),
         power=_power(top),
         bootstrap=_positive(top, "bootstrap", 2000),
-        stand_in_agents=_stand_ins(top, conditions),
     )
 
 
@@ -402,19 +399,3 @@ def _power(top: _Where) -> PowerSpec:
         if not 0.0 < value < 1.0:
             raise where.error(key, f"must be between 0 and 1, not {value}")
     return PowerSpec(target, alpha, _positive(where, "simulations", 1000), _positive(where, "max_n", 500))
-
-
-def _stand_ins(top: _Where, conditions: tuple[ConditionSpec, ...]) -> dict[str, str]:
-    """`stand_in_agents: {LOAD: SPEC}`: who drives a load while the participant model is not installed."""
-    node = top.get("stand_in_agents", dict, None)
-    if node is None:
-        return {}
-    where = top.child("stand_in_agents")
-    loads = sorted({c.load for c in conditions if c.load is not None})
-    for load, spec in node.items():
-        if load not in loads:
-            raise where.error(str(load), f"no condition has this load{_hint(str(load), loads)} (loads: {', '.join(loads)})")
-        if not isinstance(spec, str):
-            raise where.error(str(load), f"expected an agent spec such as distracted:moderate, not {spec!r}")
-        _check_agent(where, str(load), spec)
-    return {str(k): str(v) for k, v in node.items()}

@@ -59,11 +59,6 @@ def env_args_for(study: Study, task: TaskSpec, condition: ConditionSpec, accepte
 
 def agent_spec(study: Study, condition: ConditionSpec, task: TaskSpec, participant: int) -> str:
     template = condition.agent or study.agent
-    if template.startswith("participant") and condition.load in study.stand_in_agents:
-        from .agents import population_available
-
-        if not population_available():
-            template = study.stand_in_agents[condition.load]
     return template.format(participant=participant, load=condition.load or "", condition=condition.name, task=task.name).rstrip(":")
 
 

@@ -86,10 +86,10 @@ def _cell(v: Any) -> Any:
 
 
 def _write_participants(study: Study, out: Path) -> None:
-    """The drawn parameters of each virtual participant (only with the participant model)."""
-    from .agents import population, population_available
+    """The drawn parameters of each virtual participant (when a condition uses the participant model)."""
+    from .agents import population
 
-    if not population_available() or not any("participant" in (c.agent or study.agent) for c in study.conditions):
+    if not any("participant" in (c.agent or study.agent) for c in study.conditions):
         return
     params = population(study.participants, study.seed)
     rows = [{"participant": participant_label(k), **_fields(p)} for k, p in enumerate(params)]
