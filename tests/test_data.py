@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import io
 import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import minari
@@ -14,6 +19,7 @@ from opends_gym.cli.main import main
 
 from .conftest import DRIVES
 
+ROOT = Path(__file__).resolve().parents[1]
 COUNTRYSIDE = DRIVES / "Countryside"
 SHORT_LOG = DRIVES / "drives" / "2019_01_04-11_26_07" / "carData(3).txt"
 
@@ -23,9 +29,6 @@ def recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
     """A 6 s LCT run of the rule driver, recorded, with the metrics `run` printed."""
     d = tmp_path_factory.mktemp("rec")
     out = d / "run.json"
-    import contextlib
-    import io
-
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
         assert main(["run", "--agent", "rule", "--max-seconds", "6", "--seed", "3", "--record", str(d / "lct.mcap"), "--json"]) == 0
@@ -149,22 +152,32 @@ def test_analyze_against_a_study_table(recording: tuple[Path, dict], tmp_path: P
     assert "--condition" in capsys.readouterr().err
 
 
-def test_population_spec_errors_are_one_line(recording: tuple[Path, dict], capsys: pytest.CaptureFixture[str]) -> None:
+def _main_output(argv: list[str]) -> tuple[int, str, str]:
+    """`opends-gym ARGV`'s exit code, stdout and stderr, run in its own process: in-process,
+    its output once reached pytest's global capture instead of capsys, capfd or a redirect
+    (in a full parallel run on a fresh clone), so the assertions read an empty string."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.run([sys.executable, "-m", "opends_gym.cli.main", *argv], capture_output=True, text=True, env=env, timeout=600)
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+def test_population_spec_errors_are_one_line(recording: tuple[Path, dict]) -> None:
     path, _ = recording
-    assert main(["analyze", str(path), "--against", "population:x"]) == 2
-    err = capsys.readouterr().err
+    code, _, err = _main_output(["analyze", str(path), "--against", "population:x"])
+    assert code == 2
     assert "population:N[:LOAD]" in err and len(err.strip().splitlines()) == 1
 
 
-def test_analyze_against_a_simulated_population(recording: tuple[Path, dict], capfd: pytest.CaptureFixture[str]) -> None:
+def test_analyze_against_a_simulated_population(recording: tuple[Path, dict]) -> None:
     from opends_gym.data.against import percentile_rank
     from opends_gym.data.episodes import make_env
     from opends_gym.drivers.agents import make_agent
     from opends_gym.drivers.episodes import run_episode
 
     path, run = recording
-    assert main(["analyze", str(path), "--against", "population:2", "--json"]) == 0
-    against = json.loads(capfd.readouterr().out)["against"]
+    code, out, _ = _main_output(["analyze", str(path), "--against", "population:2", "--json"])
+    assert code == 0
+    against = json.loads(out)["against"]
     assert against["reference"] == "2 virtual participants (baseline) on OpenDS/LaneChangeTest-v0"
     row = against["metrics"]["sdlp_m"]
     assert row["value"] == pytest.approx(run["sdlp_m"]) and row["n"] == 2
