@@ -42,12 +42,11 @@ def minari_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return tmp_path / "minari"
 
 
-def test_minari_round_trip_gives_back_the_env_and_the_drive(
-    recording: tuple[Path, dict], minari_dir: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def test_minari_round_trip_gives_back_the_env_and_the_drive(recording: tuple[Path, dict], minari_dir: Path) -> None:
     path, run = recording
-    assert main(["export", str(path), "--minari", "test/lct"]) == 0
-    assert "test/lct-v0: 1 episodes, 60 steps" in capsys.readouterr().out
+    code, out, err = _main_output(["export", str(path), "--minari", "test/lct"])
+    assert code == 0
+    assert "test/lct-v0: 1 episodes, 60 steps" in out
     ds = minari.load_dataset("test/lct-v0")
     ep = ds[0]
     assert ep.actions.shape == (60, 2) and ep.observations.shape[0] == 61
@@ -65,8 +64,9 @@ def test_minari_round_trip_gives_back_the_env_and_the_drive(
         assert np.array_equal(obs, ep.observations[k + 1]) and reward == pytest.approx(ep.rewards[k])
     env.close()
     # the name is taken now: a second export says so in one line
-    assert main(["export", str(path), "--minari", "test/lct"]) == 2
-    assert "exists already" in capsys.readouterr().err
+    code, out, err = _main_output(["export", str(path), "--minari", "test/lct"])
+    assert code == 2
+    assert "exists already" in err
 
 
 def test_cardata_log_becomes_held_actions_at_the_policy_rate(minari_dir: Path) -> None:
@@ -88,19 +88,18 @@ def test_cardata_log_becomes_held_actions_at_the_policy_rate(minari_dir: Path) -
     assert minari.load_dataset("test/cs-v0").recover_environment().spec.kwargs["task"] == str(COUNTRYSIDE.resolve())
 
 
-def test_behaviour_clone_learns_the_actions_and_drives_as_an_agent(
-    minari_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def test_behaviour_clone_learns_the_actions_and_drives_as_an_agent(minari_dir: Path, tmp_path: Path) -> None:
     from opends_gym.data.episodes import collect, make_env
     from opends_gym.data.minari_io import write_dataset
     from opends_gym.drivers.agents import make_agent
 
     env = make_env("OpenDS/LaneChangeTest-v0", {"max_episode_s": 3.0})
     ds = write_dataset("test/bc", [collect(env, make_agent("constant:0.02,0.7"), seed) for seed in (0, 1)])
-    out = tmp_path / "clone"
-    assert main(["train", "bc", "test/bc-v0", "--out", str(out), "--epochs", "300", "--history", "3"]) == 0
-    assert json.loads(capsys.readouterr().out)["steps"] == ds.total_steps
-    clone = make_agent(f"bc:{out}")
+    folder = tmp_path / "clone"
+    code, out, _ = _main_output(["train", "bc", "test/bc-v0", "--out", str(folder), "--epochs", "300", "--history", "3"])
+    assert code == 0
+    assert json.loads(out)["steps"] == ds.total_steps
+    clone = make_agent(f"bc:{folder}")
     obs, info = env.reset(seed=7)  # a new episode: the clone acts as the driver it was cloned from
     clone.reset(env, 7)
     for _ in range(10):
@@ -109,13 +108,15 @@ def test_behaviour_clone_learns_the_actions_and_drives_as_an_agent(
         obs, _, _, _, info = env.step(action)
     env.close()
     # the clone is an agent like any other
-    assert main(["run", "--agent", f"bc:{out}", "--max-seconds", "1", "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["episodes"][0]["steps"] == 10
+    code, out, _ = _main_output(["run", "--agent", f"bc:{folder}", "--max-seconds", "1", "--json"])
+    assert code == 0
+    assert json.loads(out)["episodes"][0]["steps"] == 10
 
 
-def test_train_bc_without_a_dataset_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["train", "bc"]) == 2
-    assert "bc needs a dataset" in capsys.readouterr().err
+def test_train_bc_without_a_dataset_is_one_line() -> None:
+    code, _, err = _main_output(["train", "bc"])
+    assert code == 2
+    assert "bc needs a dataset" in err
 
 
 def test_percentile_rank_is_scipys_mean_kind() -> None:
@@ -128,7 +129,7 @@ def test_percentile_rank_is_scipys_mean_kind() -> None:
         assert percentile_rank(v, pop) == pytest.approx(percentileofscore(pop, v, kind="mean"))
 
 
-def test_analyze_against_a_study_table(recording: tuple[Path, dict], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_analyze_against_a_study_table(recording: tuple[Path, dict], tmp_path: Path) -> None:
     path, run = recording
     table = tmp_path / "table.csv"
     sdlp = run["sdlp_m"]
@@ -140,16 +141,19 @@ def test_analyze_against_a_study_table(recording: tuple[Path, dict], tmp_path: P
             w.writerow([f"v{i}", "virtual", "baseline", "lct", 0, "sdlp_m", v])
             w.writerow([f"v{i}", "virtual", "cognitive", "lct", 0, "sdlp_m", 10 * v])
         w.writerow(["h0", "human", "baseline", "lct", 0, "sdlp_m", 0.0])  # people are not the reference
-    assert main(["analyze", str(path), "--against", str(table), "--json"]) == 0
-    against = json.loads(capsys.readouterr().out)["against"]
+    code, out, err = _main_output(["analyze", str(path), "--against", str(table), "--json"])
+    assert code == 0
+    against = json.loads(out)["against"]
     assert "condition baseline" in against["reference"]
     row = against["metrics"]["sdlp_m"]
     assert row["percentile"] == pytest.approx(50.0) and row["n"] == 4
-    assert main(["analyze", str(path), "--against", str(table), "--condition", "cognitive"]) == 0
-    line = next(x for x in capsys.readouterr().out.splitlines() if x.strip().startswith("sdlp_m") and "%" not in x and len(x.split()) == 5)
+    code, out, err = _main_output(["analyze", str(path), "--against", str(table), "--condition", "cognitive"])
+    assert code == 0
+    line = next(x for x in out.splitlines() if x.strip().startswith("sdlp_m") and "%" not in x and len(x.split()) == 5)
     assert line.split()[2] == "0"  # below every participant under load
-    assert main(["analyze", str(path), "--against", str(table), "--condition", "visual"]) == 2
-    assert "--condition" in capsys.readouterr().err
+    code, out, err = _main_output(["analyze", str(path), "--against", str(table), "--condition", "visual"])
+    assert code == 2
+    assert "--condition" in err
 
 
 def _main_output(argv: list[str]) -> tuple[int, str, str]:
