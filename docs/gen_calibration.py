@@ -15,30 +15,11 @@ import sys
 from pathlib import Path
 
 import opends_gym  # noqa: F401
-from opends_gym.drivers.calibration import Comparison, effect, level, literature, runs
+from opends_gym.drivers.calibration import RUN_CHECKS, Comparison, effect, level, literature, runs
 from opends_gym.drivers.population import DISTRIBUTIONS, LOADS, sample_population
 
 ROOT = Path(__file__).resolve().parent
-CHECKS = {
-    "drt_rt_baseline": ("lct", "drt_mean_rt_s", None),
-    "drt_hit_baseline": ("lct", "drt_hit_rate", None),
-    "drt_rt_cognitive": ("lct", "drt_mean_rt_s", "cognitive"),
-    "drt_hit_cognitive": ("lct", "drt_hit_rate", "cognitive"),
-    "drt_rt_tactile_visual_manual": ("lct", "drt_mean_rt_s", "visual_manual"),
-    "drt_hit_visual_visual_manual": ("lct_visual_drt", "drt_hit_rate", "visual_manual"),
-    "brake_rt_expected": ("brake_expected", "brake_rt_s", None),
-    "brake_rt_unexpected": ("brake_unexpected", "brake_rt_s", None),
-    "brake_rt_cognitive": ("brake_expected", "brake_rt_s", "cognitive"),
-    "sdlp_baseline": ("platoon", "sdlp_m", None),
-    "sdlp_visual_manual": ("platoon", "sdlp_m", "visual_manual"),
-    "sdlp_cognitive": ("platoon", "sdlp_m", "cognitive"),
-    "mdev_baseline": ("lct", "mdev_basic_m", None),
-    "mdev_visual_manual": ("lct", "mdev_basic_m", "visual_manual"),
-    "mdev_cognitive": ("lct", "mdev_basic_m", "cognitive"),
-    "time_headway": ("platoon", "time_headway_s", None),
-    "lane_change_duration": ("lane_change", "lane_change_s", None),
-    "glance_duration": ("lct", "glance_s", "visual_manual"),
-}
+CHECKS = {**RUN_CHECKS, "glance_duration": ("lct", "glance_s", "visual_manual")}
 PLAN = {
     "lct": LOADS,
     "lct_visual_drt": ("baseline", "visual_manual"),

@@ -157,6 +157,29 @@ def _lct_read(env: gym.Env[Any, Any], m: dict[str, Any], agent: ParticipantDrive
     return out
 
 
+# literature row -> (run of `runs`, measure, loaded condition or None for a level): the rows
+# the tests and docs/gen_calibration.py compare one measure of one run for
+RUN_CHECKS: dict[str, tuple[str, str, str | None]] = {
+    "drt_rt_baseline": ("lct", "drt_mean_rt_s", None),
+    "drt_hit_baseline": ("lct", "drt_hit_rate", None),
+    "drt_rt_cognitive": ("lct", "drt_mean_rt_s", "cognitive"),
+    "drt_hit_cognitive": ("lct", "drt_hit_rate", "cognitive"),
+    "drt_rt_tactile_visual_manual": ("lct", "drt_mean_rt_s", "visual_manual"),
+    "drt_hit_visual_visual_manual": ("lct_visual_drt", "drt_hit_rate", "visual_manual"),
+    "brake_rt_expected": ("brake_expected", "brake_rt_s", None),
+    "brake_rt_unexpected": ("brake_unexpected", "brake_rt_s", None),
+    "brake_rt_cognitive": ("brake_expected", "brake_rt_s", "cognitive"),
+    "sdlp_baseline": ("platoon", "sdlp_m", None),
+    "sdlp_visual_manual": ("platoon", "sdlp_m", "visual_manual"),
+    "sdlp_cognitive": ("platoon", "sdlp_m", "cognitive"),
+    "mdev_baseline": ("lct", "mdev_basic_m", None),
+    "mdev_visual_manual": ("lct", "mdev_basic_m", "visual_manual"),
+    "mdev_cognitive": ("lct", "mdev_basic_m", "cognitive"),
+    "time_headway": ("platoon", "time_headway_s", None),
+    "lane_change_duration": ("lane_change", "lane_change_s", None),
+}
+
+
 def runs(short: bool = False) -> dict[str, Run]:
     """Calibration runs by name, each giving per participant a dict of measures; `short`
     runs shorter tasks (for the tests)."""

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..sim.guide import RoadGuide
 from ..sim.world import World
-from .messages import stamp, zup_position, zup_yaw_quaternion
+from .messages import scene_entity, stamp, zup_position, zup_yaw_quaternion
 from .schemas import EGO_FRAME, FRAME_ID
 
 ROAD_RGBA = (0.35, 0.35, 0.37, 1.0)
@@ -37,25 +37,6 @@ LINE_WIDTH_M = 0.15  # painted line width (the renderer's markings)
 STEP_M = 5.0  # route polylines are resampled this finely
 LINE_LIST = 2  # foxglove.LinePrimitive type
 IMAGE_FORMATS = ("png", "jpeg")
-
-
-def _empty_entity(t_s: float, eid: str) -> dict[str, Any]:
-    return {
-        "timestamp": stamp(t_s),
-        "frame_id": FRAME_ID,
-        "id": eid,
-        "lifetime": {"sec": 0, "nsec": 0},
-        "frame_locked": False,
-        "metadata": [{"key": "kind", "value": "road"}],
-        "arrows": [],
-        "cubes": [],
-        "spheres": [],
-        "cylinders": [],
-        "lines": [],
-        "triangles": [],
-        "texts": [],
-        "models": [],
-    }
 
 
 def _identity_pose() -> dict[str, Any]:
@@ -101,13 +82,13 @@ def road_scene(world: World, guide: RoadGuide) -> dict[str, Any]:
         return update
     lines, (a, b) = geometry
     y = float(world.start_pose.position_m[1])
-    surface = _empty_entity(t, "road/surface")
+    surface = scene_entity(t, "road/surface", "road")
     tri: list[dict[str, float]] = []
     for k in range(len(a) - 1):  # two triangles per segment between the edges
         p0, p1, q0, q1 = (zup_position(float(p[0]), y, float(p[1])) for p in (a[k], a[k + 1], b[k], b[k + 1]))
         tri += [p0, q0, p1, p1, q0, q1]
     surface["triangles"] = [{"pose": _identity_pose(), "points": tri, "color": _rgba(ROAD_RGBA), "colors": [], "indices": []}]
-    marks = _empty_entity(t, "road/lane_lines")
+    marks = scene_entity(t, "road/lane_lines", "road")
     pts: list[dict[str, float]] = []
     for line in lines:
         for k in range(len(line) - 1):

@@ -284,32 +284,34 @@ def foxglove_pose(world: World) -> dict[str, Any]:
     }
 
 
-def _entity(
-    t_s: float, eid: str, x: float, y: float, z: float, yaw: float, size: tuple[float, float, float], rgba: tuple[float, ...], kind: str
-) -> dict[str, Any]:
-    return {
+def scene_entity(t_s: float, eid: str, kind: str, **primitives: list[dict[str, Any]]) -> dict[str, Any]:
+    """A `foxglove.SceneEntity` in the world frame, tagged with its `kind`: every primitive
+    list the schema has is present (empty unless given, e.g. `cubes=[...]`)."""
+    entity: dict[str, Any] = {
         "timestamp": stamp(t_s),
         "frame_id": FRAME_ID,
         "id": eid,
         "lifetime": {"sec": 0, "nsec": 0},
         "frame_locked": False,
         "metadata": [{"key": "kind", "value": kind}],
-        "arrows": [],
-        "cubes": [
-            {
-                "pose": {"position": zup_position(x, y, z), "orientation": zup_yaw_quaternion(yaw)},
-                # OpenDS half extents are (x across, y up, z along) -> Z-up (along, across, up)
-                "size": {"x": size[2], "y": size[0], "z": size[1]},
-                "color": dict(zip("rgba", rgba)),
-            }
-        ],
-        "spheres": [],
-        "cylinders": [],
-        "lines": [],
-        "triangles": [],
-        "texts": [],
-        "models": [],
     }
+    for name in ("arrows", "cubes", "spheres", "cylinders", "lines", "triangles", "texts", "models"):
+        entity[name] = primitives.pop(name, [])
+    if primitives:
+        raise TypeError(f"no SceneEntity primitive list {sorted(primitives)}")
+    return entity
+
+
+def _entity(
+    t_s: float, eid: str, x: float, y: float, z: float, yaw: float, size: tuple[float, float, float], rgba: tuple[float, ...], kind: str
+) -> dict[str, Any]:
+    cube = {
+        "pose": {"position": zup_position(x, y, z), "orientation": zup_yaw_quaternion(yaw)},
+        # OpenDS half extents are (x across, y up, z along) -> Z-up (along, across, up)
+        "size": {"x": size[2], "y": size[0], "z": size[1]},
+        "color": dict(zip("rgba", rgba)),
+    }
+    return scene_entity(t_s, eid, kind, cubes=[cube])
 
 
 _KIND_RGBA = {
