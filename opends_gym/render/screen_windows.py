@@ -15,6 +15,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from . import _pg
+from .window import pump_pygame
 
 
 class ScreenWindows:
@@ -62,13 +63,8 @@ class ScreenWindows:
 
     def pump(self) -> list[Any]:
         """Events of all the windows (a close request on any of them is noted)."""
-        pg = _pg.pygame()
-        self._events = pg.event.get()
-        for e in self._events:
-            if e.type in (pg.QUIT, pg.WINDOWCLOSE):
-                self.closed_by_user = True
-            if self.on_event is not None:
-                self.on_event(e)
+        self._events, closed = pump_pygame(self.on_event, ("QUIT", "WINDOWCLOSE"))
+        self.closed_by_user |= closed
         return list(self._events)
 
     def events(self) -> list[Any]:

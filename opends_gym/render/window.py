@@ -17,6 +17,18 @@ import numpy as np
 from . import _pg
 
 
+def pump_pygame(on_event: Callable[[Any], None] | None, close_types: tuple[str, ...]) -> tuple[list[Any], bool]:
+    """pygame's pending events, each passed to `on_event`; and whether one of them (of the
+    pygame event types named) asks to close the window."""
+    pg = _pg.pygame()
+    closing = {getattr(pg, name) for name in close_types}
+    events = pg.event.get()
+    for e in events:
+        if on_event is not None:
+            on_event(e)
+    return events, any(e.type in closing for e in events)
+
+
 class FrameWindow:
     """A window of `width` x `height` pixels. Frames of another size are scaled to fit."""
 
@@ -62,13 +74,8 @@ class FrameWindow:
 
     def pump(self) -> list[Any]:
         """Read the window's pending events (also kept for `events()`); a close request is noted."""
-        pg = _pg.pygame()
-        self._events = pg.event.get()
-        for e in self._events:
-            if e.type == pg.QUIT:
-                self.closed_by_user = True
-            if self.on_event is not None:
-                self.on_event(e)
+        self._events, closed = pump_pygame(self.on_event, ("QUIT",))
+        self.closed_by_user |= closed
         return list(self._events)
 
     def events(self) -> list[Any]:
