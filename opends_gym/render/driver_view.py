@@ -24,7 +24,7 @@ from . import _pg, meshes
 from .camera import OPENDS_FAR_M, OPENDS_VFOV_DEG, Camera
 from .engine import Offscreen, panda
 from .night import DARK_BELOW, darken, daylight
-from .stage import CARD_BIT0, DEPTH_BIT, INSIDE_BIT, ORDER_SKY, OUTSIDE_BIT, Stage
+from .stage import CARD_BIT0, DEPTH_BIT, DETAIL_BIT, DETAIL_FOCAL_PX, INSIDE_BIT, ORDER_SKY, OUTSIDE_BIT, Stage
 from .weather import Fog, Precipitation, fog_for, weather_of
 
 CAMERA_MODES = ("ego", "chase", "static_back", "top", "outside")
@@ -258,7 +258,10 @@ class DriverViewRenderer:
             lens.setFilmSize(w, h)
             lens.setFocalLength(focal)
             lens.setNearFar(cam.near, cam.far)
-            node.node().setCameraMask(p3d.BitMask32.bit(INSIDE_BIT if inside else OUTSIDE_BIT) | p3d.BitMask32.bit(CARD_BIT0 + k))
+            mask = p3d.BitMask32.bit(INSIDE_BIT if inside else OUTSIDE_BIT) | p3d.BitMask32.bit(CARD_BIT0 + k)
+            if focal >= DETAIL_FOCAL_PX:
+                mask |= p3d.BitMask32.bit(DETAIL_BIT)
+            node.node().setCameraMask(mask)
             self._lens_keys[k] = lens_key
         node.setPosHprScale(
             cam.x, -cam.z, cam.y, math.degrees(cam.yaw), math.degrees(cam.pitch), 0.0, -1.0 if cam.mirror else 1.0, 1.0, 1.0

@@ -189,17 +189,15 @@ def textured_board_node(name: str, hx: float, y0: float, y1: float, hz: float, t
     return np_
 
 
-def background_rows(height: int, focal_px: float, pitch: float, eye_height_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """Screen rows (from the top, pixels) and their sky or grass colour for a camera at `pitch`
-    looking over flat ground `eye_height_m` below: the sky blends from the horizon colour to the
-    zenith by elevation, the grass from near to far by the ground's distance (400 m)."""
+BACKGROUND_TOL = 1.0  # colour levels: the card's rows are as few as keep its gradients this close to exact
+
+
+def background_colors(rows: np.ndarray, height: int, focal_px: float, pitch: float, eye_height_m: float) -> np.ndarray:
+    """The sky or grass colour (float RGB) at screen rows (from the top, pixels) for a camera at
+    `pitch` looking over flat ground `eye_height_m` below: the sky blends from the horizon colour
+    to the zenith by elevation, the grass from near to far by the ground's distance (400 m)."""
     from . import palette as pal
 
-    horizon = 0.5 * height + focal_px * math.tan(pitch) if abs(pitch) < 1.5 else (-1e9 if pitch < 0 else 1e9)
-    rows = np.unique(np.concatenate([np.linspace(0.0, height, 25), [0.0, height]]))
-    rows = rows[(rows < horizon - 0.5) | (rows > horizon + 0.5)]
-    if 0.0 < horizon < height:
-        rows = np.sort(np.concatenate([rows, [horizon - 1e-3, horizon + 1e-3]]))
     a = (0.5 * height - rows) / focal_px
     dy = math.sin(pitch) + a * math.cos(pitch)  # world-up part of each row's ray
     with np.errstate(divide="ignore"):
@@ -209,7 +207,48 @@ def background_rows(height: int, focal_px: float, pitch: float, eye_height_m: fl
     ground = np.asarray(pal.GRASS, float) * (1 - t_far) + np.asarray(pal.GRASS_FAR, float) * t_far
     elev = np.clip((np.arctan(a) + pitch) / 0.6, 0.0, 1.0)[:, None]
     sky_col = np.asarray(pal.SKY_HORIZON, float) * (1 - elev) + np.asarray(pal.SKY_ZENITH, float) * elev
-    return rows, np.where(sky[:, None], sky_col, ground)
+    return np.where(sky[:, None], sky_col, ground)
+
+
+def _knots(y: np.ndarray, col: np.ndarray, tol: float) -> list[int]:
+    """Indices into the fine samples `y` whose piecewise-linear interpolation of `col` stays
+    within `tol` of every sample (greedy: each piece as long as a binary search finds)."""
+
+    def fits(i: int, j: int) -> bool:
+        t = ((y[i : j + 1] - y[i]) / (y[j] - y[i]))[:, None]
+        return bool(np.abs(col[i] + t * (col[j] - col[i]) - col[i : j + 1]).max() <= tol)
+
+    out, i, n = [0], 0, len(y)
+    while i < n - 1:
+        lo, hi = i + 1, n - 1
+        if not fits(i, hi):
+            while hi - lo > 1:  # fits(i, lo) holds, fits(i, hi) does not
+                mid = (lo + hi) // 2
+                lo, hi = (mid, hi) if fits(i, mid) else (lo, mid)
+            hi = lo
+        out.append(hi)
+        i = hi
+    return out
+
+
+def background_rows(height: int, focal_px: float, pitch: float, eye_height_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Screen rows (from the top, pixels) and their colour (`background_colors`) for a card that
+    Gouraud-shades between them: a sharp edge at the horizon, and on either side only as many
+    rows as keep the linear blend within BACKGROUND_TOL levels of the exact colour at every half
+    pixel (each row is two triangles, and on the software pipe a triangle costs as much as a
+    few hundred pixels: 84x84 needs about 10 rows, not one every 3 pixels)."""
+    horizon = 0.5 * height + focal_px * math.tan(pitch) if abs(pitch) < 1.5 else (-1e9 if pitch < 0 else 1e9)
+    edges = [0.0, float(height)]
+    if 0.0 < horizon < height:
+        edges = [0.0, horizon - 1e-3, horizon + 1e-3, float(height)]
+    rows, cols = [], []
+    for a, b in zip(edges[0::2], edges[1::2]):
+        y = np.unique(np.concatenate([np.arange(a, b, 0.5), [b]]))
+        col = background_colors(y, height, focal_px, pitch, eye_height_m)
+        k = _knots(y, col, BACKGROUND_TOL) if len(y) > 1 else [0]
+        rows.append(y[k])
+        cols.append(col[k])
+    return np.concatenate(rows), np.concatenate(cols)
 
 
 def background_node(name: str, width: int, height: int, focal_px: float, pitch: float, eye_height_m: float, dist: float) -> Any:

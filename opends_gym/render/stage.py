@@ -38,14 +38,20 @@ BAND_HALF_LENGTH_M = 1080.0  # the LCT's endless straight lanes: a 2 km piece th
 # period of the middle), so a camera looking ahead culls the 1 km behind it whole instead of
 # clipping it triangle by triangle (15 of 75 us of an 84x84 frame on the software pipe)
 BAND_CELLS_M = (-24.0, 24.0)
+# paint further than this along the band is left out of small frames: at 84x84 (focal 87 px) a
+# 15 cm line there is 0.14 px wide and a 6 m dash 0.07 px tall, so it only ever lit a pixel by
+# aliasing, yet its triangles cost 11 of 70 us of the frame on the software pipe
+FAR_PAINT_M = 96.0
+DETAIL_FOCAL_PX = 160.0  # cameras with at least this focal length (a line there 1/4 px wide) draw the far paint
 BURIED_TRAFFIC_M = 5.0  # traffic parked this far below the ego is not drawn (init_drive parks pedestrians at -50 m)
 SUN_DIR = (-0.45, -0.38, -0.8)  # Panda3D (x, y, z) direction the sunlight travels
 ORDER_SKY, ORDER_GRASS, ORDER_ROAD, ORDER_MARK, ORDER_TRACK = 0, 1, 2, 3, 4
 # camera masks (a node shows to a camera that has one of the node's shown bits): the ego shows to
 # cameras outside it and to the map, the grass disc only to the fog's depth pass, map symbols
-# (wide lines, ideal tracks, lamps seen from above, traffic-light discs) only to the map, and
-# camera k's background card only to camera k
-INSIDE_BIT, OUTSIDE_BIT, DEPTH_BIT, MAP_BIT, CARD_BIT0 = 1, 2, 3, 4, 8
+# (wide lines, ideal tracks, lamps seen from above, traffic-light discs) only to the map,
+# camera k's background card only to camera k, and the far paint (FAR_PAINT_M) only to cameras
+# with DETAIL_BIT (large frames), the map and the depth pass
+INSIDE_BIT, OUTSIDE_BIT, DEPTH_BIT, MAP_BIT, DETAIL_BIT, CARD_BIT0 = 1, 2, 3, 4, 5, 8
 MAP_LINE_PX = 1.2
 GROUND_CELL_M = 250.0  # map lines are at least this wide (thinner ones would miss pixel centres)
 LIGHT_DISC_M = 0.6
@@ -211,7 +217,11 @@ class Stage:
             q = meshes.line_quads_xz(self.band_lines, MARK_HALF_W_M)
             asphalt = np.tile(np.asarray(pal.ASPHALT, np.float32), (len(quad), 1))
             self._ground_cells("band", [(quad, asphalt)], self.bands, ORDER_ROAD, splits=BAND_CELLS_M)
-            self._ground_cells("band-paint", [(q, np.tile(white, (len(q), 1)))], self.bands, ORDER_MARK, splits=BAND_CELLS_M)
+            paint_splits = (-FAR_PAINT_M, *BAND_CELLS_M, FAR_PAINT_M)
+            cells = self._ground_cells("band-paint", [(q, np.tile(white, (len(q), 1)))], self.bands, ORDER_MARK, splits=paint_splits)
+            for cell, node in cells:
+                if cell in (0, len(paint_splits)):  # beyond FAR_PAINT_M, ahead or behind
+                    only_for(node, DETAIL_BIT, MAP_BIT, DEPTH_BIT)
 
     def _ground_cells(
         self,
@@ -221,12 +231,12 @@ class Stage:
         order: int,
         cell_m: float = GROUND_CELL_M,
         splits: Sequence[float] | None = None,
-    ) -> None:
+    ) -> list[tuple[int, Any]]:
         """One mesh per `cell_m` square (or, given `splits`, per slice along Z between them) of a
         ground layer: few meshes to draw, and Panda3D culls the cells out of view. Quads keep
-        their order inside a cell."""
+        their order inside a cell. Returns (cell index along Z, node) per mesh."""
         if not layers:
-            return
+            return []
         quads = np.concatenate([q for q, _ in layers]).astype(np.float32)
         colors = np.concatenate([c for _, c in layers])
         centre = quads.mean(axis=1)
@@ -238,8 +248,11 @@ class Stage:
         idx = np.argsort(key, kind="stable")
         key, quads, colors = key[idx], quads[idx], colors[idx]
         starts = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
+        out = []
         for a, b in zip(starts, [*starts[1:], len(key)]):
-            self._ground_layer(meshes.flat_quads_node(name, quads[a:b], colors[a:b]), order, parent=parent)
+            node = self._ground_layer(meshes.flat_quads_node(name, quads[a:b], colors[a:b]), order, parent=parent)
+            out.append((int(key[a] % 1_000_003), node))
+        return out
 
     def map_symbols(self, scale_px_per_m: float, ideal_tracks: bool) -> None:
         """(Re)build the map's wide lane lines and ideal tracks for a scale (at least `MAP_LINE_PX` wide)."""
@@ -439,8 +452,10 @@ class CarNode:
         )
         self.np = parent.attachNewNode(meshes.boxes_node("car", (*parts, *wheels), bottom=True))
         lamp_y = 0.45 * height
-        brake = [(s * (hx - 0.3), lamp_y, hz + 0.04, 0.0, 1.0, 0.2, 0.08) for s in (-1.0, 1.0)]
-        head = [(s * (hx - 0.3), lamp_y, -hz - 0.04, 0.0, -1.0, 0.2, 0.08) for s in (-1.0, 1.0)]
+        # brake and head lamps end 1 cm short of the turn signals at the corners: overlapping lamps in one
+        # plane z-fought, and which one won changed with the order Panda3D happened to sort their states
+        brake = [(s * (hx - 0.31), lamp_y, hz + 0.04, 0.0, 1.0, 0.18, 0.08) for s in (-1.0, 1.0)]
+        head = [(s * (hx - 0.31), lamp_y, -hz - 0.04, 0.0, -1.0, 0.18, 0.08) for s in (-1.0, 1.0)]
         self.brake = self._lamps("brake", brake)
         self.head = self._lamps("head", head)
         self.head.setColor(_rgba((235, 235, 215)))
