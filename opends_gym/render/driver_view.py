@@ -152,7 +152,9 @@ class DriverViewRenderer:
     def render(self, width: int, height: int) -> np.ndarray:
         weather = weather_of(self.world) if self.weather else {}
         frame = self.render_views(width, height, [(FULL, self.camera(width, height))], weather)
-        return self._precipitate(frame, [FULL], weather)
+        if weather.get("raining_percent", -1.0) > 0 or weather.get("snowing_percent", -1.0) > 0:
+            return self._precipitate(frame, [FULL], weather)
+        return frame
 
     def render_surface(self, width: int, height: int) -> Any:
         """A frame on this renderer's own offscreen pygame surface (for overlays such as the HUD)."""
@@ -209,7 +211,7 @@ class DriverViewRenderer:
         inside = [self.inside_car(c) for _, c in views]
         self.stage.sync(main.x, main.y, main.z, include_ego=not all(inside))
         for k, (node, (vp, cam)) in enumerate(zip(self._cams, views)):
-            _, _, w, h = pixel_rect(width, height, vp)
+            w, h = (width, height) if vp is FULL else pixel_rect(width, height, vp)[2:]
             self._place(k, node, cam, w, h, inside[k])
         target.render()
         return target
@@ -230,6 +232,7 @@ class DriverViewRenderer:
         self._cams = []
         self._cards: list[Any] = []
         self._card_keys: list[tuple[Any, ...]] = []
+        self._card_exact: list[tuple[Any, ...]] = []
         self._lens_keys: list[tuple[Any, ...]] = []
         if self._depth is not None:
             self._depth.close()
@@ -242,6 +245,7 @@ class DriverViewRenderer:
             self._cams.append(node)
             self._cards.append(None)
             self._card_keys.append(())
+            self._card_exact.append(())
             self._lens_keys.append(())
         self.stage.show_hood = self.show_hood
         if self.show_hood:
@@ -250,10 +254,10 @@ class DriverViewRenderer:
         return self._target
 
     def _place(self, k: int, node: Any, cam: Camera, w: int, h: int, inside: bool) -> None:
-        p3d = panda()
         focal = cam.focal_px(w, h)
         lens_key = (w, h, focal, cam.near, cam.far, inside, cam.mirror)
         if lens_key != self._lens_keys[k]:  # (a lens change makes Panda3D recompute its matrices: only when needed)
+            p3d = panda()
             lens = node.node().getLens()
             lens.setFilmSize(w, h)
             lens.setFocalLength(focal)
@@ -267,8 +271,13 @@ class DriverViewRenderer:
             cam.x, -cam.z, cam.y, math.degrees(cam.yaw), math.degrees(cam.pitch), 0.0, -1.0 if cam.mirror else 1.0, 1.0, 1.0
         )
         eye_height = max(cam.y - self.world.ego.state.y, 0.05)
+        exact = (w, h, focal, cam.pitch, eye_height)
+        if exact == self._card_exact[k]:
+            return  # (the usual frame: the same lens, pitch and eye height, nothing to round)
+        self._card_exact[k] = exact
         key = (w, h, round(focal, 3), round(cam.pitch, 4), round(eye_height, 3))
         if key != self._card_keys[k]:  # the sky-and-grass card: rebuilt only when the lens, pitch or eye height change
+            p3d = panda()
             if self._cards[k] is not None:
                 self._cards[k].removeNode()
             card = node.attachNewNode(meshes.background_node(f"background{k}", w, h, focal, cam.pitch, eye_height, CARD_DIST_M))

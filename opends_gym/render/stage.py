@@ -16,6 +16,7 @@ from __future__ import annotations
 import fnmatch
 import json
 import math
+import operator
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -55,6 +56,7 @@ INSIDE_BIT, OUTSIDE_BIT, DEPTH_BIT, MAP_BIT, DETAIL_BIT, CARD_BIT0 = 1, 2, 3, 4,
 MAP_LINE_PX = 1.2
 GROUND_CELL_M = 250.0  # map lines are at least this wide (thinner ones would miss pixel centres)
 LIGHT_DISC_M = 0.6
+_OBJECT_POSE = operator.attrgetter("visible", "position", "yaw", "scale")
 MAP_FOOTPRINT_M = 0.6  # half size: a sign board seen from above is a few centimetres thin
 MAP_LIGHT_COLORS = {
     (True, False, False): pal.LAMP_RED,
@@ -314,7 +316,7 @@ class Stage:
 
     def _sync_scene(self, ground_y: float) -> None:
         objs = self._watched
-        sig = ([o.visible for o in objs], [o.position for o in objs], [o.yaw for o in objs], [o.scale for o in objs], ground_y)
+        sig = (list(map(_OBJECT_POSE, objs)), ground_y)  # (attrgetter: a third of the cost of list comprehensions)
         if sig == self._scene_sig:
             return  # nothing moved, appeared or disappeared since the last frame (the usual case)
         self._scene_sig = sig
