@@ -141,3 +141,17 @@ def test_lct_sign_is_legible_at_40_m_in_full_hd() -> None:
     white = crop[:h, :w].min(axis=-1) > 200
     assert 0.08 < white.mean() < 0.5, "the lane number's white strokes"
     assert np.abs(crop[:h, :w] - ref[:h, :w]).mean() < 18.0  # (about 10; a mirrored face gives 30)
+
+
+@pytest.mark.parametrize(("height", "focal", "pitch", "eye"), [(84, 86.5, 0.0, 1.2), (720, 1321.0, 0.0, 1.2), (84, 86.5, -0.17, 2.8)])
+def test_sky_and_grass_card_follows_the_exact_gradient_with_few_rows(height: int, focal: float, pitch: float, eye: float) -> None:
+    from opends_gym.render import meshes
+
+    rows, cols = meshes.background_rows(height, focal, pitch, eye)
+    centres = np.arange(height) + 0.5
+    horizon = 0.5 * height + focal * math.tan(pitch)
+    away = np.abs(centres - horizon) > 0.5  # the pixel the horizon crosses mixes sky and grass
+    exact = meshes.background_colors(centres, height, focal, pitch, eye)
+    blended = np.stack([np.interp(centres, rows, cols[:, k]) for k in range(3)], axis=1)
+    assert np.abs(blended - exact)[away].max() <= meshes.BACKGROUND_TOL + 1e-9
+    assert len(rows) <= 12  # (each row is two triangles of the card)

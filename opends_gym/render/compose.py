@@ -64,6 +64,7 @@ class ViewComposer:
         mirror_mode: str | None = None,
         top_view: bool | None = None,
         camera_mode: str | None = None,
+        shadows: str | None = None,
     ) -> None:
         settings = settings if settings is not None else world.task.settings
         self.general = getattr(settings, "general", settings)
@@ -78,7 +79,7 @@ class ViewComposer:
             raise ValueError(f"unknown mirror mode {self.mirror_mode!r}; choose from {', '.join(MIRROR_MODES)}")
         self.top_view = g.top_view is not None if top_view is None else top_view
         mode = _or(camera_mode, _or(g.camera_mode, "ego"))
-        self.view = DriverViewRenderer(world, camera_mode=mode)
+        self.view = DriverViewRenderer(world, camera_mode=mode, shadows=shadows)  # (None: OPENDS_GYM_SHADOWS, else auto)
         self.map = TopDownRenderer(world)
         self.hud = HudOverlay(world, number_of_screens=self.screens) if hud else None
         self._surface: Any = None

@@ -21,10 +21,11 @@ from typing import Any
 import numpy as np
 
 from . import _pg, meshes
+from . import shadows as shadows_
 from .camera import OPENDS_FAR_M, OPENDS_VFOV_DEG, Camera
 from .engine import Offscreen, panda
 from .night import DARK_BELOW, darken, daylight
-from .stage import CARD_BIT0, DEPTH_BIT, DETAIL_BIT, DETAIL_FOCAL_PX, INSIDE_BIT, ORDER_SKY, OUTSIDE_BIT, Stage
+from .stage import CARD_BIT0, DEPTH_BIT, DETAIL_BIT, DETAIL_FOCAL_PX, INSIDE_BIT, ORDER_SKY, OUTSIDE_BIT, SUN_DIR, Stage
 from .weather import Fog, Precipitation, fog_for, weather_of
 
 CAMERA_MODES = ("ego", "chase", "static_back", "top", "outside")
@@ -71,6 +72,7 @@ class DriverViewRenderer:
         show_triggers: bool = False,
         weather: bool = True,
         model_map: Any = None,
+        shadows: str | None = None,
     ) -> None:
         if camera_mode not in CAMERA_MODES:
             raise ValueError(f"unknown camera mode {camera_mode!r}; choose from {', '.join(CAMERA_MODES)}")
@@ -85,6 +87,12 @@ class DriverViewRenderer:
         self._far: float | None = getattr(self._general, "frustum_far_m", None)
         self.show_hood = bool(getattr(self._general, "show_hood", False))
         self.scene = self.stage.scene
+        # sun shadows on the ground (`shadows.py`): "auto" draws them where the pipe has shaders
+        self.shadow_mode = shadows_.shadow_mode(shadows)
+        self.shadows_active = shadows_.shadows_wanted(self.shadow_mode)
+        self._shadow_map_drawn = False
+        if self.shadows_active:
+            shadows_.enable(self.stage, SUN_DIR)
         self.precipitation = Precipitation()
         self.daylight = daylight(world) if weather else 1.0  # the scene's lights (night.py): fixed per task
         self.headlights = True  # the ego's low beam (seen at night); the drive window's toggle_headlight
@@ -210,6 +218,11 @@ class DriverViewRenderer:
         main = views[0][1]
         inside = [self.inside_car(c) for _, c in views]
         self.stage.sync(main.x, main.y, main.z, include_ego=not all(inside))
+        if self.shadows_active:
+            shadows_.follow(self.stage, main.x, self.world.ego.state.y, main.z, SUN_DIR)
+            if not self._shadow_map_drawn:  # Panda3D makes the shadow buffer during the first frame and fills it from the next
+                target.render()
+                self._shadow_map_drawn = True
         for k, (node, (vp, cam)) in enumerate(zip(self._cams, views)):
             w, h = (width, height) if vp is FULL else pixel_rect(width, height, vp)[2:]
             self._place(k, node, cam, w, h, inside[k])
@@ -322,6 +335,8 @@ class DriverViewRenderer:
                 p3d.LightAttrib.makeAllOff(),
                 10000,
             )
+            if self.shadows_active:  # (the depth colours come from the fixed-function texture lookup)
+                state = state.addAttrib(p3d.ShaderAttrib.makeOff(), 10000)
             node.node().setInitialState(state)
             inside = colour_cam.node().getCameraMask() & p3d.BitMask32.bit(INSIDE_BIT)
             bits = p3d.BitMask32.bit(DEPTH_BIT) | (inside if inside.getWord() else p3d.BitMask32.bit(OUTSIDE_BIT))

@@ -72,6 +72,22 @@ def graphics_pipe() -> Any:
     return pipe
 
 
+def supports_shaders() -> bool:
+    """Whether this process's pipe runs shaders (Panda3D's shader generator): never the software
+    renderer; an OpenGL pipe is asked once through a 4x4 buffer's GSG."""
+    name = pipe_name()
+    if name == "tinydisplay":
+        return False
+    key = "shaders:" + name
+    if key not in _STATE:
+        probe = Offscreen(4, 4)
+        probe.engine.openWindows()
+        gsg = probe.buffer.getGsg()
+        _STATE[key] = bool(gsg is not None and gsg.getSupportsBasicShaders())
+        probe.close()
+    return bool(_STATE[key])
+
+
 class Offscreen:
     """An offscreen buffer of `width` x `height` with its own engine; `rgb()` reads the last frame."""
 

@@ -38,6 +38,11 @@ def _format(normals: bool, uv: bool) -> Any:
     return fmt
 
 
+def vertex_format(normals: bool, uv: bool) -> Any:
+    """The registered vertex format with positions, colours and optional normals and UVs."""
+    return _format(normals, uv)
+
+
 def to_panda_xyz(pts: np.ndarray) -> np.ndarray:
     """World (x, y, z) rows as Panda3D (x, -z, y)."""
     pts = np.asarray(pts, dtype=np.float32)

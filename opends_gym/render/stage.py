@@ -53,6 +53,7 @@ ORDER_SKY, ORDER_GRASS, ORDER_ROAD, ORDER_MARK, ORDER_TRACK = 0, 1, 2, 3, 4
 # camera k's background card only to camera k, and the far paint (FAR_PAINT_M) only to cameras
 # with DETAIL_BIT (large frames), the map and the depth pass
 INSIDE_BIT, OUTSIDE_BIT, DEPTH_BIT, MAP_BIT, DETAIL_BIT, CARD_BIT0 = 1, 2, 3, 4, 5, 8
+SHADOW_BIT = 6  # the sun's shadow camera (shadows.py): what casts shadows
 MAP_LINE_PX = 1.2
 GROUND_CELL_M = 250.0  # map lines are at least this wide (thinner ones would miss pixel centres)
 LIGHT_DISC_M = 0.6
