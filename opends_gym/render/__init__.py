@@ -11,7 +11,8 @@ window are pygame. Neither is imported until a renderer is made.
 (`TopDownRenderer`), "driver_view" (the driver's eye, or any `camera_mode=`), "chase",
 "static_back", "top" and "outside" (`DriverViewRenderer` camera modes), and "human" (the human
 viewer's composition per the task's settings: screens, mirrors, top view and HUD).
-`hud=True` draws the HUD (`hud.HudOverlay`) over any view.
+`hud=True` draws the HUD (`hud.HudOverlay`) over any view. The 3D views and "human" take
+`shadows="auto"|"on"|"off"` (`shadows.py`: sun shadows where the pipe has shaders).
 """
 
 from __future__ import annotations

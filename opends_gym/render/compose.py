@@ -12,6 +12,8 @@ regions of one Panda3D frame (one render per frame, as OpenDS's viewports):
   mirror (viewport 0.3-0.7 x 0.78-0.98, 30 degrees) and side mirrors (left 0.02-0.2, right
   0.8-0.98 x 0.3-0.6, 45 degrees, turned 45 degrees out and 10 down), images flipped.
   Viewport fractions count from the bottom-left, as in jME.
+* `shadows=` auto | on | off (default: `OPENDS_GYM_SHADOWS`, else auto): sun shadows on the
+  screens and mirrors where the graphics pipe has shaders (`shadows.py`).
 * `topView`: a map inset (viewport 0.05-0.45 x 0.58-0.98), as seen from `verticalDistance`
   (200 m) with a 30 degree lens, the car `carOffset` (40 m) below the centre, pointing up
   unless `carPointingUp` is false.
