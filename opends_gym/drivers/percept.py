@@ -219,14 +219,42 @@ def route_lead(world: Any, guide: Any, s_m: float, lane_lateral_m: float) -> Lea
 
 
 def _read_lct(env: Any, p: Percept) -> Percept:
-    sign = env._active_sign()
-    speed = env.config.speed_kmh / 3.6
+    return _lct_sign(p, env._active_sign(), env.lane_laterals, env.config.speed_kmh, env.world.ego.state.z)
+
+
+def _lct_sign(p: Percept, sign: Any, lane_laterals: Any, speed_kmh: float, z_m: float) -> Percept:
+    """The LCT's stimulus (the last revealed sign) added to `p`: the single env's and a native slot's."""
+    speed = speed_kmh / 3.6
     if sign is None:
         return replace(p, cruise_mps=speed)
-    target = env.lane_laterals[sign.to_lane]
-    distance = max(0.0, env.world.ego.state.z - sign.z_m)
+    target = lane_laterals[sign.to_lane]
+    distance = max(0.0, z_m - sign.z_m)
     pending = abs(target - p.lateral_m) > 1.0
     return replace(p, target_lateral_m=target, cruise_mps=speed, lane_change_pending=pending, sign_distance_m=distance)
+
+
+def _read_native_lct(slot: Any) -> Percept:
+    """Env `slot.index` of a native LCT batch (`vector.slots.BatchSlot`): the Percept `_base`
+    and `_read_lct` give the single env in the same state, read from the batch's arrays (no
+    traffic, the engine running: what `vector.slots` admits)."""
+    b, e = slot.batch, slot.index
+    s = b.s
+    x, z, yaw = float(s.x[e]), float(s.z[e]), float(s.yaw[e])
+    guide, tpl = b.guide, b.template
+    q = guide.locate(x, z)
+    lane = q.lane_index if q.lane_index >= 0 else guide.nearest_lane(q.lateral_m)
+    engine = tpl.world.task.scenario.driver.car.engine
+    p = Percept(
+        t_s=float(b.t[e]),
+        speed_mps=float(s.u[e]),
+        lateral_m=q.lateral_m,
+        heading_error_rad=wrap_angle(yaw - q.heading_rad),
+        yaw_rate_radps=float(s.r[e]),
+        target_lateral_m=guide.lane_laterals_m[lane],
+        cruise_mps=min(tpl.world.road.current_limit_mps or DEFAULT_CRUISE_MPS, engine.max_speed_mps),
+    )
+    k = int(b.revealed[e])
+    return _lct_sign(p, tpl.sign_specs[k] if k >= 0 else None, tpl.lane_laterals, tpl.config.speed_kmh, z)
 
 
 def _read_reaction_test(env: Any, p: Percept) -> Percept:
@@ -291,11 +319,14 @@ def _readers() -> list[tuple[type, Reader]]:
 def perceive(env: Any, info: dict[str, Any] | None = None) -> Percept:
     """The driver's snapshot of `env` (a gymnasium env or wrapper) now."""
     base = env.unwrapped
-    p = _base(base)
-    for cls, reader in _readers():
-        if isinstance(base, cls):
-            p = reader(base, p)
-            break
+    if getattr(base, "native_slot", False):  # one env of a native batch (`vector.slots`)
+        p = _read_native_lct(base)
+    else:
+        p = _base(base)
+        for cls, reader in _readers():
+            if isinstance(base, cls):
+                p = reader(base, p)
+                break
     if info and float(info.get("drt_stimulus_on", 0.0)) > 0.0:
         drt = find_drt(env)
         onsets = getattr(drt, "onsets", None)
