@@ -58,6 +58,15 @@ class BatchSlot:
     def unwrapped(self) -> BatchSlot:
         return self
 
+    def state(self) -> tuple[float, float, float, float, float, float, int]:
+        """(t, x, z, yaw, u, r, revealed sign) of this env now, as Python numbers (from the
+        batch's per-step snapshot when `SlotBatch` took one, else from its arrays)."""
+        snap = getattr(self.batch, "slot_snapshot", None)
+        if snap is not None:
+            return snap[self.index]  # type: ignore[no-any-return]
+        b, s, e = self.batch, self.batch.s, self.index
+        return float(b.t[e]), float(s.x[e]), float(s.z[e]), float(s.yaw[e]), float(s.u[e]), float(s.r[e]), int(b.revealed[e])
+
 
 def supports(env_id: str, env_args: dict[str, Any]) -> str | None:
     """Why trials of `env_id` with `env_args` cannot run on a slot batch, or None when they can."""
@@ -102,8 +111,10 @@ class SlotBatch:
         """One policy step of the running envs, `act(e)` giving env e's action; returns
         (env, left the road, episode_metrics) of each episode that ended."""
         rows = np.flatnonzero(self.running)
+        self._snapshot()
         for e in rows.tolist():
             self._actions[e] = act(e)
+        self.core.slot_snapshot = None
         _, terminated, truncated, _ = self.core.step_rows(self._actions, self.running.copy())
         ended = np.flatnonzero((terminated | truncated) & self.running).tolist()
         if not ended:
@@ -111,6 +122,14 @@ class SlotBatch:
         self.running[ended] = False
         off = np.abs(self.core.lat) > self.core.off_road_limit  # (the LCT's road test: lct_step's task_end)
         return [(e, bool(terminated[e] and off[e]), m) for e, m in self.core.episodes_metrics(ended)]
+
+    def _snapshot(self) -> None:
+        """Every env's `BatchSlot.state()` read from the arrays at once (one `tolist` per
+        array, not seven numpy scalar reads per env)."""
+        b, s = self.core, self.core.s
+        self.core.slot_snapshot = list(
+            zip(b.t.tolist(), s.x.tolist(), s.z.tolist(), s.yaw.tolist(), s.u.tolist(), s.r.tolist(), b.revealed.tolist())
+        )
 
     def close(self) -> None:
         self.vec.close()
