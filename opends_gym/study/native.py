@@ -100,8 +100,8 @@ def _run_group(
     first = trials[idx[0]]
     try:
         batch = SlotBatch(first.env_id, min(batch_envs, len(idx)), _batch_args(first))
-    except (TypeError, ValueError) as e:
-        raise UserError(f"{first.env_id}: {e}") from None
+    except (TypeError, ValueError) as err:
+        raise UserError(f"{first.env_id}: {err}") from None
     queue = deque(idx)
     agents: list[Any] = [None] * batch.n
     which = [-1] * batch.n
@@ -136,7 +136,7 @@ def _run_part(trials: list[Trial], participants: int, seed: int, threads: int) -
     """A worker process's share (its numba threads limited so the workers share the cores)."""
     import numba
 
-    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    numba.set_num_threads(max(1, min(threads, numba.get_num_threads())))
     return run_native(trials, participants, seed)
 
 

@@ -64,7 +64,8 @@ class BatchSlot:
         snap = getattr(self.batch, "slot_snapshot", None)
         if snap is not None:
             return snap[self.index]  # type: ignore[no-any-return]
-        b, s, e = self.batch, self.batch.s, self.index
+        b: Any = self.batch
+        s, e = b.s, self.index
         return float(b.t[e]), float(s.x[e]), float(s.z[e]), float(s.yaw[e]), float(s.u[e]), float(s.r[e]), int(b.revealed[e])
 
 
