@@ -12,9 +12,10 @@ import pandas as pd
 import pytest
 
 from opends_gym.cli.main import main
+from opends_gym.study.backend import run_trials
 from opends_gym.study.config import load_study
 from opends_gym.study.design import expand
-from opends_gym.study.runner import COLUMNS, run_trials
+from opends_gym.study.runner import COLUMNS
 from tests.conftest import line_of
 
 # 3 participants x 2 loads; `edge` puts the road's edge 7.5 cm past the outer lanes' centres

@@ -18,9 +18,9 @@ from typing import Any
 
 from ..jsonsafe import dump_json
 from .analysis import Effect, summarize
+from .backend import run_trials
 from .config import Study
 from .design import expand, participant_label
-from .runner import run_trials
 from .table import VIRTUAL_ROWS, write_rows, write_table
 
 

@@ -115,21 +115,13 @@ def run_trials(
     cluster: str | None = None,
     use_ray: bool = False,
     progress: Callable[[int, int], None] | None = None,
-    backend: str = "single",
 ) -> list[Row]:
-    """Every trial's rows, in design order, whatever runs them: the trials `backend` puts on
-    the native batch there (`study.native`), the others on the single env."""
-    from .native import choose, run_native_trials
-
-    native = choose(trials, backend, on_ray=cluster is not None or use_ray)
-    batched = [t for t, n in zip(trials, native) if n]
-    on_batch = iter(run_native_trials(batched, participants, seed, workers, progress) if batched else [])
-    single = [t for t, n in zip(trials, native) if not n]
-    on_single = iter(_run_single(single, participants, seed, workers, cluster, use_ray, progress))
-    return [row for n in native for row in next(on_batch if n else on_single)]
+    """Every trial's rows on single envs, in design order, whatever runs them (`study.backend`
+    puts trials on the native batch too)."""
+    return [row for rows in run_single(trials, participants, seed, workers, cluster, use_ray, progress) for row in rows]
 
 
-def _run_single(
+def run_single(
     trials: list[Trial],
     participants: int,
     seed: int,
