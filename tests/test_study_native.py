@@ -5,6 +5,7 @@ backend is chosen from the study or the CLI, with one-line errors where it canno
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -12,6 +13,8 @@ import pandas as pd
 import pytest
 
 from opends_gym.cli.main import main
+from opends_gym.drivers.intent import Intent
+from opends_gym.drivers.percept import Percept, evolve
 from opends_gym.study.backend import run_trials
 from opends_gym.study.config import load_study
 from opends_gym.study.design import expand
@@ -113,3 +116,12 @@ def test_an_unknown_backend_is_one_line_naming_file_and_line(tmp_path: Path, cap
     assert main(["study", str(study), "--out", str(tmp_path / "o"), "--no-progress"]) != 0
     err = capsys.readouterr().err.strip()
     assert f"{study}:{line_of(study, 'backend:')}" in err and "backend" in err and "gpu" in err
+
+
+def test_the_participants_fast_replace_makes_what_dataclasses_replace_makes() -> None:
+    p = Percept(t_s=1.0, speed_mps=16.0, lateral_m=0.2, heading_error_rad=0.01, yaw_rate_radps=0.0, target_lateral_m=3.75, cruise_mps=16.7)
+    changed = {"lateral_m": -0.4, "sign_distance_m": 12.0, "lane_change_pending": True}
+    assert evolve(p, **changed) == dataclasses.replace(p, **changed) and p.lateral_m == 0.2
+    assert evolve(Intent(steering=0.3), pedal=0.5) == Intent(steering=0.3, pedal=0.5)
+    with pytest.raises(TypeError, match="no field lateral"):
+        evolve(p, lateral=1.0)
