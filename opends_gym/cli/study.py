@@ -29,6 +29,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", metavar="DIR", help="results folder (default: ./study-NAME)")
     p.add_argument("--workers", type=positive_int, default=1, help="worker processes for virtual participants (default 1)")
     p.add_argument("--cluster", metavar="ray://HOST:PORT", help="run the virtual participants on this Ray cluster")
+    p.add_argument(
+        "--backend",
+        choices=("auto", "native", "single"),
+        help="native: the participants drive the task's native batch; single: one env per drive; "
+        "auto (the study's default): native where the task has one",
+    )
     p.add_argument("--participants", type=positive_int, help="override the study's number of virtual participants")
     p.add_argument(
         "--progress",
@@ -74,10 +80,13 @@ def run(args: argparse.Namespace) -> int:
     try:
         from ..study.run import run_virtual
 
-        written = run_virtual(study, out, workers=args.workers, cluster=args.cluster, progress=progress)
+        written = run_virtual(study, out, workers=args.workers, cluster=args.cluster, progress=progress, backend=args.backend)
     finally:
         bar.close()
-    print(f"{study.name}: {written['trials']} trials, {written['rows']} rows in {written['run_s']:.1f} s")
+    print(
+        f"{study.name}: {written['trials']} trials, {written['rows']} rows in {written['run_s']:.1f} s "
+        f"({written['cpu_s']:.1f} CPU s, backend {written['backend']})"
+    )
     print("agents: " + ", ".join(f"{c} = {a}" for c, a in written["agents"].items()) + " (participant 1's)")
     for key in ("table_csv", "table_parquet", "summary", "report"):
         print(f"wrote {written[key]}")

@@ -39,8 +39,14 @@ def run_episode(env: gym.Env[Any, Any], agent: Any, seed: int) -> Episode:
         steps += 1
         if terminated or truncated:
             break
-    metrics = dict(info.get("episode_metrics", {}))
+    metrics = with_glances(info.get("episode_metrics", {}), agent)
+    return Episode(seed, ret, steps, bool(terminated), time.perf_counter() - start, metrics)
+
+
+def with_glances(episode_metrics: dict[str, Any], agent: Any) -> dict[str, Any]:
+    """The env's episode metrics plus the glance metrics of an agent that lists its glances."""
+    metrics = dict(episode_metrics)
     glances = getattr(agent, "glances", None)
     if isinstance(glances, (list, tuple)):  # a driver model's off-road glances: ISO 15007 / NHTSA glance measures
         metrics.update(glance_metrics(glances).as_dict())
-    return Episode(seed, ret, steps, bool(terminated), time.perf_counter() - start, metrics)
+    return metrics

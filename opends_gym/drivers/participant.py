@@ -44,7 +44,6 @@ The rule driver (`rule.py`) stays the perfect reference; this is the human one.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -53,6 +52,7 @@ from ..control.controllers import stanley_steering
 from .distracted import DistractionParams, GlanceProcess, _lognormal
 from .intent import Intent, to_action
 from .percept import Percept, find_drt, perceive
+from .percept import evolve as replace  # dataclasses.replace, faster (the hot path of a study)
 from .population import LOADS, ParticipantParams
 from .rule import RuleDriver, RuleParams, start_engine
 

@@ -35,12 +35,14 @@ STUDY_KEYS = (
     "ray",
     "power",
     "bootstrap",
+    "backend",
 )
 TASK_KEYS = ("env", "env_args", "metrics", "drt", "max_seconds")
 CONDITION_KEYS = ("load", "agent", "env_args", "drt", "instructions")
 POWER_KEYS = ("target", "alpha", "simulations", "max_n")
 AGENT_FIELDS = ("participant", "load", "condition", "task")
 DEFAULT_AGENT = "participant:{participant}:{load}"  # drivers/participant.py's spec
+BACKENDS = ("auto", "native", "single")  # study.native.choose
 
 
 class Located(dict):  # type: ignore[type-arg]
@@ -115,6 +117,7 @@ class Study:
     ray: bool
     power: PowerSpec = field(default_factory=PowerSpec)
     bootstrap: int = 2000
+    backend: str = "auto"  # auto | native | single: where the virtual trials run (study.native)
 
     def condition(self, name: str) -> ConditionSpec:
         return next(c for c in self.conditions if c.name == name)
@@ -196,6 +199,9 @@ def load_study(path: str | Path, participants: int | None = None) -> Study:
         raise top.error("participants", f"must be at least 1, not {n}")
     if reps < 1:
         raise top.error("repetitions", f"must be at least 1, not {reps}")
+    backend = top.get("backend", str, "auto")
+    if backend not in BACKENDS:
+        raise top.error("backend", f"must be {', '.join(BACKENDS)}, not {backend!r}")
     on_road_exit = top.get("on_road_exit", str, "recover")
     if on_road_exit not in ("terminate", "recover", "continue"):
         raise top.error("on_road_exit", f"must be terminate, recover or continue, not {on_road_exit!r}")
@@ -223,6 +229,7 @@ def load_study(path: str | Path, participants: int | None = None) -> Study:
         ray=top.get("ray", bool, False),
         power=_power(top),
         bootstrap=_positive(top, "bootstrap", 2000),
+        backend=backend,
     )
 
 

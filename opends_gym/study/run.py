@@ -18,9 +18,9 @@ from typing import Any
 
 from ..jsonsafe import dump_json
 from .analysis import Effect, summarize
+from .backend import run_trials
 from .config import Study
 from .design import expand, participant_label
-from .runner import run_trials
 from .table import VIRTUAL_ROWS, write_rows, write_table
 
 
@@ -30,19 +30,36 @@ def run_virtual(
     workers: int = 1,
     cluster: str | None = None,
     progress: Callable[[int, int], None] | None = None,
+    backend: str | None = None,
 ) -> dict[str, Any]:
-    """Every virtual trial, then the table, summary and report; returns what was written."""
+    """Every virtual trial, then the table, summary and report; returns what was written
+    (`backend`: overrides the study's)."""
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
+    cpu = time.process_time() + _children_cpu_s()
     trials = expand(study)
-    rows = run_trials(trials, study.participants, study.seed, workers=workers, cluster=cluster, use_ray=study.ray, progress=progress)
+    backend = backend or study.backend
+    rows = run_trials(
+        trials, study.participants, study.seed, workers=workers, cluster=cluster, use_ray=study.ray, progress=progress, backend=backend
+    )
     write_rows(out / VIRTUAL_ROWS, rows)
     run_s = time.perf_counter() - started
+    cpu_s = time.process_time() + _children_cpu_s() - cpu  # this process's and its workers' CPU seconds
     _write_participants(study, out)
     agents = {t.condition: t.agent for t in trials if t.participant == 0}  # who drove (participant 0's spec)
-    written = finish(study, out, run_s, {"agents": agents, "workers": workers, "cluster": cluster})
-    written.update(trials=len(trials), rows=len(rows), run_s=run_s, agents=agents)
+    written = finish(study, out, run_s, {"agents": agents, "workers": workers, "cluster": cluster, "backend": backend, "cpu_s": cpu_s})
+    written.update(trials=len(trials), rows=len(rows), run_s=run_s, cpu_s=cpu_s, agents=agents, backend=backend)
     return written
+
+
+def _children_cpu_s() -> float:
+    """CPU seconds of this process's finished worker processes (a pool's), so far."""
+    try:
+        import resource
+    except ImportError:  # (not on Windows)
+        return 0.0
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
 
 
 def finish(study: Study, out: Path, run_s: float | None = None, meta: dict[str, Any] | None = None) -> dict[str, Any]:

@@ -72,23 +72,31 @@ def _env_for(trial: Trial) -> gym.Env[Any, Any]:
 def run_trial(trial: Trial, participants: int, seed: int) -> list[Row]:
     """One episode of one trial -> its table rows."""
     from ..drivers.episodes import run_episode
+
+    ep = run_episode(_env_for(trial), trial_agent(trial, participants, seed), trial.seed)
+    return trial_rows(trial, ep.metrics)
+
+
+def trial_agent(trial: Trial, participants: int, seed: int) -> Any:
+    """The driver of one trial (participant N of the study's population, or another agent spec)."""
     from .agents import make_trial_agent
 
     try:
-        agent = make_trial_agent(trial.agent, participants, seed)
+        return make_trial_agent(trial.agent, participants, seed)
     except (ValueError, TypeError, OSError) as e:
         raise UserError(f"condition {trial.condition}: agent {trial.agent}: {e}") from None
-    ep = run_episode(_env_for(trial), agent, trial.seed)
+
+
+def trial_rows(trial: Trial, metrics: dict[str, Any]) -> list[Row]:
+    """The table rows of one trial's episode metrics (whichever backend drove it)."""
     label = participant_label(trial.participant)
     where = f"task {trial.task}, condition {trial.condition}"
-    return [(label, "virtual", trial.condition, trial.task, trial.trial, m, v) for m, v in scalar_metrics(ep.metrics, trial.metrics, where)]
+    return [(label, "virtual", trial.condition, trial.task, trial.trial, m, v) for m, v in scalar_metrics(metrics, trial.metrics, where)]
 
 
-def run_chunk(trials: list[Trial], participants: int, seed: int) -> list[Row]:
-    rows: list[Row] = []
-    for t in trials:
-        rows.extend(run_trial(t, participants, seed))
-    return rows
+def run_chunk(trials: list[Trial], participants: int, seed: int) -> list[list[Row]]:
+    """Each trial's rows."""
+    return [run_trial(t, participants, seed) for t in trials]
 
 
 def chunks(trials: list[Trial]) -> list[list[Trial]]:
@@ -108,7 +116,23 @@ def run_trials(
     use_ray: bool = False,
     progress: Callable[[int, int], None] | None = None,
 ) -> list[Row]:
-    """Every trial's rows, in design order, whatever runs them."""
+    """Every trial's rows on single envs, in design order, whatever runs them (`study.backend`
+    puts trials on the native batch too)."""
+    return [row for rows in run_single(trials, participants, seed, workers, cluster, use_ray, progress) for row in rows]
+
+
+def run_single(
+    trials: list[Trial],
+    participants: int,
+    seed: int,
+    workers: int,
+    cluster: str | None,
+    use_ray: bool,
+    progress: Callable[[int, int], None] | None,
+) -> list[list[Row]]:
+    """Each trial's rows (in the order given) from single envs: here, a process pool or Ray."""
+    if not trials:
+        return []
     parts = chunks(trials)
     if cluster is not None or use_ray:
         results = _run_ray(parts, participants, seed, cluster, progress)
@@ -120,12 +144,12 @@ def run_trials(
                 progress(k + 1, len(parts))
     else:
         results = _run_pool(parts, participants, seed, workers, progress)
-    return [row for part in results for row in part]
+    return [rows for part in results for rows in part]
 
 
 def _run_pool(
     parts: list[list[Trial]], participants: int, seed: int, workers: int, progress: Callable[[int, int], None] | None
-) -> list[list[Row]]:
+) -> list[list[list[Row]]]:
     ctx = multiprocessing.get_context("spawn")  # no fork of a process with threads or open envs
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
         futures = [pool.submit(run_chunk, part, participants, seed) for part in parts]
@@ -139,7 +163,7 @@ def _run_pool(
 
 def _run_ray(
     parts: list[list[Trial]], participants: int, seed: int, cluster: str | None, progress: Callable[[int, int], None] | None
-) -> list[list[Row]]:
+) -> list[list[list[Row]]]:
     from ..extras import require
 
     ray = require("cluster", "ray", "running a study on Ray")
