@@ -25,8 +25,9 @@ equal across seeded runs):
   follow the standards (docs/metrics.md): sdlp_j2944_m over fixed 30 s segments with
   sdlp_j2944_valid_fraction, sdlp_j2944_excluded_fraction, sdlp_j2944_segments,
   sdlp_j2944_segments_valid; steering_reversal_rate_{0_5,2,10}deg_per_min on lane keeping;
-  car following with both speeds: lead_share, thw_mean_s, thw_min_s,
-  thw_below_{1,2}s_share, ttc_below_{1_5,3}s_share.
+  car following with both speeds: lead_share, following_share, thw_mean_s, thw_min_s,
+  thw_below_{1,2}s_share (THW and mean_headway_s over the car-following samples only,
+  `metrics.headway.FOLLOWING`), ttc_below_{1_5,3}s_share.
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.utils import EzPickle
 
-from ..metrics.headway import car_following_summary, time_headway, time_to_collision
+from ..metrics.headway import car_following_summary, following_mask, time_headway, time_to_collision
 from ..metrics.lateral import SDLP_MIN_VALID_FRACTION, SDLP_SEGMENT_S, lane_keeping_mask, sdlp, sdlp_segments
 from ..metrics.steering import gap_key, reversal_rate, reversal_rates
 from ..sim.controls import STEERING_WHEEL_MAX_DEG, DriverControls
@@ -406,8 +407,8 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         offsets = tr.col("lane_offset_m")
         fs = self.config.physics_hz
         steer_deg = tr.col("steering") * STEERING_WHEEL_MAX_DEG
-        headway = tr.col("headway_s")
-        finite_h = headway[np.isfinite(headway)]
+        following = following_mask(tr.col("t_s"), tr.col("gap_m"), tr.col("speed_mps"), tr.col("lead_speed_mps"))
+        finite_h = tr.col("headway_s")[following]  # front to front, while car following (metrics.headway.FOLLOWING)
         ttc = tr.col("ttc_s")
         finite_t = ttc[np.isfinite(ttc)]
         reactions: Any = getattr(self.world.triggers, "reactions", ())
@@ -480,7 +481,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         keep = instructed if instructed is not None else lane_keeping_mask(t, tr.col("lane_index"))
         for gap, rate in reversal_rates(steer_deg, fs, keep).items():
             out[f"steering_reversal_rate_{gap_key(gap)}_per_min"] = rate
-        cf = car_following_summary(tr.col("gap_m"), tr.col("speed_mps"), tr.col("lead_speed_mps"))
+        cf = car_following_summary(t, tr.col("gap_m"), tr.col("speed_mps"), tr.col("lead_speed_mps"))
         cf.pop("ttc_min_s")  # (min_ttc_s above)
         out.update({k.replace(".", "_"): v for k, v in cf.items()})
         return out
