@@ -125,7 +125,8 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
         c = self.controls
         inp = self.world.ego.inputs
         pressed = bool(c.keys or c.buttons)
-        self.platoon.step(inp.accelerator, inp.brake, pressed, inp.turn_signal, self.trace.last("lane_offset_m"))
+        gas, brake = self.driver_pedals()  # (not the full brake of a hold after a reset)
+        self.platoon.step(gas, brake, pressed, inp.turn_signal, self.trace.last("lane_offset_m"))
         st = self.platoon.state
         if st.lon_dev:
             cfg = self.config
