@@ -54,10 +54,10 @@ def test_a_driver_that_never_brakes_runs_the_brake_test_to_its_end() -> None:
     assert m["collisions"] >= 3 and m["collision_resets"] == m["collisions"] and m["resets"] == m["collisions"]
     assert m["reset_time_s"] == pytest.approx(2.0 * m["resets"])  # the time penalty: held 2 s each
     # every brake sign presented and scored, none obeyed (a car held after a reset is no reaction)
-    assert m["BrakeSign_n"] == m["signs_in_task"] > 0 and m["BrakeSign_correct"] == 0
+    assert m["BrakeSign_n"] + m["BrakeSign_unscored"] == m["signs_in_task"] > 0 and m["BrakeSign_correct"] == 0
     assert m["BrakeSign_misses"] + m["BrakeSign_reset"] == m["BrakeSign_n"]
     # every lead-car brake event presented: all missed, none timed
-    assert m["stimuli_presented"] == m["stimuli_configured"] == m["brake_trials"] + m["BrakeSign_n"]
+    assert m["stimuli_presented"] == m["stimuli_configured"] == m["brake_trials"] + m["signs_in_task"]
     assert m["brake_misses"] == m["brake_trials"] > 0 and m["brake_miss_rate"] == 1.0
     assert np.isnan(m["brake_rt_mean_s"])
     assert m == _metrics(seed=3)  # deterministic

@@ -75,7 +75,9 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
     stopping.
 
     ## Episode end
-    Terminated at the end of the track (the task pauses the simulation), on a collision,
+    Terminated at the end of the track (the task pauses the simulation), on a collision
+    (`on_collision="terminate"`, the default; `recover` puts the car back at rest clear of
+    what it hit, see `opends_gym.envs.collision`),
     when the car leaves the road by more than `off_road_margin_m` (1.5 m; with
     `on_road_exit="terminate"`, the default, see `opends_gym.envs.road_exit`), or, with
     `end_when_past_lead` (default), when it draws level with the lead car (overtaking
