@@ -59,6 +59,7 @@ def test_a_driver_that_never_brakes_runs_the_brake_test_to_its_end() -> None:
     # every lead-car brake event presented: all missed, none timed
     assert m["stimuli_presented"] == m["stimuli_configured"] == m["brake_trials"] + m["signs_in_task"]
     assert m["brake_misses"] == m["brake_trials"] > 0 and m["brake_miss_rate"] == 1.0
+    assert m["brakeLight_misses"] + m["emergencyBrake_misses"] == m["stimulus_misses"] == m["brake_trials"]
     assert np.isnan(m["brake_rt_mean_s"])
     assert m == _metrics(seed=3)  # deterministic
 

@@ -96,9 +96,8 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
         """The lead car's stimuli started plus the brake signs revealed (scored or not: a
         sign revealed while the car is slower than the timer's start speed, e.g. just after a
         reset, is shown but OpenDS's `BrakeReactionTimer` does not time it; see
-        `BrakeSign_unscored`). (A native batch's template sees no sign: the signs scored.)"""
-        scored = sum(1 for r in getattr(self.world.triggers, "reactions", ()) if r.group == "BrakeSign")
-        return super()._stimuli_presented() + max(len(self._shown), scored)
+        `BrakeSign_unscored`). (The native batch loads `_shown` into its template.)"""
+        return super()._stimuli_presented() + len(self._shown)
 
     def _stimulus(self) -> list[float]:
         z = self.world.ego.state.z

@@ -88,7 +88,8 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
     `OpenDSEnv`'s keys; `episode_metrics` adds longitudinal/lateral deviation (mean m,
     max m, fraction of time outside the band), per stimulus kind `<kind>_n`,
     `<kind>_misses`, `<kind>_mean_rt_s`, and `stimuli`, `stimulus_misses`,
-    `stimulus_mean_rt_s`.
+    `stimulus_mean_rt_s` (a miss: no reaction within `maxReactionTime`, also when the
+    stimulus itself ended sooner, as the 2.5 s brake light does).
 
     ## Version history
     v0: initial release.
