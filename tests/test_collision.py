@@ -15,12 +15,14 @@ from opends_gym.drivers.agents import make_agent
 from opends_gym.study.config import load_study
 from opends_gym.study.design import expand
 
+from .conftest import CORPUS
+
 BRAKE = "OpenDS/BrakeReaction-v0"
 
 
-def _never_brakes(env: gym.Env[Any, Any], seed: int, steps: int = 10_000, **stop: Any) -> tuple[list[dict[str, Any]], bool, bool]:
-    """The rule driver's steering with its foot always on the gas (>= 30 %): it runs into
-    the lead car at every hard brake. Returns every step's info, terminated, truncated."""
+def _never_brakes(env: gym.Env[Any, Any], seed: int, steps: int = 10_000, gas: float = 0.3) -> tuple[list[dict[str, Any]], bool, bool]:
+    """The rule driver's steering with its foot always on the gas (at least `gas`): it runs
+    into the lead car at every hard brake. Returns every step's info, terminated, truncated."""
     agent = make_agent("rule")
     obs, info = env.reset(seed=seed)
     agent.reset(env, seed)
@@ -28,7 +30,7 @@ def _never_brakes(env: gym.Env[Any, Any], seed: int, steps: int = 10_000, **stop
     terminated = truncated = False
     for _ in range(steps):
         a = np.array(agent.act(obs, info), dtype=np.float32)
-        a[1] = max(a[1], 0.3)
+        a[1] = max(a[1], gas)
         obs, _, terminated, truncated, info = env.step(a)
         infos.append(info)
         if terminated or truncated:
@@ -105,6 +107,18 @@ def test_platoon_recovers_from_a_collision() -> None:
     assert truncated and not terminated
     m = infos[-1]["episode_metrics"]
     assert m["collisions"] >= 1 and m["collision_resets"] == m["collisions"]
+    env.close()
+
+
+def test_a_traffic_task_recovers_from_running_into_a_car() -> None:
+    """OpenDS's motorway task with full gas: the car runs into the traffic ahead."""
+    task = str(CORPUS / "opends-cts" / "MotorwayTask")
+    env = gym.make("OpenDS/DrivingTask-v0", task=task, on_collision="recover", max_episode_s=25.0)
+    infos, terminated, truncated = _never_brakes(env, seed=1, gas=1.0)
+    assert truncated and not terminated
+    hits = [i for i, info in enumerate(infos) if info["new_collisions"]]
+    assert hits and infos[-1]["resets"] == infos[-1]["collisions"] == len(hits)
+    assert [e["source"] for e in infos[hits[0] + 1]["events"] if e["kind"] == "reset"] == ["collision"]
     env.close()
 
 
