@@ -16,7 +16,7 @@ from opends_gym.drivers.rule import RuleDriver, RuleParams
 from opends_gym.envs.drt import DetectionResponseTask
 from opends_gym.metrics import LctSign, NormativeModel
 from opends_gym.metrics.glance import glance_metrics, nhtsa_pass_share
-from opends_gym.metrics.headway import car_following_summary
+from opends_gym.metrics.headway import FollowingCriterion, car_following_summary
 from opends_gym.metrics.lateral import sdlp_segments
 from opends_gym.metrics.lct_iso import CORRECT, MISSED, WRONG_LANE, score_lct_iso
 from opends_gym.metrics.reaction import RtDistribution, score_brake_trials, score_drt
@@ -92,17 +92,42 @@ def test_brake_trials_validity_window_and_misses() -> None:
 
 
 def test_car_following_uses_both_speeds() -> None:
+    t = np.arange(4.0) * 10.0  # samples 10 s apart: one stretch of following lasts 0 s
     gap = np.array([20.0, 20.0, 10.0, np.inf])
     follower = np.array([20.0, 10.0, 20.0, 20.0])
     lead = np.array([20.0, 20.0, 10.0, np.nan])  # equal speeds, lead faster, closing at 10 m/s, no lead
-    s = car_following_summary(gap, follower, lead)
-    assert s["lead_share"] == 0.75
+    s = car_following_summary(t, gap, follower, lead, criterion=FollowingCriterion(max_relative_speed_mps=100.0, min_duration_s=0.0))
+    assert s["lead_share"] == 0.75 and s["following_share"] == 0.75
     assert s["thw_mean_s"] == pytest.approx(3.5 / 3) and s["thw_min_s"] == 0.5  # 1.0, 2.0, 0.5 s
     assert s["thw_below_1s_share"] == pytest.approx(1 / 3) and s["thw_below_2s_share"] == pytest.approx(2 / 3)
     assert s["ttc_min_s"] == 1.0  # only the closing sample has a finite TTC: 10 m / 10 m/s
     assert s["ttc_below_1.5s_share"] == pytest.approx(1 / 3) and s["ttc_below_3s_share"] == pytest.approx(1 / 3)
-    alone = car_following_summary(np.full(3, np.inf), np.full(3, 20.0), np.full(3, np.nan))
+    alone = car_following_summary(t[:3], np.full(3, np.inf), np.full(3, 20.0), np.full(3, np.nan))
     assert alone["lead_share"] == 0.0 and math.isnan(alone["thw_mean_s"]) and alone["ttc_min_s"] == math.inf
+
+
+def test_time_headway_only_while_car_following() -> None:
+    """A hand-built drive whose steady following has THW 1.5 s: standing behind a stopped
+    lead, a lead 200 m ahead, the lead pulling away and a 10 s stretch of close following
+    are no car following (metrics.headway.FOLLOWING) and leave the mean at 1.5 s."""
+    parts = [  # (seconds, gap m, ego m/s, lead m/s)
+        (20.0, 30.0, 20.0, 20.0),  # following at 30 m and 72 km/h: THW 1.5 s, for 20 s
+        (5.0, 5.0, 0.2, 0.0),  # stopped behind the stopped lead: gap / speed would be 25 s
+        (5.0, 60.0, 10.0, 20.0),  # the lead pulls away (relative speed 10 m/s)
+        (10.0, 10.0, 20.0, 20.0),  # THW 0.5 s, but for 10 s only: not a car-following episode
+        (5.0, 200.0, 20.0, 20.0),  # the lead far ahead
+        (16.0, 30.0, 20.0, 20.0),  # THW 1.5 s again, 16 s
+    ]
+    dt = 0.1
+    gap, ego, lead = (np.concatenate([np.full(round(part[0] / dt), part[k]) for part in parts]) for k in (1, 2, 3))
+    t = np.arange(len(gap)) * dt
+    s = car_following_summary(t, gap, ego, lead)
+    assert s["thw_mean_s"] == pytest.approx(1.5) and s["thw_min_s"] == pytest.approx(1.5)
+    assert s["following_share"] == pytest.approx(36.0 / 61.0)
+    assert s["thw_below_2s_share"] == 1.0 and s["thw_below_1s_share"] == 0.0
+    assert s["lead_share"] == 1.0 and s["ttc_below_3s_share"] == 0.0
+    naive = np.mean(gap / ego)  # every sample with a lead: what thw_mean_s was before
+    assert naive > 3.0
 
 
 def test_sdlp_fixed_segments_exclusion_and_valid_fraction() -> None:

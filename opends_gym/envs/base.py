@@ -25,8 +25,9 @@ equal across seeded runs):
   follow the standards (docs/metrics.md): sdlp_j2944_m over fixed 30 s segments with
   sdlp_j2944_valid_fraction, sdlp_j2944_excluded_fraction, sdlp_j2944_segments,
   sdlp_j2944_segments_valid; steering_reversal_rate_{0_5,2,10}deg_per_min on lane keeping;
-  car following with both speeds: lead_share, thw_mean_s, thw_min_s,
-  thw_below_{1,2}s_share, ttc_below_{1_5,3}s_share.
+  car following with both speeds: lead_share, following_share, thw_mean_s, thw_min_s,
+  thw_below_{1,2}s_share (THW and mean_headway_s over the car-following samples only,
+  `metrics.headway.FOLLOWING`), ttc_below_{1_5,3}s_share.
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.utils import EzPickle
 
-from ..metrics.headway import car_following_summary, time_headway, time_to_collision
+from ..metrics.headway import car_following_summary, following_mask, time_headway, time_to_collision
 from ..metrics.lateral import SDLP_MIN_VALID_FRACTION, SDLP_SEGMENT_S, lane_keeping_mask, sdlp, sdlp_segments
 from ..metrics.steering import gap_key, reversal_rate, reversal_rates
 from ..sim.controls import STEERING_WHEEL_MAX_DEG, DriverControls
@@ -47,6 +48,7 @@ from ..sim.perception import lead_vehicle
 from ..sim.world import World, WorldConfig
 from ..task import DrivingTask
 from .actions import make_action_type
+from .collision import COLLISION_SOURCE, collision_mode, collision_reset_pose
 from .config import EnvConfig, build_config
 from .observations import make_observation_type
 from .road_exit import RESET_SOURCE, LanePose, check_mode, held
@@ -70,6 +72,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, not {render_mode!r}")
         self.config = build_config(self.config_class, kwargs)
         self.on_road_exit = check_mode(self.config.on_road_exit)
+        self.on_collision = collision_mode(self.config.on_collision, self.config.terminate_on_collision)
         # one rendered frame per policy step: RecordVideo and the window play in real time
         self.metadata = {**type(self).metadata, "render_fps": self.config.policy_hz}
         self.render_mode = render_mode
@@ -94,6 +97,8 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         self._reset_rows: list[int] = []
         self._reset_request = self._reset_due = False
         self._hold_until_s = -math.inf
+        self._collision_due: bool = False  # (on_collision="recover": a reset at the next physics step)
+        self._collisions_handled: int = 0
         self._clear_road_exits()
 
     # ------------------------------------------------------------------ hooks
@@ -197,14 +202,21 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         world = self.world
         self._exits_this_step = 0
         for k in range(self.config.action_repeat):
-            if self._reset_request or self._reset_due:  # reset_position() or on_road_exit="recover"
+            if self._collision_due:  # on_collision="recover"
+                self._collision_due = self._reset_request = self._reset_due = False
+                self._reset_to_lane(collision=True)
+            elif self._reset_request or self._reset_due:  # reset_position() or on_road_exit="recover"
                 self._reset_request = self._reset_due = False
                 self._reset_to_lane()
             self.controls = controls
-            world.step_clipped(held(applied) if world.t_s < self._hold_until_s - 1e-9 else applied)
+            self._inputs_held = world.t_s < self._hold_until_s - 1e-9
+            world.step_clipped(held(applied) if self._inputs_held else applied)
             self._record_row()
             self._on_physics_step()
             self._road_exit()
+            if self.on_collision == "recover" and world.collisions > self._collisions_handled:
+                self._collisions_handled = world.collisions
+                self._collision_due = True  # at the start of the next physics step, as a road exit
             if k == 0:
                 controls = _without_edges(controls)
                 applied = _without_edges(applied)
@@ -261,9 +273,13 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         self._lane_y = 0.0
         self._off_now = False
         self._hold_until_s = -math.inf
+        self._inputs_held = False  # this physics step's inputs were held (after a reset)
         self._was_off_road = False
         self.road_exits = 0  # times the car left the road (each exit once)
-        self.resets = 0  # resets to the last lane position (automatic and requested)
+        self.resets = 0  # resets to the last lane position (automatic and requested) and after collisions
+        self.collision_resets = 0  # resets after collisions (on_collision="recover")
+        self._collision_due = False
+        self._collisions_handled = 0
         self.reset_time_s = 0.0  # simulated seconds held still after resets
         self._exits_this_step = 0
         self._skip_distance = False
@@ -303,10 +319,17 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         offset = p.lateral_m - self.guide.lane_laterals_m[lane]
         return LanePose(x, self._lane_y, z, offset, self.guide.heading_at(p.s_m))
 
-    def _reset_to_lane(self) -> None:
+    def _reset_to_lane(self, collision: bool = False) -> None:
+        """Put the car back at rest and hold it: at the last lane position, or after a
+        collision behind what it hit (`opends_gym.envs.collision`)."""
         w = self.world
-        lane_pose = self._lane_pose()
-        pose = lane_pose.lane_centre_pose() if lane_pose is not None else w.start_pose
+        if collision:
+            lane = int(self.trace.last("lane_index"))
+            pose = collision_reset_pose(w, self.guide, lane if lane >= 0 else self._settled_lane)
+            self.collision_resets += 1
+        else:
+            lane_pose = self._lane_pose()
+            pose = lane_pose.lane_centre_pose() if lane_pose is not None else w.start_pose
         w.ego.teleport(pose)
         self.resets += 1
         hold = self.config.reset_hold_s
@@ -315,7 +338,8 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         self._was_off_road = self._off_now = False
         self._skip_distance = True  # the jump is no distance driven
         x, _, z = pose.position_m
-        w.events.emit(w.t_s, "reset", RESET_SOURCE, x_m=x, z_m=z, yaw_rad=pose.yaw_rad, hold_s=hold, resets=self.resets)
+        source = COLLISION_SOURCE if collision else RESET_SOURCE
+        w.events.emit(w.t_s, "reset", source, x_m=x, z_m=z, yaw_rad=pose.yaw_rad, hold_s=hold, resets=self.resets)
         self.guide.reset()
         self._last_s = self.guide.locate(x, z).s_m
         self._after_reset_position()
@@ -329,7 +353,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             return True
         if getattr(trig, "paused", False) and math.isinf(getattr(trig, "pause_until_s", 0.0)):
             return True  # paused "until resumed": nobody resumes an RL episode
-        if self.config.terminate_on_collision and new_collisions > 0:
+        if self.on_collision == "terminate" and new_collisions > 0:
             return True
         if self._off_now and self.on_road_exit == "terminate":
             return True
@@ -362,8 +386,20 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             run.dist += ds
             run.area += 0.5 * (abs(prev[_OFFSET]) + abs(offset)) * ds  # (RunningLateral.add_distance, inlined)
         run.add_offset(offset)
-        tr.append((w.t_s, x, z, s.yaw, s.u, lateral, offset, float(lane), inp.steering, inp.accelerator, inp.brake, headway, ttc, gap,
+        gas, brake = self.driver_pedals()
+        tr.append((w.t_s, x, z, s.yaw, s.u, lateral, offset, float(lane), inp.steering, gas, brake, headway, ttc, gap,
                    lead_speed))  # fmt: skip
+
+    def driver_pedals(self) -> tuple[float, float]:
+        """(accelerator, brake) the driver applies this physics step. While the car is held
+        after a reset the car gets full brake, but the driver's own pedals are what the
+        reaction measures score (a held car is no brake response)."""
+        w = self.world
+        if self._inputs_held:
+            c = self.controls
+            return min(max(float(c.accelerator), 0.0), 1.0), min(max(float(c.brake), 0.0), 1.0)
+        inp = w.ego.inputs
+        return inp.accelerator, inp.brake
 
     def _new_reaction(self) -> tuple[float, float]:
         reactions: Any = getattr(self.world.triggers, "reactions", ())
@@ -406,8 +442,8 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         offsets = tr.col("lane_offset_m")
         fs = self.config.physics_hz
         steer_deg = tr.col("steering") * STEERING_WHEEL_MAX_DEG
-        headway = tr.col("headway_s")
-        finite_h = headway[np.isfinite(headway)]
+        following = following_mask(tr.col("t_s"), tr.col("gap_m"), tr.col("speed_mps"), tr.col("lead_speed_mps"))
+        finite_h = tr.col("headway_s")[following]  # front to front, while car following (metrics.headway.FOLLOWING)
         ttc = tr.col("ttc_s")
         finite_t = ttc[np.isfinite(ttc)]
         reactions: Any = getattr(self.world.triggers, "reactions", ())
@@ -433,6 +469,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
             "stimuli_presented": float(self._stimuli_presented()),
             "road_exits": float(self._road_exits_in_trace()),
             "resets": float(self.resets),
+            "collision_resets": float(self.collision_resets),
             "reset_time_s": self.reset_time_s,
         }
         out.update(self._standard_metrics(steer_deg, fs))
@@ -480,7 +517,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         keep = instructed if instructed is not None else lane_keeping_mask(t, tr.col("lane_index"))
         for gap, rate in reversal_rates(steer_deg, fs, keep).items():
             out[f"steering_reversal_rate_{gap_key(gap)}_per_min"] = rate
-        cf = car_following_summary(tr.col("gap_m"), tr.col("speed_mps"), tr.col("lead_speed_mps"))
+        cf = car_following_summary(t, tr.col("gap_m"), tr.col("speed_mps"), tr.col("lead_speed_mps"))
         cf.pop("ttc_min_s")  # (min_ttc_s above)
         out.update({k.replace(".", "_"): v for k, v in cf.items()})
         return out

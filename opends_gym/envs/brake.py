@@ -47,13 +47,17 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
     the lead's emergency brake rather than learn the collision penalty only after crashing.
 
     ## Episode end
-    Terminated at the end of the track, on a collision, off the road or when drawing level
-    with the lead car (`end_when_past_lead`); truncated after `max_episode_s`.
+    Terminated at the end of the track, on a collision (`on_collision="terminate"`, the
+    default; `recover`, the study default, puts the car back at rest behind the lead car
+    instead, see `opends_gym.envs.collision`), off the road (`on_road_exit`) or when drawing
+    level with the lead car (`end_when_past_lead`); truncated after `max_episode_s`.
 
     ## Info
     `OpenDSEnv`'s keys; `episode_metrics` adds the platoon stimulus measures for the
-    lead-car stimuli, the brake-sign timer results (`BrakeSign_correct`,
-    `BrakeSign_misses`, `BrakeSign_mean_rt_s`) and, over all lead-car stimuli, the mean
+    lead-car stimuli, the brake-sign timer results (`BrakeSign_n`, `BrakeSign_correct`,
+    `BrakeSign_misses`, `BrakeSign_mean_rt_s`; `BrakeSign_reset`: signs met only because a
+    reset put the car at rest, not counted as correct; `BrakeSign_unscored`: signs revealed
+    that no timer scored, as when the car was below the timer's start speed) and, over all lead-car stimuli, the mean
     accelerator-release time and brake-onset time after stimulus onset
     (`accelerator_release_s`, `brake_onset_s`; the latter is the brake reaction time).
     Scored as trials (`metrics.reaction.score_brake_trials`): `brake_trials`,
@@ -78,12 +82,22 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
     def _setup(self) -> None:
         super()._setup()
         self._signs = [objs[0] for oid, objs in self.world.objects.by_id.items() if oid.endswith("_Sign")]
+        self._shown: set[str] = set()  # brake signs revealed this episode
+
+    def _reset_task(self, options: dict[str, Any] | None) -> None:
+        super()._reset_task(options)
+        self._shown = set()
+
+    def _task_info(self, info: dict[str, Any]) -> None:
+        super()._task_info(info)
+        self._shown.update(o.id for o in self._signs if o.visible)
 
     def _stimuli_presented(self) -> int:
-        """The lead car's stimuli started plus the brake signs scored (a sign still being
-        timed when the episode ends is not counted)."""
-        signs = sum(1 for r in getattr(self.world.triggers, "reactions", ()) if r.group == "BrakeSign")
-        return super()._stimuli_presented() + signs
+        """The lead car's stimuli started plus the brake signs revealed (scored or not: a
+        sign revealed while the car is slower than the timer's start speed, e.g. just after a
+        reset, is shown but OpenDS's `BrakeReactionTimer` does not time it; see
+        `BrakeSign_unscored`). (The native batch loads `_shown` into its template.)"""
+        return super()._stimuli_presented() + len(self._shown)
 
     def _stimulus(self) -> list[float]:
         z = self.world.ego.state.z
@@ -102,9 +116,15 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
     def _episode_metrics(self) -> dict[str, float]:
         out = super()._episode_metrics()
         reactions = [r for r in getattr(self.world.triggers, "reactions", ()) if r.group == "BrakeSign"]
-        rts = [r.reaction_time_s for r in reactions if r.result == 1]
+        # a sign "obeyed" because a reset put the car at rest is no reaction of the driver
+        reset_t = [e.t_s for e in self.world.events.since(0) if e.kind == "reset"]
+        by_reset = [r for r in reactions if r.result == 1 and any(r.start_t_s <= t <= r.t_s for t in reset_t)]
+        correct = [r for r in reactions if r.result == 1 and r not in by_reset]
+        rts = [r.reaction_time_s for r in correct]
         out["BrakeSign_n"] = float(len(reactions))
-        out["BrakeSign_correct"] = float(sum(1 for r in reactions if r.result == 1))
+        out["BrakeSign_correct"] = float(len(correct))
+        out["BrakeSign_reset"] = float(len(by_reset))
+        out["BrakeSign_unscored"] = float(max(0, len(self._shown) - len(reactions)))
         out["BrakeSign_misses"] = float(sum(1 for r in reactions if r.result == -2))
         out["BrakeSign_mean_rt_s"] = float(np.mean(rts)) if rts else math.nan
         tr = self.trace

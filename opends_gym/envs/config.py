@@ -36,7 +36,8 @@ class EnvConfig:
     image_height: int = 84
     render_width: int = 640
     render_height: int = 360
-    terminate_on_collision: bool = True
+    terminate_on_collision: bool = True  # (older switch; on_collision, when set, decides)
+    on_collision: str | None = None  # terminate | recover | continue (opends_gym.envs.collision); None: from terminate_on_collision
     on_road_exit: str = "terminate"  # terminate | recover | continue (opends_gym.envs.road_exit)
     reset_hold_s: float = DEFAULT_RESET_HOLD_S  # recover / reset_position(): seconds held still after the reset (ours; OpenDS: none)
     off_road_margin_m: float = 1.5  # beyond the road's edges by this much counts as leaving the road

@@ -38,7 +38,8 @@ class DrivingTaskEnv(OpenDSEnv):
     collision.
 
     ## Episode end
-    Terminated on a collision (`terminate_on_collision`), when the task shuts the
+    Terminated on a collision (`on_collision="terminate"`, the default; `recover` puts the
+    car back clear of what it hit, see `opends_gym.envs.collision`), when the task shuts the
     simulation down or pauses it until resumed (OpenDS's end-of-experiment idiom).
     Truncated after `max_episode_s` simulated seconds (default 600).
 
@@ -50,7 +51,8 @@ class DrivingTaskEnv(OpenDSEnv):
     ## Arguments
     `task` plus every field of `EnvConfig`: physics ("fast" | "bullet"), physics_hz (60),
     policy_hz (10), observation, action, max_episode_s, nearby_vehicles, rays,
-    ray_range_m, image_width/height, render_width/height, terminate_on_collision.
+    ray_range_m, image_width/height, render_width/height, terminate_on_collision,
+    on_collision, on_road_exit, reset_hold_s.
 
     ## Version history
     v0: initial release.

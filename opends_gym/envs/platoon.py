@@ -75,7 +75,9 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
     stopping.
 
     ## Episode end
-    Terminated at the end of the track (the task pauses the simulation), on a collision,
+    Terminated at the end of the track (the task pauses the simulation), on a collision
+    (`on_collision="terminate"`, the default; `recover` puts the car back at rest clear of
+    what it hit, see `opends_gym.envs.collision`),
     when the car leaves the road by more than `off_road_margin_m` (1.5 m; with
     `on_road_exit="terminate"`, the default, see `opends_gym.envs.road_exit`), or, with
     `end_when_past_lead` (default), when it draws level with the lead car (overtaking
@@ -86,7 +88,8 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
     `OpenDSEnv`'s keys; `episode_metrics` adds longitudinal/lateral deviation (mean m,
     max m, fraction of time outside the band), per stimulus kind `<kind>_n`,
     `<kind>_misses`, `<kind>_mean_rt_s`, and `stimuli`, `stimulus_misses`,
-    `stimulus_mean_rt_s`.
+    `stimulus_mean_rt_s` (a miss: no reaction within `maxReactionTime`, also when the
+    stimulus itself ended sooner, as the 2.5 s brake light does).
 
     ## Version history
     v0: initial release.
@@ -125,7 +128,8 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
         c = self.controls
         inp = self.world.ego.inputs
         pressed = bool(c.keys or c.buttons)
-        self.platoon.step(inp.accelerator, inp.brake, pressed, inp.turn_signal, self.trace.last("lane_offset_m"))
+        gas, brake = self.driver_pedals()  # (not the full brake of a hold after a reset)
+        self.platoon.step(gas, brake, pressed, inp.turn_signal, self.trace.last("lane_offset_m"))
         st = self.platoon.state
         if st.lon_dev:
             cfg = self.config

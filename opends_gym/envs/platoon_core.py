@@ -252,15 +252,22 @@ class PlatoonCore:
         out["lateral_deviation_mean_m"] = float(lat.mean()) if len(lat) else math.nan
         out["lateral_outside_fraction"] = float(np.mean(lat > 0)) if len(lat) else math.nan
         kinds = ("brakeLight", "leadingCarTurnSignal", "followerCarTurnSignal", "speedReduction", "emergencyBrake")
+        # a stimulus that ended (brake light off after its 2.5 s) before any reaction stays
+        # unscored (result 0) in the event log; once its reaction window is over it is a miss
+        t_end, max_rt = self.world.t_s, self.spec.max_reaction_time_s
+
+        def missed(st: Stimulus) -> bool:
+            return st.result == -2 or (st.result == 0 and t_end - st.onset_s > max_rt)
+
         for kind in kinds:
             sts = [s for s in self.state.stimuli if s.kind == kind]
             rts = [s.reaction_time_s for s in sts if s.result == 1]
             out[f"{kind}_n"] = float(len(sts))
-            out[f"{kind}_misses"] = float(sum(1 for s in sts if s.result == -2))
+            out[f"{kind}_misses"] = float(sum(1 for s in sts if missed(s)))
             out[f"{kind}_mean_rt_s"] = float(np.mean(rts)) if rts else math.nan
         done = [s for s in self.state.stimuli if s.result != 0]
         out["stimuli"] = float(len(self.state.stimuli))
-        out["stimulus_misses"] = float(sum(1 for s in done if s.result == -2))
+        out["stimulus_misses"] = float(sum(1 for s in self.state.stimuli if missed(s)))
         rts = [s.reaction_time_s for s in done if s.result == 1]
         out["stimulus_mean_rt_s"] = float(np.mean(rts)) if rts else math.nan
         return out

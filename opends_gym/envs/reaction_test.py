@@ -54,7 +54,8 @@ class ReactionTestEnv(OpenDSEnv):
 
     ## Episode end
     Terminated when the task's end trigger pauses the simulation (after all 20 trials),
-    on a collision or off the road (`on_road_exit`, see `opends_gym.envs.road_exit`);
+    on a collision (`on_collision`, see `opends_gym.envs.collision`) or off the road
+    (`on_road_exit`, see `opends_gym.envs.road_exit`);
     truncated after `max_episode_s`.
 
     ## Info

@@ -10,6 +10,7 @@ front-to-front headway.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -64,37 +65,95 @@ THW_THRESHOLDS_S = (1.0, 2.0)
 TTC_THRESHOLDS_S = (1.5, 3.0)
 
 
+@dataclass(frozen=True)
+class FollowingCriterion:
+    """When a sample counts as car following (THW is a car-following measure: averaged over
+    every sample with some car ahead it mixes in the follower standing still behind a
+    stopped lead, gap / ~0 m/s, and the lead pulling away after a brake event).
+
+    The values are the car-following extraction criteria of the naturalistic-driving
+    literature as tabulated by Wang et al. (and reused by Zhu, Wang, Tarko & Fang 2018,
+    Transp. Res. C 93): follower faster than 18 km/h, the lead closer than 120 m, the
+    relative speed within +-2.5 m/s, held for at least 15 s (the lead in the same lane is
+    `sim.perception.lead_vehicle`'s test: its centre within 1.5 m of the ego's line; Wang
+    et al. use 2.5 m). Their lower gap bound (7 m) is left out on purpose: short gaps are
+    what the THW shares flag."""
+
+    min_speed_mps: float = 18.0 / 3.6
+    max_gap_m: float = 120.0
+    max_relative_speed_mps: float = 2.5
+    min_duration_s: float = 15.0
+
+
+FOLLOWING = FollowingCriterion()
+
+
+def following_mask(
+    t_s: np.ndarray,
+    gap_m: np.ndarray,
+    follower_speed_mps: np.ndarray,
+    lead_speed_mps: np.ndarray,
+    criterion: FollowingCriterion = FOLLOWING,
+) -> np.ndarray:
+    """Per sample: True while car following per `criterion` (every sample condition met
+    over an unbroken stretch at least `min_duration_s` long, first to last sample)."""
+    t = np.asarray(t_s, dtype=float)
+    gap = np.asarray(gap_m, dtype=float)
+    vf = np.asarray(follower_speed_mps, dtype=float)
+    vl = np.asarray(lead_speed_mps, dtype=float)
+    with np.errstate(invalid="ignore"):
+        ok = (
+            np.isfinite(gap)
+            & np.isfinite(vl)
+            & (vf > criterion.min_speed_mps)
+            & (gap < criterion.max_gap_m)
+            & (np.abs(vf - vl) <= criterion.max_relative_speed_mps)
+        )
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], ok.astype(np.int8), [0]))))
+    keep = np.zeros(len(ok), dtype=bool)
+    for start, end in zip(edges[::2], edges[1::2], strict=True):
+        if t[end - 1] - t[start] >= criterion.min_duration_s - 1e-9:
+            keep[start:end] = True
+    return keep
+
+
 def car_following_summary(
+    t_s: np.ndarray,
     gap_m: np.ndarray,
     follower_speed_mps: np.ndarray,
     lead_speed_mps: np.ndarray,
     thw_thresholds_s: tuple[float, ...] = THW_THRESHOLDS_S,
     ttc_thresholds_s: tuple[float, ...] = TTC_THRESHOLDS_S,
+    criterion: FollowingCriterion = FOLLOWING,
 ) -> dict[str, float]:
-    """Time headway and time to collision from both vehicles' speeds, per sample.
+    """Time headway while car following and time to collision, from both vehicles' speeds.
 
-    THW = gap / v_follower (bumper to bumper, SAE J2944's time gap) over samples with a
-    lead (finite gap) and a moving follower; TTC = gap / (v_follower - v_lead) while
-    closing in, else inf (Vogel 2003). Shares are of the samples with a lead (equal time
-    steps): `thw_below_1s_share` is the share of those with THW < 1 s; `ttc_below_3s_share`
-    the share with TTC < 3 s. NaN shares and means when no sample has a lead."""
+    THW = gap / v_follower (bumper to bumper, SAE J2944's time gap), over the car-following
+    samples only (`following_mask`); `following_share` is their share of all samples and
+    `thw_below_1s_share` the share of them with THW < 1 s. TTC = gap / (v_follower - v_lead)
+    while closing in, else inf (Vogel 2003), over every sample with a lead (a conflict is
+    not steady following): `ttc_below_3s_share` is the share of the samples with a lead
+    with TTC < 3 s. Equal time steps. NaN means and shares when no sample qualifies."""
     gap = np.asarray(gap_m, dtype=float)
     vf = np.asarray(follower_speed_mps, dtype=float)
     vl = np.asarray(lead_speed_mps, dtype=float)
     lead = np.isfinite(gap) & np.isfinite(vl)
+    following = following_mask(t_s, gap, vf, vl, criterion)
     with np.errstate(divide="ignore", invalid="ignore"):
-        thw = np.where(lead & (vf > 0.0), np.maximum(gap, 0.0) / vf, np.inf)
         closing = vf - vl
         ttc = np.where(lead & (closing > 0.0), np.maximum(gap, 0.0) / closing, np.inf)
+    thw = np.maximum(gap[following], 0.0) / vf[following]
     n = int(lead.sum())
-    out: dict[str, float] = {"lead_share": float(n / len(gap)) if len(gap) else math.nan}
-    finite_thw = thw[lead & np.isfinite(thw)]
-    out["thw_mean_s"] = float(finite_thw.mean()) if len(finite_thw) else math.nan
-    out["thw_min_s"] = float(finite_thw.min()) if len(finite_thw) else math.nan
+    out: dict[str, float] = {
+        "lead_share": float(n / len(gap)) if len(gap) else math.nan,
+        "following_share": float(following.mean()) if len(gap) else math.nan,
+        "thw_mean_s": float(thw.mean()) if len(thw) else math.nan,
+        "thw_min_s": float(thw.min()) if len(thw) else math.nan,
+    }
     finite_ttc = ttc[np.isfinite(ttc)]
     out["ttc_min_s"] = float(finite_ttc.min()) if len(finite_ttc) else math.inf
     for th in thw_thresholds_s:
-        out[f"thw_below_{th:g}s_share"] = float(np.mean(thw[lead] < th)) if n else math.nan
+        out[f"thw_below_{th:g}s_share"] = float(np.mean(thw < th)) if len(thw) else math.nan
     for th in ttc_thresholds_s:
         out[f"ttc_below_{th:g}s_share"] = float(np.mean(ttc[lead] < th)) if n else math.nan
     return out

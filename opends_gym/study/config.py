@@ -28,6 +28,7 @@ STUDY_KEYS = (
     "repetitions",
     "agent",
     "on_road_exit",
+    "on_collision",
     "reference",
     "tasks",
     "conditions",
@@ -110,6 +111,7 @@ class Study:
     repetitions: int
     agent: str
     on_road_exit: str | None
+    on_collision: str | None
     reference: str
     tasks: tuple[TaskSpec, ...]
     conditions: tuple[ConditionSpec, ...]
@@ -205,6 +207,9 @@ def load_study(path: str | Path, participants: int | None = None) -> Study:
     on_road_exit = top.get("on_road_exit", str, "recover")
     if on_road_exit not in ("terminate", "recover", "continue"):
         raise top.error("on_road_exit", f"must be terminate, recover or continue, not {on_road_exit!r}")
+    on_collision = top.get("on_collision", str, "recover")  # (opends_gym.envs.collision)
+    if on_collision not in ("terminate", "recover", "continue"):
+        raise top.error("on_collision", f"must be terminate, recover or continue, not {on_collision!r}")
     agent = top.get("agent", str, DEFAULT_AGENT)
     _check_agent(top, "agent", agent)
     metrics = _metric_list(top, "metrics")
@@ -222,6 +227,7 @@ def load_study(path: str | Path, participants: int | None = None) -> Study:
         repetitions=reps,
         agent=agent,
         on_road_exit=on_road_exit,
+        on_collision=on_collision,
         reference=reference,
         tasks=tasks,
         conditions=conditions,

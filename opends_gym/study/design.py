@@ -47,10 +47,12 @@ def trial_seed(study_seed: int, participant: int, task: int, repetition: int) ->
 
 def env_args_for(study: Study, task: TaskSpec, condition: ConditionSpec, accepted: set[str]) -> dict[str, Any]:
     """The env options of one cell: the task's, then the condition's, then the study's
-    `on_road_exit` where the env has that option (envs without it keep their own behaviour)."""
+    `on_road_exit` and `on_collision` where the env has the option (envs without it keep their
+    own behaviour)."""
     args: dict[str, Any] = {**task.env_args, **condition.env_args}
-    if study.on_road_exit is not None and "on_road_exit" in accepted and "on_road_exit" not in args:
-        args["on_road_exit"] = study.on_road_exit
+    for key, value in (("on_road_exit", study.on_road_exit), ("on_collision", study.on_collision)):
+        if value is not None and key in accepted and key not in args:
+            args[key] = value
     drt = condition.drt or task.drt
     if drt is not None and "action" not in args:
         args["action"] = "continuous_buttons"  # the DRT response is the reaction button

@@ -83,6 +83,12 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
                 f"on_road_exit={kwargs['on_road_exit']!r} use gymnasium.make_vec({env_id!r}, num_envs={num_envs}, "
                 "vectorization_mode='sync')"
             )
+        if kwargs.get("on_collision") not in (None, "terminate"):
+            raise ValueError(
+                f"the native batch of {env_id} handles collisions with terminate_on_collision only; for "
+                f"on_collision={kwargs['on_collision']!r} use gymnasium.make_vec({env_id!r}, num_envs={num_envs}, "
+                "vectorization_mode='sync')"
+            )
         template: Any = gym.make(env_id, disable_env_checker=True, **kwargs).unwrapped
         if template.config.observation != "kinematics":
             raise ValueError(f"the native batch supports the kinematics observation, not {template.config.observation!r}")

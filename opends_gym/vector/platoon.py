@@ -320,6 +320,10 @@ class BrakeBatch(PlatoonBatch):
         super()._reset_task(idx)
         self.revealed[idx] = False
 
+    def _load_episode(self, e: int, columns: np.ndarray | None) -> None:
+        super()._load_episode(e, columns)
+        self.template._shown = {oid for oid, shown in zip(self.sign_ids, self.revealed[e], strict=True) if shown}  # (signs revealed)
+
     def _on_action(self, e: int, act: CompiledAction, trigger: int) -> None:
         if act.name == "manipulateObject":
             oid = str(act.args["object_id"])
