@@ -29,13 +29,14 @@ import numpy as np
 from ..envs.base import LANE_KEEPING_OFFSET_M
 from ..jit import kernel
 from ..sim.traffic.legs import KIND_NET, KIND_OWN
-from ..sim.traffic.motion import ARRIVED, N_WORK, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, advance_carrots, continue_on_network, drive
+from ..sim.traffic.motion import ARRIVED, N_WORK, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, advance_carrots, drive
 from ..sim.traffic.state import Specs
 from ..sim.triggers.core import CompiledAction
 from . import ego
 from .actions import BatchControls
 from .core import BatchCore
-from .kernels import box_centre, ego_features_row, volume_fires
+from .driving_step import _worlds_range, step_worlds
+from .kernels import CHUNK_ENVS, box_centre, ego_features_row, volume_fires
 from .platoon_step import _lead_range
 from .route import locate_route, record_route, route_tables
 from .traffic import FlatTraffic, _Legs
@@ -71,6 +72,7 @@ class NetTraffic(FlatTraffic):
         if any(tm.preferred):
             raise ValueError("the native batch does not support preferred segments")
         self.n, self.c = n, len(tm.ids)
+        tm.world.reset(seed=0)  # the cars as a reset places them
         self.tm = tm
         self.paths = tm.paths
         self.st0 = tm.st.copy()
@@ -84,6 +86,15 @@ class NetTraffic(FlatTraffic):
         self.net = tm._net_table
         self.quiet = np.tile(tm._quiet_cars, n)
         self.worlds = [_EnvWorld(tm.world.rng, tm.world.ego) for _ in range(n)]
+        self.ego = np.zeros((3, n))  # each world's ego car: x, z, speed (no car here watches the ego's speed)
+        self.codes = np.zeros(n, dtype=np.int64)
+        self.brake = np.zeros(n * self.c, dtype=bool)
+        self.turn = np.zeros(n * self.c, dtype=np.int64)
+        self.all_rows = np.ones(self.c, dtype=bool)
+        self.parallel = n > CHUNK_ENVS
+        # no random choice anywhere on the network: every seed places the cars alike (the template's reset)
+        net = tm.network
+        self.forks = net is not None and any(len(v) > 1 for v in net.outgoing.values())
         self.half = np.tile(tm.half_extents, (n, 1))
         self.ego_length = ego_length_m
         self.ego_reach = math.hypot(*ego_half)
@@ -103,40 +114,52 @@ class NetTraffic(FlatTraffic):
         self.hitting[rows] = False
         self.worlds[e] = _EnvWorld(copy.deepcopy(w.rng), w.ego)
 
+    def reset_envs(self, idx: np.ndarray, seeds: np.ndarray) -> None:
+        """`reset_env` of the envs idx; without forks on the network (no seed changes where the
+        cars start or go), all at once from the template's placement."""
+        if self.forks:
+            for e, seed in zip(idx.tolist(), seeds.tolist()):
+                self.reset_env(e, seed)
+        else:
+            self.reset_rows(idx, self.st0)
+
     def step(self, live_env: np.ndarray, dt: float, t_env: np.ndarray, ex: np.ndarray, ez: np.ndarray) -> None:
-        """`TrafficManager.step` (`motion.step_objects`, then `_step_with_events`) for the cars of
-        the envs `live_env`, with `group` = the cars of one env."""
-        st, c, work, flags = self.st, self.c, self.work, self.flags
-        active = np.repeat(live_env, c)
+        """`TrafficManager.step` for the cars of the envs `live_env`: each world's
+        `motion.step_objects` (`driving_step.step_worlds`), then, for the worlds that stopped
+        for Python, the rest of the step as `TrafficManager._step_with_events` does it."""
+        st, c = self.st, self.c
         pf, pp, pi = self.paths.arrays()
         t = np.ascontiguousarray(t_env, dtype=np.float64)
-        code = advance_carrots(st.f, st.i, st.b, st.pos, self.sp.packed, pf, pp, pi, c, active, t, dt, work, flags)
-        if code == NOTHING_LIVE:
-            return
-        moved_on = code > 0
-        if moved_on:
-            code = continue_on_network(st.f, st.i, st.b, st.end_xz, self.net, self.quiet, flags)
-        if code == WAITS_OVER:
-            for i in np.flatnonzero(flags & WAIT_OVER).tolist():
-                self._legs_for(i, t_env)._finish_wait(i)
-            pf, pp, pi = self.paths.arrays()
-            code = advance_carrots(st.f, st.i, st.b, st.pos, self.sp.packed, pf, pp, pi, c, active, t, dt, work, flags)
-            moved_on = code > 0
-        if code > 0:
-            for i in np.flatnonzero(flags & ARRIVED).tolist():
-                self._legs_for(i, t_env)._arrive(i)
-            pf, pp, pi = self.paths.arrays()
-        ego_xz = np.zeros((3, self.n))  # x, z, speed (no car here watches the ego's speed)
-        ego_xz[0], ego_xz[1] = ex, ez
-        drive(st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, self.sp.packed, pf, pp, pi, c, active, ego_xz, dt, work,
-              flags, moved_on, self.no_lights)  # fmt: skip
+        self.ego[0], self.ego[1] = ex, ez
+        args = (st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, self.sp.packed, pf, pp, pi, t, self.ego, dt, self.work,
+                self.flags, self.no_lights, self.brake, self.turn, self.net, self.quiet, c, live_env, self.codes)  # fmt: skip
+        left = step_worlds(*args) if self.parallel else _worlds_range(0, self.n, *args)
+        if left:
+            for w in np.flatnonzero((self.codes != 0) & (self.codes != NOTHING_LIVE)).tolist():
+                self._with_events(w, int(self.codes[w]), dt, t)
 
-    def _legs_for(self, i: int, t_env: np.ndarray) -> _Legs:
+    def _with_events(self, w: int, code: int, dt: float, t: np.ndarray) -> None:
+        """`TrafficManager._step_with_events` for world w (its rows of the flat state, as views)."""
+        st, c = self.st, self.c
+        a, z = w * c, (w + 1) * c
+        f, i, b, pos, work, flags = st.f[:, a:z], st.i[:, a:z], st.b[:, a:z], st.pos[a:z], self.work[:, a:z], self.flags[a:z]
+        sp = self.sp.packed[:, a:z]
+        tw = t[w : w + 1]
+        pf, pp, pi = self.paths.arrays()
         legs = self.legs
-        e = i // self.c
-        legs.world = self.worlds[e]
-        legs.t_s = float(t_env[e])
-        return legs
+        legs.world = self.worlds[w]
+        legs.t_s = float(t[w])
+        if code == WAITS_OVER:
+            for k in np.flatnonzero(flags & WAIT_OVER).tolist():
+                legs._finish_wait(a + k)
+            pf, pp, pi = self.paths.arrays()
+            code = advance_carrots(f, i, b, pos, sp, pf, pp, pi, c, self.all_rows, tw, dt, work, flags)
+        if code > 0:
+            for k in np.flatnonzero(flags & ARRIVED).tolist():
+                legs._arrive(a + k)
+            pf, pp, pi = self.paths.arrays()
+        drive(f, i, b, pos, st.end_xz[a:z], st.light_xz[a:z], st.ext_cmd[a:z], sp, pf, pp, pi, c, self.all_rows, self.ego[:, w : w + 1],
+              dt, work, flags, code > 0, self.no_lights)  # fmt: skip
 
 
 class AnyVolumes(TriggerBatch):
@@ -243,8 +266,7 @@ class DrivingTaskBatch(BatchCore):
         self.world_seeds[e] = int(rng.integers(0, 2**31 - 1))
 
     def _reset_task(self, idx: np.ndarray) -> None:
-        for e in idx.tolist():
-            self.traffic.reset_env(e, int(self.world_seeds[e]))
+        self.traffic.reset_envs(idx, self.world_seeds[idx])
         self.obs_hitting[idx] = False
         self.stimuli[idx] = 0
         self.hint[idx] = 0
