@@ -1,0 +1,79 @@
+"""The native batch of `OpenDS/DrivingTask-v0` with traffic (MotorwayTask): same results as the single env."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import opends_gym  # noqa: F401  (registers the ids)
+from opends_gym.vector import NativeVectorEnv
+
+from .conftest import CORPUS
+from .test_vector_native import _compare_infos, _same
+
+TASK = "OpenDS/DrivingTask-v0"
+MOTORWAY = str(CORPUS / "opends-cts" / "MotorwayTask")
+
+
+def lane_keeper(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
+    """Steers onto the route's lane centre (heading error, lane offset), holds ~90 km/h, with noise."""
+    a = np.zeros((n, 2), dtype=np.float32)
+    a[:, 0] = np.clip(-0.8 * obs[:, 2] - 1.0 * obs[:, 1], -1.0, 1.0) + rng.normal(0.0, 0.05, n)
+    a[:, 1] = np.where(obs[:, 0] < 25.0, 0.6, 0.0) + rng.normal(0.0, 0.1, n)
+    return np.clip(a, -1.0, 1.0)
+
+
+def run_lockstep(n: int, steps: int, seed: int, **kwargs: Any) -> dict[str, float]:
+    """Step the native batch and SyncVectorEnv of single envs in lockstep; compare observations
+    (ego pose features and the nearest traffic cars), rewards, flags, info and episode metrics."""
+    native = gym.make_vec(TASK, num_envs=n, vectorization_mode="vector_entry_point", task=MOTORWAY, **kwargs)
+    sync = gym.make_vec(TASK, num_envs=n, vectorization_mode="sync", task=MOTORWAY, **kwargs)
+    assert isinstance(native.unwrapped, NativeVectorEnv)
+    rng = np.random.default_rng(seed)
+    obs, info = native.reset(seed=seed)
+    obs_s, info_s = sync.reset(seed=seed)
+    _same("reset obs", obs, obs_s)
+    _compare_infos(-1, info, info_s, n)
+    seen = {"episodes": 0.0, "collisions": 0.0, "stimuli": 0.0, "cars_seen": 0.0, "km": 0.0}
+    for t in range(steps):
+        a = lane_keeper(obs, rng, n)
+        obs, r, term, trunc, info = native.step(a)
+        obs_s, r_s, term_s, trunc_s, info_s = sync.step(a)
+        _same(f"step {t} obs", obs, obs_s)
+        _same(f"step {t} reward", r, r_s)
+        _same(f"step {t} terminated", term, term_s)
+        _same(f"step {t} truncated", trunc, trunc_s)
+        _compare_infos(t, info, info_s, n)
+        seen["episodes"] += float(np.sum(term | trunc))
+        seen["collisions"] += float(np.sum(info["new_collisions"]))
+        seen["cars_seen"] += float(np.sum(obs[:, 7] > 0.0))  # the first nearby-vehicle slot is taken
+        if "episode_metrics" in info:
+            m = info["episode_metrics"]
+            seen["stimuli"] += float(np.sum(m["stimuli_presented"][info["_episode_metrics"]]))
+            seen["km"] += float(np.sum(m["distance_m"][info["_episode_metrics"]])) / 1000.0
+    native.close()
+    sync.close()
+    return seen
+
+
+def test_motorway_task_identical_to_single_env() -> None:
+    """41 road-network cars, the slip road's route lanes, trigger boxes and collisions (the
+    lane keeper meets a motorway car at the merge, which ends the episode): bit for bit."""
+    seen = run_lockstep(n=3, steps=320, seed=7)
+    assert seen["episodes"] >= 3 and seen["collisions"] >= 3 and seen["stimuli"] >= 3 and seen["cars_seen"] > 0
+
+
+def test_motorway_task_long_drives_identical_to_single_env() -> None:
+    """Without ending on collisions the cars drive on along the motorway past the triggers to the
+    time limit (truncation, autoreset): still bit for bit."""
+    seen = run_lockstep(n=2, steps=450, seed=3, terminate_on_collision=False, max_episode_s=40.0)
+    assert seen["episodes"] >= 2 and seen["km"] > 0.5 and seen["stimuli"] >= 2
+
+
+def test_tasks_without_traffic_are_refused_in_one_line() -> None:
+    with pytest.raises(ValueError, match="needs a task with traffic") as err:
+        gym.make_vec(TASK, num_envs=2, vectorization_mode="vector_entry_point", task="ReactionTest")
+    assert "\n" not in str(err.value)
