@@ -84,7 +84,7 @@ class TriggerBatch:
         self.pause_s = np.array([t.pause_s for t in self.triggers])
         width = max([len(v.triggers) for v in vols], default=0)
         padded = [list(v.triggers) + [-1] * (width - len(v.triggers)) for v in vols]
-        self.vol_triggers = np.array(padded, dtype=np.int64).reshape(-1, width)  # each volume's triggers, -1 padded
+        self.vol_triggers = np.array(padded, dtype=np.int64).reshape(len(vols), width)  # each volume's triggers, -1 padded
         self.contact = np.full(n, -1, dtype=np.int64)
         self.near = np.zeros(n, dtype=np.int64)  # where each env's car was in the volume table (a search hint)
         # each volume's triggers in firing order (priority, then position)
