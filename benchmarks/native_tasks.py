@@ -8,7 +8,13 @@ With `--profile`, one cProfile'd run per task: the episodes that end per env-ste
 of them that ended with a collision, and the share of the step spent scoring ended episodes (`BatchCore.episodes_metrics`, the single
 env's own metric code per episode).
 
-    python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile]
+`--motorway N` adds the corpus MotorwayTask (41 road-network traffic cars, trigger boxes) as a
+native `OpenDS/DrivingTask-v0` batch of N envs (`opends_gym.vector.driving`), random actions
+with resets, without and with metrics (metrics with `max_episode_s=120`, so the traces of
+1,024 envs fit in memory: 13 columns x 60 Hz x 120 s x 8 bytes = 0.75 MB per env), next to
+its single env (`gymnasium.make`) in the same run; `--motorway-only` skips the other tasks.
+
+    python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile] [--motorway 1024 [--motorway-only]]
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ import logging
 import pstats
 import statistics
 import sys
+import warnings
 from pathlib import Path
 
 import gymnasium as gym
@@ -28,6 +35,46 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import throughput as tp
 
 TASKS = ("LaneChangeTest", "BrakeReaction", "ThreeVehiclePlatoon")
+MOTORWAY = str(Path(__file__).resolve().parent.parent / "tests" / "data" / "opends-tasks" / "opends-cts" / "MotorwayTask")
+
+
+def motorway(n: int, seconds: float, metrics: bool) -> tuple[float, float]:
+    """(env-steps per second, CPU ns per env-step) of a native MotorwayTask batch of n envs
+    (n = 0: the single env), random actions drawn before timing, resets in the loop."""
+    kw: dict[str, object] = {"task": MOTORWAY}
+    if n == 0:
+        env = gym.make("OpenDS/DrivingTask-v0", **kw)
+        env.reset(seed=0)
+        env.action_space.seed(0)
+        acts = [env.action_space.sample() for _ in range(16)]
+
+        def step(i: int) -> None:
+            _, _, term, trunc, _ = env.step(acts[i % 16])
+            if term or trunc:
+                env.reset()
+
+        rate, share = tp.timed_steps(step, seconds)
+        env.close()
+        return rate, 1e9 / (rate / share)
+    kw |= {"max_episode_s": 120.0} if metrics else {"record_metrics": False}
+    vec = gym.make_vec("OpenDS/DrivingTask-v0", num_envs=n, vectorization_mode="vector_entry_point", **kw)
+    vec.reset(seed=0)
+    vec.action_space.seed(0)
+    actions = [vec.action_space.sample() for _ in range(16)]
+    rate, share = tp.timed_steps(lambda i: vec.step(actions[i % 16]), seconds, batch=4)
+    vec.close()
+    return rate * n, 1e9 / (rate * n / share)
+
+
+def motorway_table(n: int, seconds: float, rounds: int) -> None:
+    print("\n| MotorwayTask (41 traffic cars) | env-steps/s: rounds | median | CPU ns per env-step: median |")
+    print("|---|---|---:|---:|")
+    for label, envs, metrics in (("single env", 0, True), (f"native, {n} envs, no metrics", n, False),
+                                 (f"native, {n} envs, metrics", n, True)):  # fmt: skip
+        runs = [motorway(envs, seconds, metrics) for _ in range(rounds)]
+        r, c = [x[0] for x in runs], [x[1] for x in runs]
+        print(f"| {label} | {', '.join(f'{x / 1e3:,.1f}k' for x in r)} | {statistics.median(r) / 1e3:,.1f}k | "
+              f"{statistics.median(c):,.0f} |", flush=True)  # fmt: skip
 
 
 def profile(env_id: str, n: int, steps: int) -> tuple[float, float, float]:
@@ -71,8 +118,15 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=3.0)
     ap.add_argument("--rounds", type=int, default=1)
     ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--motorway", type=int, default=0, help="also MotorwayTask as a native batch of this many envs")
+    ap.add_argument("--motorway-only", action="store_true")
     args = ap.parse_args()
     logging.disable(logging.WARNING)
+    warnings.simplefilter("ignore")  # (the corpus task's missing scene mesh, once per env)
+    if args.motorway:
+        motorway_table(args.motorway, args.seconds, max(1, args.rounds))
+    if args.motorway_only:
+        return
     cases = {c.label: c for c in tp.opends_cases()}
     rates: dict[str, list[float]] = {t: [] for t in TASKS}
     cpu: dict[str, list[float]] = {t: [] for t in TASKS}

@@ -48,7 +48,9 @@ class BatchCore:
         self.world = w
         self.guide = template.guide
         if self.guide.kind not in self.guide_kinds:
-            raise ValueError(f"the native batch of this task needs a road guide of kind {' or '.join(self.guide_kinds)}, not {self.guide.kind!r}")
+            raise ValueError(
+                f"the native batch of this task needs a road guide of kind {' or '.join(self.guide_kinds)}, not {self.guide.kind!r}"
+            )
         self.dt = w.dt_s
         self.repeat = cfg.action_repeat
         self.p = ego.EgoParams.from_world(w)

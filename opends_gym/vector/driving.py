@@ -400,7 +400,6 @@ def _ego_features(out: np.ndarray, u: np.ndarray, yaw: np.ndarray, heading: np.n
     _ego_rows(out, u, yaw, heading, offset, lat, lane, steer, r)
 
 
-
 @kernel
 def _ego_rows(out: np.ndarray, u: np.ndarray, yaw: np.ndarray, heading: np.ndarray, offset: np.ndarray, lat: np.ndarray,
               lane: np.ndarray, steer: np.ndarray, r: np.ndarray) -> None:  # fmt: skip
