@@ -32,15 +32,16 @@ from ..sim.traffic.legs import KIND_NET, KIND_OWN
 from ..sim.traffic.motion import ARRIVED, N_WORK, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, advance_carrots, drive
 from ..sim.traffic.state import Specs
 from ..sim.triggers.core import CompiledAction
+from ..sim.world import TRAFFIC_REACH_Y_M
 from . import ego
 from .actions import BatchControls
 from .core import BatchCore
-from .driving_step import _worlds_range, step_worlds
+from .driving_step import _worlds_range, contacts, step_worlds
 from .kernels import CHUNK_ENVS, box_centre, ego_features_row, volume_fires
-from .platoon_step import _lead_range
+from .platoon_step import _lead_range, lead_measures
 from .route import locate_route, record_route, route_tables
 from .traffic import FlatTraffic, _Legs
-from .triggers import TriggerBatch, obb_overlap
+from .triggers import TriggerBatch
 
 STIMULUS_ACTIONS = frozenset({"setMotorwayTaskStimulus"})  # logged as `stimulus` events by the single env (no task handler)
 
@@ -254,6 +255,11 @@ class DrivingTaskBatch(BatchCore):
         self.obs = np.array(obs, dtype=np.float64).reshape(-1, 5)
         self.obs_hitting = np.zeros((self.n, len(obs)), dtype=bool)
         self.stops_car = bool(w.config.collision_stops_car)
+        # `TrafficManager.colliding_with`'s reach: each car's half diagonal plus the ego box's (CPython's hypot)
+        tm = w.traffic
+        self.reach = np.tile(tm._half_diag + math.hypot(*self.car_half), self.n)
+        self.new_hits = np.zeros(self.n, dtype=np.int64)
+        self.stop = np.zeros(self.n, dtype=bool)
 
     def _pressable_keys(self) -> frozenset[str] | None:
         key = getattr(self._template_action, "reaction_key", None)
@@ -316,10 +322,14 @@ class DrivingTaskBatch(BatchCore):
         self.traffic.step(live, self.dt, self.t, s.x, s.z)
         cx = s.x - self.car_shift * np.sin(s.yaw)
         cz = s.z - self.car_shift * np.cos(s.yaw)
-        self.collisions += self.traffic.new_hits(live, cx, cz, s.yaw, self.car_half)
-        stop = self._obstacle_hits(live, cx, cz, s.yaw)
+        tr = self.traffic
+        st = tr.st
+        contacts(live, cx, cz, s.yaw, s.y, self.car_half[0], self.car_half[1], st.pos, st.yaw, st.enabled, tr.half, self.reach,
+                 TRAFFIC_REACH_Y_M, tr.c, tr.hitting, self.obs, self.obs_hitting, self.new_hits, self.stop)  # fmt: skip
+        self.collisions += self.new_hits
         env, vol = self.trig.touching(s.x, s.z, s.yaw, self.car_shift, live & ~self.trig.paused, self.t)
-        if stop.any() and self.stops_car:  # FastVehicle.stop_at_contact: back to the last free position, at rest
+        if self.stops_car and self.stop.any():  # FastVehicle.stop_at_contact: back to the last free position, at rest
+            stop = self.stop
             s.x = np.where(stop, px, s.x)
             s.z = np.where(stop, pz, s.z)
             for a in (s.u, s.v, s.r):
@@ -329,27 +339,14 @@ class DrivingTaskBatch(BatchCore):
         polled = live & ~self.trig.paused
         self.timers.update(polled, self.t, s.x, s.z, s.u, s.steer_in, s.brake_in, self.trig.started_at)
 
-    def _obstacle_hits(self, live: np.ndarray, cx: np.ndarray, cz: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-        """Count the contacts with static obstacles that begin now; True where the car touches one."""
-        if len(self.obs) == 0:
-            return np.zeros(self.n, dtype=bool)
-        o = self.obs
-        hx, hz = self.car_half
-        reach = math.hypot(hx, hz) + np.hypot(o[:, 3], o[:, 4])
-        near = (np.abs(cx[:, None] - o[None, :, 0]) < reach) & (np.abs(cz[:, None] - o[None, :, 1]) < reach) & live[:, None]
-        hits = np.zeros_like(near)
-        e, j = np.nonzero(near)
-        if e.size:
-            hits[e, j] = obb_overlap(cx[e], cz[e], yaw[e], hx, hz, o[j, 0], o[j, 1], o[j, 2], o[j, 3], o[j, 4])
-        new = hits & ~self.obs_hitting
-        self.obs_hitting = np.where(live[:, None], hits, self.obs_hitting)
-        self.collisions += new.sum(axis=1)
-        return hits.any(axis=1)
-
     def _lead_measures(self) -> None:
         s, st = self.s, self.traffic.st
-        _lead_range(0, self.n, s.x, s.z, s.yaw, s.u, st.pos, st.yaw, st.speed, st.enabled, self._half_len, self.traffic.c,
-                    self.traffic.ego_length, self.lead_j, self.lead_gap, self.lead_v, self.headway, self.ttc)  # fmt: skip
+        args = (s.x, s.z, s.yaw, s.u, st.pos, st.yaw, st.speed, st.enabled, self._half_len, self.traffic.c, self.traffic.ego_length,
+                self.lead_j, self.lead_gap, self.lead_v, self.headway, self.ttc)  # fmt: skip
+        if self.traffic.parallel:
+            lead_measures(*args)
+        else:
+            _lead_range(0, self.n, *args)
         fin = (self.lead_j >= 0) & np.isfinite(self.lead_gap)
         self.gap_m = np.where(fin, self.lead_gap, np.inf)
         self.lead_speed_mps = np.where(fin, self.lead_v, np.nan)

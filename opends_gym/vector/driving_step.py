@@ -6,15 +6,18 @@ over, a leg end with a random choice, a jump or an end point). Here every env's 
 that same kernel on its own slice of the flat state (so each world resamples its carrots only
 when one of *its* carrots moved on, as its single env does), chunks of worlds on numba's
 threads. A world whose step stopped for Python is marked (`codes`) and finished in Python as
-`TrafficManager._step_with_events` does.
+`TrafficManager._step_with_events` does. `contacts` is `World._contacts` for all envs in one pass.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import prange
 
 from ..jit import kernel, parallel_kernel
+from ..sim.geometry2d import boxes_overlap
 from ..sim.traffic.motion import NOTHING_LIVE, step_objects
 from .kernels import chunk_count
 
@@ -57,3 +60,38 @@ def step_worlds(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, en
         left[k] = _worlds_range(k * n // chunks, (k + 1) * n // chunks, f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, t,
                                 ego, dt, work, flags, stop_mask, brake_light, turn_signal, net, quiet, c, live, codes)  # fmt: skip
     return int(left.sum())
+
+
+@kernel
+def contacts(live: np.ndarray, cx: np.ndarray, cz: np.ndarray, yaw: np.ndarray, ey: np.ndarray, hx: float, hz: float, pos: np.ndarray,
+             car_yaw: np.ndarray, enabled: np.ndarray, half: np.ndarray, reach: np.ndarray, reach_y: float, c: int, hitting: np.ndarray,
+             obs: np.ndarray, obs_hitting: np.ndarray, new: np.ndarray, stop: np.ndarray) -> None:  # fmt: skip
+    """`World._contacts` of the ego boxes (centre cx, cz, heading yaw, half sizes hx, hz; the
+    car at height ey) of the envs `live`: the traffic cars they overlap (`queries.touching`,
+    within `reach_y` in height) and the static obstacles (rows of `obs`: centre x, z, heading,
+    half sizes). new[e]: the contacts that begin now (a collision each); stop[e]: the box
+    touches an obstacle (the car stops)."""
+    for e in range(len(live)):
+        new[e] = 0
+        stop[e] = False
+        if not live[e]:
+            continue
+        for j in range(c):
+            r = e * c + j
+            hit = False
+            if enabled[r]:
+                dx, dz = pos[r, 0] - cx[e], pos[r, 2] - cz[e]
+                if math.sqrt(dx * dx + dz * dz) < reach[r] and boxes_overlap(
+                    cx[e], cz[e], yaw[e], hx, hz, pos[r, 0], pos[r, 2], car_yaw[r], half[r, 0], half[r, 1]
+                ):
+                    hit = abs(pos[r, 1] - ey[e]) < reach_y
+            if hit and not hitting[r]:
+                new[e] += 1
+            hitting[r] = hit
+        for j in range(obs.shape[0]):
+            hit = boxes_overlap(cx[e], cz[e], yaw[e], hx, hz, obs[j, 0], obs[j, 1], obs[j, 2], obs[j, 3], obs[j, 4])
+            if hit:
+                stop[e] = True
+                if not obs_hitting[e, j]:
+                    new[e] += 1
+            obs_hitting[e, j] = hit
