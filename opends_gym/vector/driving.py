@@ -38,7 +38,7 @@ from .actions import BatchControls
 from .core import BatchCore
 from .driving_step import _worlds_range, contacts, step_worlds
 from .kernels import CHUNK_ENVS, box_centre, ego_features_row, volume_fires
-from .platoon_step import _lead_range, lead_measures
+from .platoon_step import _lead_range
 from .route import locate_route, record_route, route_tables
 from .traffic import FlatTraffic, _Legs
 from .triggers import TriggerBatch
@@ -343,10 +343,7 @@ class DrivingTaskBatch(BatchCore):
         s, st = self.s, self.traffic.st
         args = (s.x, s.z, s.yaw, s.u, st.pos, st.yaw, st.speed, st.enabled, self._half_len, self.traffic.c, self.traffic.ego_length,
                 self.lead_j, self.lead_gap, self.lead_v, self.headway, self.ttc)  # fmt: skip
-        if self.traffic.parallel:
-            lead_measures(*args)
-        else:
-            _lead_range(0, self.n, *args)
+        _lead_range(0, self.n, *args)  # (serial: a pass this short lost more to waking numba's threads than it gained)
         fin = (self.lead_j >= 0) & np.isfinite(self.lead_gap)
         self.gap_m = np.where(fin, self.lead_gap, np.inf)
         self.lead_speed_mps = np.where(fin, self.lead_v, np.nan)
