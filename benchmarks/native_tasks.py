@@ -12,7 +12,8 @@ env's own metric code per episode).
 native `OpenDS/DrivingTask-v0` batch of N envs (`opends_gym.vector.driving`), random actions
 with resets, without and with metrics (metrics with `max_episode_s=120`, so the traces of
 1,024 envs fit in memory: 13 columns x 60 Hz x 120 s x 8 bytes = 0.75 MB per env), next to
-its single env (`gymnasium.make`) in the same run; `--motorway-only` skips the other tasks.
+its single env (`gymnasium.make`) in the same run, then the CPU time per car of its traffic
+kernel alone for 64, 256 and N worlds; `--motorway-only` skips the other tasks.
 
     python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile] [--motorway 1024 [--motorway-only]]
 """
@@ -25,6 +26,7 @@ import logging
 import pstats
 import statistics
 import sys
+import time
 import warnings
 from pathlib import Path
 
@@ -70,6 +72,32 @@ def motorway(n: int, seconds: float, metrics: bool) -> tuple[float, float]:
     rate, share = tp.timed_steps(lambda i: vec.step(actions[i % 16]), seconds, batch=4)
     vec.close()
     return rate * n, 1e9 / (rate * n / share)
+
+
+def traffic_kernel_ns(n: int, seconds: float) -> float:
+    """CPU ns per car and physics step of the batch's traffic kernel alone (each world's
+    `step_objects`, serially) for n MotorwayTask worlds, after 50 policy steps of a gentle drive."""
+    from opends_gym.vector.driving_step import _worlds_range
+
+    vec = gym.make_vec("OpenDS/DrivingTask-v0", num_envs=n, vectorization_mode="vector_entry_point", task=MOTORWAY, record_metrics=False)
+    vec.reset(seed=0)
+    a = np.zeros((n, 2), dtype=np.float32)
+    a[:, 1] = 0.3
+    for _ in range(50):
+        vec.step(a)
+    b = vec.unwrapped.shards[0].core  # type: ignore[attr-defined]
+    tr, st = b.traffic, b.traffic.st
+    live = np.ones(n, dtype=bool)
+    pf, pp, pi = tr.paths.arrays()
+    args = (st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, b.t.copy(), tr.ego, b.dt, tr.work,
+            tr.flags, tr.no_lights, tr.brake, tr.turn, tr.net, tr.quiet, tr.c, live, tr.codes)  # fmt: skip
+    _worlds_range(0, n, *args)
+    k, c0 = 0, time.process_time()
+    while time.process_time() - c0 < seconds:
+        _worlds_range(0, n, *args)
+        k += 1
+    vec.close()
+    return (time.process_time() - c0) / (k * n * tr.c) * 1e9
 
 
 def motorway_table(n: int, seconds: float, rounds: int) -> None:
@@ -131,6 +159,8 @@ def main() -> None:
     warnings.simplefilter("ignore")  # (the corpus task's missing scene mesh, once per env)
     if args.motorway:
         motorway_table(args.motorway, args.seconds, max(1, args.rounds))
+        print("\ntraffic kernel alone (`driving_step._worlds_range`, one thread), CPU ns per car and physics step: "
+              + ", ".join(f"{w} worlds {traffic_kernel_ns(w, 1.0):.0f}" for w in (64, 256, args.motorway)), flush=True)  # fmt: skip
     if args.motorway_only:
         return
     cases = {c.label: c for c in tp.opends_cases()}
