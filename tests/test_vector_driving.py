@@ -77,3 +77,27 @@ def test_tasks_without_traffic_are_refused_in_one_line() -> None:
     with pytest.raises(ValueError, match="needs a task with traffic") as err:
         gym.make_vec(TASK, num_envs=2, vectorization_mode="vector_entry_point", task="ReactionTest")
     assert "\n" not in str(err.value)
+
+
+def test_parallel_chunks_step_each_env_as_alone() -> None:
+    """A batch of two chunks (its worlds' traffic on numba's threads) gives its first and last
+    env what a batch of that env alone gives for the same seed and actions."""
+    n, steps = 130, 60
+    kw: dict[str, Any] = {"task": MOTORWAY, "record_metrics": False}
+    big = gym.make_vec(TASK, num_envs=n, vectorization_mode="vector_entry_point", **kw)
+    alone = [gym.make_vec(TASK, num_envs=1, vectorization_mode="vector_entry_point", **kw) for _ in range(2)]
+    assert big.unwrapped.shards[0].core.traffic.parallel  # type: ignore[attr-defined]
+    rng = np.random.default_rng(5)
+    obs, _ = big.reset(seed=11)
+    solo = [a.reset(seed=11 + e)[0] for a, e in zip(alone, (0, n - 1))]
+    for t in range(steps):
+        act = lane_keeper(obs, rng, n)
+        obs, r, term, _, _ = big.step(act)
+        for a, e, k in zip(alone, (0, n - 1), range(2)):
+            solo[k], r1, term1, _, _ = a.step(act[e : e + 1])
+            _same(f"step {t} env {e} obs", obs[e : e + 1], solo[k])
+            _same(f"step {t} env {e} reward", r[e : e + 1], r1)
+            _same(f"step {t} env {e} terminated", term[e : e + 1], term1)
+    big.close()
+    for a in alone:
+        a.close()
