@@ -73,10 +73,17 @@ def test_motorway_task_long_drives_identical_to_single_env() -> None:
     assert seen["episodes"] >= 2 and seen["km"] > 0.5 and seen["stimuli"] >= 2
 
 
-def test_tasks_without_traffic_are_refused_in_one_line() -> None:
-    with pytest.raises(ValueError, match="needs a task with traffic") as err:
-        gym.make_vec(TASK, num_envs=2, vectorization_mode="vector_entry_point", task="ReactionTest")
+def test_tasks_the_batch_cannot_run_are_refused_in_one_line() -> None:
+    """Refused by default too (the native batch is `make_vec`'s default mode for the id), with the
+    feature named and the mode that runs the task."""
+    with pytest.raises(ValueError, match=r"needs a task with traffic.*vectorization_mode='sync'") as err:
+        gym.make_vec(TASK, num_envs=2, task="ReactionTest")
     assert "\n" not in str(err.value)
+    with pytest.raises(ValueError, match="trigger 'collideWithTrafficLightBox', action 'reportSpeed' \\(line 96\\): not supported"):
+        gym.make_vec(TASK, num_envs=2, vectorization_mode="vector_entry_point", task=str(CORPUS / "opends-cts" / "Idealtest2"))
+    sync = gym.make_vec(TASK, num_envs=2, vectorization_mode="sync", task="ReactionTest")
+    assert sync.reset(seed=0)[0].shape[0] == 2
+    sync.close()
 
 
 def test_parallel_chunks_step_each_env_as_alone() -> None:

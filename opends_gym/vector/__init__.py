@@ -26,9 +26,15 @@ def make_brake_reaction(num_envs: int, **kwargs: Any) -> NativeVectorEnv:
 
 
 def make_driving_task(num_envs: int, **kwargs: Any) -> NativeVectorEnv:
+    """A driving task's native batch (`driving.DrivingTaskBatch`); a task with a feature it does
+    not model is refused, naming the feature and the vectorization mode that runs any task (this
+    is also `gymnasium.make_vec`'s default mode for the id)."""
     from .driving import DrivingTaskBatch
 
-    return NativeVectorEnv("OpenDS/DrivingTask-v0", DrivingTaskBatch, num_envs, **kwargs)
+    try:
+        return NativeVectorEnv("OpenDS/DrivingTask-v0", DrivingTaskBatch, num_envs, **kwargs)
+    except ValueError as e:
+        raise ValueError(f"{e}; gymnasium.make_vec('OpenDS/DrivingTask-v0', ..., vectorization_mode='sync') runs any task") from None
 
 
 def make_three_vehicle_platoon(num_envs: int, **kwargs: Any) -> NativeVectorEnv:
