@@ -9,8 +9,8 @@ with traffic and static obstacles as `World._contacts` counts them (an obstacle 
 `FastVehicle.stop_at_contact`). Reward, ends and info are `OpenDSEnv`'s defaults.
 
 Supported: what MotorwayTask and tasks like it use. Traffic cars on their own waypoint paths
-or on a road network whose legs need no Python but the random choice of the next segment (each
-env draws with its own World generator, as its single env does); lanes as X bands or along
+or on a road network without random forks (so every seed places and moves the cars alike, as
+in the corpus tasks); lanes as X bands or along
 the ego's route; collideWith triggers whose actions are logging, reaction timers, stimuli
 (`setMotorwayTaskStimulus`, counted as the single env's `stimulus` events);
 pressKey triggers whose key no batched action presses. Anything else is refused when the batch
@@ -19,7 +19,6 @@ is built, with a one-line error naming the feature.
 
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import fields
 from typing import Any
@@ -46,18 +45,10 @@ from .triggers import TriggerBatch
 STIMULUS_ACTIONS = frozenset({"setMotorwayTaskStimulus"})  # logged as `stimulus` events by the single env (no task handler)
 
 
-class _EnvWorld:
-    """What the leg logic reads of one env's World: its generator and ego car."""
-
-    def __init__(self, rng: np.random.Generator, ego_car: Any) -> None:
-        self.rng = rng
-        self.ego = ego_car
-
-
 class NetTraffic(FlatTraffic):
-    """`FlatTraffic` plus road-network cars: the leg ends that need no Python move on in the
-    compiled `continue_on_network` (as `motion.step_objects` does for one world), the others
-    run the single env's `LegLogic` with the env's own generator."""
+    """`FlatTraffic` plus road-network cars (without random forks): each world steps through
+    `motion.step_objects`, the rare leg ends that need Python (waits, end points, jumps) run
+    the single env's `LegLogic`."""
 
     def __init__(self, tm: Any, n: int, ego_length_m: float, ego_half: tuple[float, float]) -> None:
         if tm.lights is not None:
@@ -72,6 +63,9 @@ class NetTraffic(FlatTraffic):
             raise ValueError("the native batch does not support neverFasterThanSteeringCar or resetWhenStuck")
         if any(tm.preferred):
             raise ValueError("the native batch does not support preferred segments")
+        net = tm.network
+        if net is not None and any(len(v) > 1 for v in net.outgoing.values()):
+            raise ValueError("the native batch does not support road networks with random forks (a waypoint with several next segments)")
         self.n, self.c = n, len(tm.ids)
         tm.world.reset(seed=0)  # the cars as a reset places them
         self.tm = tm
@@ -86,43 +80,22 @@ class NetTraffic(FlatTraffic):
         self.legs.network = tm.network
         self.net = tm._net_table
         self.quiet = np.tile(tm._quiet_cars, n)
-        self.worlds = [_EnvWorld(tm.world.rng, tm.world.ego) for _ in range(n)]
         self.ego = np.zeros((3, n))  # each world's ego car: x, z, speed (no car here watches the ego's speed)
         self.codes = np.zeros(n, dtype=np.int64)
         self.brake = np.zeros(n * self.c, dtype=bool)
         self.turn = np.zeros(n * self.c, dtype=np.int64)
         self.all_rows = np.ones(self.c, dtype=bool)
         self.parallel = n > CHUNK_ENVS
-        # no random choice anywhere on the network: every seed places the cars alike (the template's reset)
-        net = tm.network
-        self.forks = net is not None and any(len(v) > 1 for v in net.outgoing.values())
         self.half = np.tile(tm.half_extents, (n, 1))
         self.ego_length = ego_length_m
         self.ego_reach = math.hypot(*ego_half)
         self.reach = self.ego_reach + np.hypot(self.half[:, 0], self.half[:, 1])
         self.hitting = np.zeros(n * self.c, dtype=bool)
 
-    def reset_env(self, e: int, seed: int) -> None:
-        """Env e's cars as its single env's `World.reset(seed)` places them (the template's
-        World is reset with that seed; the generator it leaves is the env's own from then on)."""
-        w = self.tm.world
-        w.reset(seed=seed)
-        tm = w.traffic
-        rows = self.rows_of(np.array([e]))
-        self.st.assign_rows(rows, tm.st, np.arange(self.c))
-        for r in rows.tolist():
-            self.legs.light_queue[r] = []
-        self.hitting[rows] = False
-        self.worlds[e] = _EnvWorld(copy.deepcopy(w.rng), w.ego)
-
-    def reset_envs(self, idx: np.ndarray, seeds: np.ndarray) -> None:
-        """`reset_env` of the envs idx; without forks on the network (no seed changes where the
-        cars start or go), all at once from the template's placement."""
-        if self.forks:
-            for e, seed in zip(idx.tolist(), seeds.tolist()):
-                self.reset_env(e, seed)
-        else:
-            self.reset_rows(idx, self.st0)
+    def reset_envs(self, idx: np.ndarray) -> None:
+        """The cars of the envs idx as a reset places them (the same for every seed: no random
+        fork on the network, checked when the batch is built)."""
+        self.reset_rows(idx, self.st0)
 
     def step(self, live_env: np.ndarray, dt: float, t_env: np.ndarray, ex: np.ndarray, ez: np.ndarray) -> None:
         """`TrafficManager.step` for the cars of the envs `live_env`: each world's
@@ -148,7 +121,6 @@ class NetTraffic(FlatTraffic):
         tw = t[w : w + 1]
         pf, pp, pi = self.paths.arrays()
         legs = self.legs
-        legs.world = self.worlds[w]
         legs.t_s = float(t[w])
         if code == WAITS_OVER:
             for k in np.flatnonzero(flags & WAIT_OVER).tolist():
@@ -231,7 +203,6 @@ class DrivingTaskBatch(BatchCore):
         self.gap_m = np.full(n, np.inf)
         self.lead_speed_mps = np.full(n, np.nan)
         self.lateral_m, self.lane_index, self.lane_offset_m = self.lat, self.lane, self.offset
-        self.world_seeds = np.zeros(n, dtype=np.int64)
         self.stimuli = np.zeros(n, dtype=np.int64)
         self.prev_x = np.zeros(n)
         self.prev_z = np.zeros(n)
@@ -266,13 +237,8 @@ class DrivingTaskBatch(BatchCore):
         return frozenset({key}) if key is not None else frozenset()
 
     # ------------------------------------------------------------------ reset
-    def _world_seed(self, e: int) -> None:
-        rng = self.rngs[e]
-        assert rng is not None
-        self.world_seeds[e] = int(rng.integers(0, 2**31 - 1))
-
     def _reset_task(self, idx: np.ndarray) -> None:
-        self.traffic.reset_envs(idx, self.world_seeds[idx])
+        self.traffic.reset_envs(idx)
         self.obs_hitting[idx] = False
         self.stimuli[idx] = 0
         self.hint[idx] = 0
