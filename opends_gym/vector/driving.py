@@ -10,11 +10,10 @@ with traffic and static obstacles as `World._contacts` counts them (an obstacle 
 
 Supported: what MotorwayTask and tasks like it use. Traffic cars on their own waypoint paths
 or on a road network without random forks (so every seed places and moves the cars alike, as
-in the corpus tasks); lanes as X bands or along
-the ego's route; collideWith triggers whose actions are logging, reaction timers, stimuli
-(`setMotorwayTaskStimulus`, counted as the single env's `stimulus` events);
-pressKey triggers whose key no batched action presses. Anything else is refused when the batch
-is built, with a one-line error naming the feature.
+in the corpus tasks); lanes as X bands or along the ego's route; collideWith triggers whose
+actions are logging, reaction timers or stimuli (`setMotorwayTaskStimulus`, counted as the
+single env's `stimulus` events); pressKey triggers whose key no batched action presses.
+Anything else is refused when the batch is built, with a one-line error naming the feature.
 """
 
 from __future__ import annotations
