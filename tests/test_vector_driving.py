@@ -108,3 +108,24 @@ def test_parallel_chunks_step_each_env_as_alone() -> None:
     big.close()
     for a in alone:
         a.close()
+
+
+def test_thread_shards_step_like_one_shard() -> None:
+    """`threads=2` (each shard's traffic kernel serial, numba's thread pool entered by one
+    caller at a time) gives what one shard gives."""
+    n, kw = 300, {"task": MOTORWAY, "record_metrics": False}
+    one = gym.make_vec(TASK, num_envs=n, vectorization_mode="vector_entry_point", **kw)
+    two = gym.make_vec(TASK, num_envs=n, vectorization_mode="vector_entry_point", threads=2, **kw)
+    assert one.unwrapped.shards[0].core.parallel  # type: ignore[attr-defined]
+    assert [s.core.parallel for s in two.unwrapped.shards] == [False, False]  # type: ignore[attr-defined]
+    rng = np.random.default_rng(2)
+    obs, _ = one.reset(seed=4)
+    obs2, _ = two.reset(seed=4)
+    for t in range(25):
+        a = lane_keeper(obs, rng, n)
+        obs, r, *_ = one.step(a)
+        obs2, r2, *_ = two.step(a)
+        _same(f"step {t} obs", obs, obs2)
+        _same(f"step {t} reward", r, r2)
+    one.close()
+    two.close()

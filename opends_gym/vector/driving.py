@@ -176,6 +176,17 @@ class DrivingTaskBatch(BatchCore):
     has_traffic = True
     guide_kinds = ("lanes", "route")
     trigger_class = AnyVolumes
+    parallel_kernels = True  # the traffic kernel runs chunks of worlds on numba's threads: one shard by default
+
+    @property
+    def parallel(self) -> bool:
+        """Whether the traffic kernel runs its chunks on numba's threads (`env.NativeVectorEnv`
+        turns it off for shards stepped in Python threads)."""
+        return bool(self.traffic.parallel)
+
+    @parallel.setter
+    def parallel(self, value: bool) -> None:
+        self.traffic.parallel = value
 
     def __init__(self, template: Any, n: int, record_metrics: bool = True) -> None:
         w = template.world
