@@ -13,7 +13,7 @@ native `OpenDS/DrivingTask-v0` batch of N envs (`opends_gym.vector.driving`), ra
 with resets, without and with metrics (metrics with `max_episode_s=120`, so the traces of
 1,024 envs fit in memory: 13 columns x 60 Hz x 120 s x 8 bytes = 0.75 MB per env), next to
 its single env (`gymnasium.make`) in the same run, then the CPU time per car of its traffic
-kernel alone for 64, 256 and N worlds; `--motorway-only` skips the other tasks.
+kernel alone for 64, 256 and N worlds (and of its two halves, `advance_carrots` and `drive`); `--motorway-only` skips the other tasks.
 
     python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile] [--motorway 1024 [--motorway-only]]
 """
@@ -74,9 +74,12 @@ def motorway(n: int, seconds: float, metrics: bool) -> tuple[float, float]:
     return rate * n, 1e9 / (rate * n / share)
 
 
-def traffic_kernel_ns(n: int, seconds: float) -> float:
-    """CPU ns per car and physics step of the batch's traffic kernel alone (each world's
-    `step_objects`, serially) for n MotorwayTask worlds, after 50 policy steps of a gentle drive."""
+def traffic_kernel_ns(n: int, seconds: float) -> tuple[float, float, float]:
+    """CPU ns per car and physics step of the batch's traffic kernel alone for n MotorwayTask
+    worlds after 50 policy steps of a gentle drive, the same physics step again and again (so
+    the cars never reach their routes' ends), serially: (each world's `step_objects`, as the
+    batch steps them; its two kernels over all worlds at once: `advance_carrots`, `drive`)."""
+    from opends_gym.sim.traffic.motion import advance_carrots, drive
     from opends_gym.vector.driving_step import _worlds_range
 
     vec = gym.make_vec("OpenDS/DrivingTask-v0", num_envs=n, vectorization_mode="vector_entry_point", task=MOTORWAY, record_metrics=False)
@@ -88,20 +91,38 @@ def traffic_kernel_ns(n: int, seconds: float) -> float:
     b = vec.unwrapped.shards[0].core  # type: ignore[attr-defined]
     tr, st = b.traffic, b.traffic.st
     live = np.ones(n, dtype=bool)
+    rows = np.ones(n * tr.c, dtype=bool)
     pf, pp, pi = tr.paths.arrays()
-    args = (st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, b.t.copy(), tr.ego, b.dt, tr.work,
-            tr.flags, tr.no_lights, tr.brake, tr.turn, tr.net, tr.quiet, tr.c, live, tr.codes)  # fmt: skip
-    saved = [a.copy() for a in (st.f, st.i, st.b, st.pos, st.end_xz, tr.work)]
-    k, spent = 0, 0.0
-    while spent < seconds:  # the same physics step again and again (the cars never reach their routes' ends)
-        for a, v in zip((st.f, st.i, st.b, st.pos, st.end_xz, tr.work), saved):
-            np.copyto(a, v)
-        c0 = time.process_time()
-        _worlds_range(0, n, *args)
-        spent += time.process_time() - c0
-        k += 1
+    t = b.t.copy()
+    state = (st.f, st.i, st.b, st.pos, st.end_xz, tr.work, tr.flags)
+    saved = [x.copy() for x in state]
+
+    def worlds() -> None:
+        _worlds_range(0, n, st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, t, tr.ego, b.dt,
+                      tr.work, tr.flags, tr.no_lights, tr.brake, tr.turn, tr.net, tr.quiet, tr.c, live, tr.codes)  # fmt: skip
+
+    def advance() -> None:
+        advance_carrots(st.f, st.i, st.b, st.pos, tr.sp.packed, pf, pp, pi, tr.c, rows, t, b.dt, tr.work, tr.flags)
+
+    def driving() -> None:
+        drive(st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, tr.c, rows, tr.ego, b.dt, tr.work,
+              tr.flags, False, tr.no_lights)  # fmt: skip
+
+    out = []
+    for before, timed in ((None, worlds), (None, advance), (advance, driving)):
+        k, spent = 0, 0.0
+        while spent < seconds:
+            for x, v in zip(state, saved):
+                np.copyto(x, v)
+            if before is not None:
+                before()
+            c0 = time.process_time()
+            timed()
+            spent += time.process_time() - c0
+            k += 1
+        out.append(spent / (k * n * tr.c) * 1e9)
     vec.close()
-    return spent / (k * n * tr.c) * 1e9
+    return out[0], out[1], out[2]
 
 
 def motorway_table(n: int, seconds: float, rounds: int) -> None:
@@ -163,8 +184,11 @@ def main() -> None:
     warnings.simplefilter("ignore")  # (the corpus task's missing scene mesh, once per env)
     if args.motorway:
         motorway_table(args.motorway, args.seconds, max(1, args.rounds))
-        print("\ntraffic kernel alone (`driving_step._worlds_range`, one thread), CPU ns per car and physics step: "
-              + ", ".join(f"{w} worlds {traffic_kernel_ns(w, 1.0):.0f}" for w in (64, 256, args.motorway)), flush=True)  # fmt: skip
+        print("\n| traffic kernel alone, one thread: worlds | CPU ns per car and physics step | of it `advance_carrots` | `drive` |")
+        print("|---:|---:|---:|---:|")
+        for w in (64, 256, args.motorway):
+            total, adv, drv = traffic_kernel_ns(w, 1.0)
+            print(f"| {w} | {total:.0f} | {adv:.0f} | {drv:.0f} |", flush=True)
     if args.motorway_only:
         return
     cases = {c.label: c for c in tp.opends_cases()}
