@@ -8,7 +8,14 @@ With `--profile`, one cProfile'd run per task: the episodes that end per env-ste
 of them that ended with a collision, and the share of the step spent scoring ended episodes (`BatchCore.episodes_metrics`, the single
 env's own metric code per episode).
 
-    python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile]
+`--motorway N` adds the corpus MotorwayTask (41 road-network traffic cars, trigger boxes) as a
+native `OpenDS/DrivingTask-v0` batch of N envs (`opends_gym.vector.driving`), random actions
+with resets, without and with metrics (metrics with `max_episode_s=120`, so the traces of
+1,024 envs fit in memory: 13 columns x 60 Hz x 120 s x 8 bytes = 0.75 MB per env), next to
+its single env (`gymnasium.make`) in the same run, then the CPU time per car of its traffic
+kernel alone for 64, 256 and N worlds (and of its two halves, `advance_carrots` and `drive`); `--motorway-only` skips the other tasks.
+
+    python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile] [--motorway 1024 [--motorway-only]]
 """
 
 from __future__ import annotations
@@ -19,15 +26,114 @@ import logging
 import pstats
 import statistics
 import sys
+import time
+import warnings
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 
+from opends_gym.jit import wait_compiled
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import throughput as tp
 
 TASKS = ("LaneChangeTest", "BrakeReaction", "ThreeVehiclePlatoon")
+MOTORWAY = str(Path(__file__).resolve().parent.parent / "tests" / "data" / "opends-tasks" / "opends-cts" / "MotorwayTask")
+
+
+def motorway(n: int, seconds: float, metrics: bool) -> tuple[float, float]:
+    """(env-steps per second, CPU ns per env-step) of a native MotorwayTask batch of n envs
+    (n = 0: the single env), random actions drawn before timing, resets in the loop."""
+    kw: dict[str, object] = {"task": MOTORWAY}
+    if n == 0:
+        env = gym.make("OpenDS/DrivingTask-v0", **kw)
+        env.reset(seed=0)
+        env.action_space.seed(0)
+        acts = [env.action_space.sample() for _ in range(16)]
+        for a in acts:  # its kernels' first calls queue their compiles; time the compiled ones
+            env.step(a)
+        wait_compiled()
+        env.reset(seed=0)
+
+        def step(i: int) -> None:
+            _, _, term, trunc, _ = env.step(acts[i % 16])
+            if term or trunc:
+                env.reset()
+
+        rate, share = tp.timed_steps(step, seconds)
+        env.close()
+        return rate, 1e9 / (rate / share)
+    kw |= {"max_episode_s": 120.0} if metrics else {"record_metrics": False}
+    vec = gym.make_vec("OpenDS/DrivingTask-v0", num_envs=n, vectorization_mode="vector_entry_point", **kw)
+    vec.reset(seed=0)
+    vec.action_space.seed(0)
+    actions = [vec.action_space.sample() for _ in range(16)]
+    rate, share = tp.timed_steps(lambda i: vec.step(actions[i % 16]), seconds, batch=4)
+    vec.close()
+    return rate * n, 1e9 / (rate * n / share)
+
+
+def traffic_kernel_ns(n: int, seconds: float) -> tuple[float, float, float]:
+    """CPU ns per car and physics step of the batch's traffic kernel alone for n MotorwayTask
+    worlds after 50 policy steps of a gentle drive, the same physics step again and again (so
+    the cars never reach their routes' ends), serially: (each world's `step_objects`, as the
+    batch steps them; its two kernels over all worlds at once: `advance_carrots`, `drive`)."""
+    from opends_gym.sim.traffic.motion import advance_carrots, drive
+    from opends_gym.vector.driving_step import _worlds_range
+
+    vec = gym.make_vec("OpenDS/DrivingTask-v0", num_envs=n, vectorization_mode="vector_entry_point", task=MOTORWAY, record_metrics=False)
+    vec.reset(seed=0)
+    a = np.zeros((n, 2), dtype=np.float32)
+    a[:, 1] = 0.3
+    for _ in range(50):
+        vec.step(a)
+    b = vec.unwrapped.shards[0].core  # type: ignore[attr-defined]
+    tr, st = b.traffic, b.traffic.st
+    live = np.ones(n, dtype=bool)
+    rows = np.ones(n * tr.c, dtype=bool)
+    pf, pp, pi = tr.paths.arrays()
+    t = b.t.copy()
+    state = (st.f, st.i, st.b, st.pos, st.end_xz, tr.work, tr.flags)
+    saved = [x.copy() for x in state]
+
+    def worlds() -> None:
+        _worlds_range(0, n, st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, t, tr.ego, b.dt,
+                      tr.work, tr.flags, tr.no_lights, tr.brake, tr.turn, tr.net, tr.quiet, tr.c, live, tr.codes)  # fmt: skip
+
+    def advance() -> None:
+        advance_carrots(st.f, st.i, st.b, st.pos, tr.sp.packed, pf, pp, pi, tr.c, rows, t, b.dt, tr.work, tr.flags)
+
+    def driving() -> None:
+        drive(st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, tr.c, rows, tr.ego, b.dt, tr.work,
+              tr.flags, False, tr.no_lights)  # fmt: skip
+
+    out = []
+    for before, timed in ((None, worlds), (None, advance), (advance, driving)):
+        k, spent = 0, 0.0
+        while spent < seconds:
+            for x, v in zip(state, saved):
+                np.copyto(x, v)
+            if before is not None:
+                before()
+            c0 = time.process_time()
+            timed()
+            spent += time.process_time() - c0
+            k += 1
+        out.append(spent / (k * n * tr.c) * 1e9)
+    vec.close()
+    return out[0], out[1], out[2]
+
+
+def motorway_table(n: int, seconds: float, rounds: int) -> None:
+    print("\n| MotorwayTask (41 traffic cars) | env-steps/s: rounds | median | CPU ns per env-step: median |")
+    print("|---|---|---:|---:|")
+    for label, envs, metrics in (("single env", 0, True), (f"native, {n} envs, no metrics", n, False),
+                                 (f"native, {n} envs, metrics", n, True)):  # fmt: skip
+        runs = [motorway(envs, seconds, metrics) for _ in range(rounds)]
+        r, c = [x[0] for x in runs], [x[1] for x in runs]
+        print(f"| {label} | {', '.join(f'{x / 1e3:,.1f}k' for x in r)} | {statistics.median(r) / 1e3:,.1f}k | "
+              f"{statistics.median(c):,.0f} |", flush=True)  # fmt: skip
 
 
 def profile(env_id: str, n: int, steps: int) -> tuple[float, float, float]:
@@ -71,8 +177,20 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=3.0)
     ap.add_argument("--rounds", type=int, default=1)
     ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--motorway", type=int, default=0, help="also MotorwayTask as a native batch of this many envs")
+    ap.add_argument("--motorway-only", action="store_true")
     args = ap.parse_args()
     logging.disable(logging.WARNING)
+    warnings.simplefilter("ignore")  # (the corpus task's missing scene mesh, once per env)
+    if args.motorway:
+        motorway_table(args.motorway, args.seconds, max(1, args.rounds))
+        print("\n| traffic kernel alone, one thread: worlds | CPU ns per car and physics step | of it `advance_carrots` | `drive` |")
+        print("|---:|---:|---:|---:|")
+        for w in (64, 256, args.motorway):
+            total, adv, drv = traffic_kernel_ns(w, 1.0)
+            print(f"| {w} | {total:.0f} | {adv:.0f} | {drv:.0f} |", flush=True)
+    if args.motorway_only:
+        return
     cases = {c.label: c for c in tp.opends_cases()}
     rates: dict[str, list[float]] = {t: [] for t in TASKS}
     cpu: dict[str, list[float]] = {t: [] for t in TASKS}

@@ -22,6 +22,7 @@ ENVS: dict[str, str] = {
 
 # natively batched vector envs (`gymnasium.make_vec(id, n, vectorization_mode="vector_entry_point")`)
 VECTOR_ENVS: dict[str, str] = {
+    "OpenDS/DrivingTask-v0": "opends_gym.vector:make_driving_task",
     "OpenDS/LaneChangeTest-v0": "opends_gym.vector:make_lane_change_test",
     "OpenDS/BrakeReaction-v0": "opends_gym.vector:make_brake_reaction",
     "OpenDS/ThreeVehiclePlatoon-v0": "opends_gym.vector:make_three_vehicle_platoon",

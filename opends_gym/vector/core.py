@@ -36,6 +36,8 @@ class BatchCore:
     needs_distance = False  # the base running mean deviation (the LCT replaces it)
     has_traffic = False  # `_traffic_step` and `_traffic_hits` do something
     parallel_kernels = False  # its step kernels run chunks of envs on numba's threads (one shard by default)
+    trigger_class: type[TriggerBatch] = TriggerBatch
+    guide_kinds: tuple[str, ...] = ("lanes",)  # the `RoadGuide` kinds the batch measures lanes on
 
     def __init__(self, template: OpenDSEnv, n: int, record_metrics: bool = True) -> None:
         self.template: Any = template
@@ -45,8 +47,10 @@ class BatchCore:
         w = template.world
         self.world = w
         self.guide = template.guide
-        if self.guide.kind != "lanes":
-            raise ValueError("the native batch needs a task with lane bands")
+        if self.guide.kind not in self.guide_kinds:
+            raise ValueError(
+                f"the native batch of this task needs a road guide of kind {' or '.join(self.guide_kinds)}, not {self.guide.kind!r}"
+            )
         self.dt = w.dt_s
         self.repeat = cfg.action_repeat
         self.p = ego.EgoParams.from_world(w)
@@ -54,7 +58,7 @@ class BatchCore:
         spec = w.ego.spec
         self.car_half = (0.5 * spec.width_m, 0.5 * spec.length_m)
         self.car_shift = 0.5 * spec.wheelbase_m - spec.cog_to_front_m
-        self.trig = TriggerBatch(n, w, self.handled_actions, self.car_half, spec.height_m)
+        self.trig = self.trigger_class(n, w, self.handled_actions, self.car_half, spec.height_m, self._pressable_keys())
         self.bands = tuple((b.x_min, b.x_max) for b in w.road.lanes)
         self.timers = TimerBatch(n, self.bands)
         lane_ids = tuple(b.id for b in w.road.lanes)
@@ -87,6 +91,10 @@ class BatchCore:
         self.new_collisions = np.zeros(n, dtype=np.int64)
 
     # ------------------------------------------------------------------ task hooks
+    def _pressable_keys(self) -> frozenset[str] | None:
+        """The keyboard keys the batch's action type can press (None: pressKey triggers are refused)."""
+        return None
+
     def _reset_task(self, idx: np.ndarray) -> None:
         """After the world rows are reset, before the first trace row."""
 

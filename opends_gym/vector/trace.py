@@ -148,10 +148,11 @@ class TraceRing:
                 data[:, COL[c]] = self.column(e, c) if columns is None else columns[ci]
         for c, v in constant.items():
             data[:, COL[c]] = v
-        lat, lane, offset = lane_columns(guide, data[:, COL["x_m"]], data[:, COL["z_m"]])
-        data[:, COL["lateral_m"]] = lat
-        data[:, COL["lane_index"]] = lane
-        data[:, COL["lane_offset_m"]] = offset
+        if not {"lateral_m", "lane_index", "lane_offset_m"} <= set(self.columns):  # (a batch on a route records them)
+            lat, lane, offset = lane_columns(guide, data[:, COL["x_m"]], data[:, COL["z_m"]])
+            data[:, COL["lateral_m"]] = lat
+            data[:, COL["lane_index"]] = lane
+            data[:, COL["lane_offset_m"]] = offset
         tr.n = k
         if hasattr(tr, "_stored"):  # the single env's Trace buffers appended rows
             tr._stored = k

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..sim.triggers.core import LOCK_S, CompiledAction, TriggerCore
+from ..sim.triggers.core import LOCK_S, CompiledAction, TriggerCore, canonical_key
 from .kernels import touch_triggers
 
 _NONE = np.zeros(0, dtype=np.int64)
@@ -46,11 +46,19 @@ class Volume:
 class TriggerBatch:
     """Trigger state of N envs of one task (see the module docstring)."""
 
-    def __init__(self, n: int, world: Any, handled: frozenset[str], car_half: tuple[float, float], car_height_m: float) -> None:
+    spaced = True  # volumes must lie apart along z (`touching`'s search; a subclass that tests every volume sets False)
+
+    def __init__(self, n: int, world: Any, handled: frozenset[str], car_half: tuple[float, float], car_height_m: float,
+                 pressable: frozenset[str] | None = None) -> None:  # fmt: skip
         core: TriggerCore = world.triggers
         self.triggers = core.triggers
         for trig, source in zip(core.triggers, core._source_triggers):
             kinds = {type(c).__name__ for c in source.condition.items}
+            if pressable is not None and kinds == {"PressKey"}:
+                keys = {canonical_key(c.key) for c in source.condition.items} & {canonical_key(k) for k in pressable}
+                if keys:
+                    raise ValueError(f"trigger '{trig.id}' (line {trig.line}): the native batch does not press key {sorted(keys)[0]!r}")
+                continue  # no action of the batch presses its key: it never fires
             if kinds - {"CollideWith"}:
                 raise ValueError(f"trigger '{trig.id}' (line {trig.line}): the native batch supports collideWith conditions only")
             for act in trig.actions:
@@ -67,7 +75,7 @@ class TriggerBatch:
         vols.sort(key=lambda v: v.cz)
         self.volumes = vols
         car_r = math.hypot(*car_half)
-        for a, b in itertools.pairwise(vols):
+        for a, b in itertools.pairwise(vols if self.spaced else []):
             if b.cz - a.cz <= 2.0 * max(math.hypot(a.hx, a.hz), math.hypot(b.hx, b.hz)) + 2.0 * car_r + 2.0:
                 raise ValueError("trigger volumes lie too close together for the native batch's contact search")
         self.car_half = car_half
@@ -76,7 +84,7 @@ class TriggerBatch:
         self.pause_s = np.array([t.pause_s for t in self.triggers])
         width = max([len(v.triggers) for v in vols], default=0)
         padded = [list(v.triggers) + [-1] * (width - len(v.triggers)) for v in vols]
-        self.vol_triggers = np.array(padded, dtype=np.int64).reshape(-1, width)  # each volume's triggers, -1 padded
+        self.vol_triggers = np.array(padded, dtype=np.int64).reshape(len(vols), width)  # each volume's triggers, -1 padded
         self.contact = np.full(n, -1, dtype=np.int64)
         self.near = np.zeros(n, dtype=np.int64)  # where each env's car was in the volume table (a search hint)
         # each volume's triggers in firing order (priority, then position)
