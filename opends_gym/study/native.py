@@ -10,7 +10,9 @@ env's, row for row (tested).
 Leaving the road: the batch ends a drive there (`on_road_exit="terminate"`). Up to that
 moment the drive is the one a `recover` or `continue` env drives; a drive that left the
 road under such a study is driven again, whole, on the single env, so its rows are those of
-the study's own `on_road_exit` too.
+the study's own `on_road_exit` too. Collisions likewise: the batch ends a drive on its first
+collision, and a drive that collided under `on_collision="recover"` or `"continue"` (the study
+default) is driven again on the single env.
 """
 
 from __future__ import annotations
@@ -63,11 +65,22 @@ def choose(trials: list[Trial], backend: str, on_ray: bool) -> list[bool]:
 def _batch_args(trial: Trial) -> dict[str, Any]:
     args = dict(trial.env_args)
     args.pop("on_road_exit", None)  # (the batch terminates; see the module docstring)
+    args.pop("on_collision", None)
     return args
 
 
 def _exits_matter(trial: Trial) -> bool:
     return dict(trial.env_args).get("on_road_exit", "terminate") != "terminate"
+
+
+def _collisions_matter(trial: Trial) -> bool:
+    return dict(trial.env_args).get("on_collision", "terminate") != "terminate"
+
+
+def _redrive(trial: Trial, left_road: bool, metrics: dict[str, Any]) -> bool:
+    """Did the batch end this drive where the study's own env would have gone on?"""
+    collided = float(metrics.get("collisions", 0.0)) > 0
+    return (left_road and _exits_matter(trial)) or (collided and _collisions_matter(trial))
 
 
 def run_native(
@@ -120,7 +133,7 @@ def _run_group(
         while batch.running.any():
             for e, left_road, metrics in batch.step(lambda e: agents[e].act(None, None)):
                 t = trials[which[e]]
-                if left_road and _exits_matter(t):  # the study's own on_road_exit: drive it again on the single env
+                if _redrive(t, left_road, metrics):  # the study's own on_road_exit/on_collision: drive it again on the single env
                     out[which[e]] = run_trial(t, participants, seed)
                 else:
                     out[which[e]] = trial_rows(t, with_glances(metrics, agents[e]))
