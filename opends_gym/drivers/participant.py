@@ -14,9 +14,14 @@ of a number put in for that metric. The mechanisms:
   response or by a secondary task's operation. A transient stimulus whose selection cannot
   start within `sensory_memory_s` of its end is lost (a miss). An event the driver was not
   told to expect (`instructed=False`) needs `recognise_s` more to be made sense of
-  (Green 2000: expectancy roughly doubles brake reaction time).
+  (Green 2000: expectancy roughly doubles brake reaction time). A lane-change sign is read
+  first (`sign_read_s`: a saccade to the roadside sign and a fixation on it) and names one
+  of the road's lanes, so its selection is a choice that takes `choice_bit_s` longer per
+  bit (the Hick-Hyman law).
 * **Gaze**: at every load the driver scans mirrors and instruments (`scan_per_min` brief
-  glances); starting a glance is a voluntary act that needs the selection channel free.
+  glances) and, on the road, the scene away from its centre (`road_scan_per_min`, the
+  roadside, the far road); starting a glance is a voluntary act that needs the selection
+  channel free.
   During an off-road glance the driver acts on the **stale percept** from when the eyes left
   the road (the steering is held, the car drifts, forward stimuli go unseen) and corrects
   when the eyes return.
@@ -29,14 +34,23 @@ of a number put in for that metric. The mechanisms:
   response then waits longer (DRT, brake, lane-change initiation alike) and scanning glances
   that fall in a busy moment are not made, so the gaze concentrates on the road ahead
   (Engström, Johansson & Östlund 2005; Victor, Harbluk & Engström 2005).
-* **Control**: lane keeping by the rule driver's Stanley law (`steer_gain`) on a perceived
-  lateral position with a slowly varying error (`lateral_noise_m`, correlation time
-  `lateral_noise_tau_s`) and motor noise (`steer_noise`); lane changes along a smooth
-  (half-cosine) path lasting `lane_change_s` for one lane (a sign-cued change ends by
-  `FINISH_AFTER_SIGN_M` past the sign); while the eyes are away the held wheel wanders (the
+* **Control**: lane keeping, an automatic skill that never waits for the selection channel,
+  by the rule driver's Stanley law (`steer_gain`) on a perceived lateral position with a
+  slowly varying error that grows all the time and is corrected (correlation time
+  `lateral_noise_tau_s`) only while the eyes are on the road centre: its SD is
+  `lateral_noise_m` at the participant's own road-centre share without a task, lower when a
+  cognitive task suppresses scanning, higher with glances to a secondary task; motor noise
+  (`steer_noise`); lane changes along a smooth (half-cosine) path lasting `lane_change_s` for
+  one lane (a sign-cued change is cut short only where it would run past the point at which
+  the next sign can be read); while the eyes are away the held wheel wanders (the
   motor noise accumulates, uncorrected, until the eyes return); speed and car following by the
   rule driver's controllers with `speed_gain` and the participant's `time_headway_s` (in a
   platoon task, clipped to the task's distance band unless `keep_band=False`).
+
+Each random process (response jitter, lateral and motor noise, scanning, the cognitive
+task, the visual-manual task) draws from its own stream seeded by the episode seed and the
+participant, not the load: a participant meets the same noise under every load, so a load's
+effect on a metric is its mechanism's (common random numbers).
 
 The rule driver (`rule.py`) stays the perfect reference; this is the human one.
 """

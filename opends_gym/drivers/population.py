@@ -121,7 +121,7 @@ DISTRIBUTIONS: dict[str, Dist] = {
     "task_episode_s": Dist("lognormal", 8.0, 2.0, 3.0, 15.0, "assumed"),
     "task_gap_s": Dist("lognormal", 4.0, 1.0, 1.5, 8.0, "assumed"),
     "manual_op_s": Dist("lognormal", 0.15, 0.04, 0.05, 0.30, "assumed"),
-    "cog_busy": Dist("normal", 0.32, 0.08, 0.05, 0.60, "fitted: DRT RT +90-135 ms under a 1-back task (Young, Hsieh & Seaman 2013)"),
+    "cog_busy": Dist("normal", 0.37, 0.08, 0.05, 0.60, "fitted: DRT RT +90-135 ms under a 1-back task (Young, Hsieh & Seaman 2013)"),
     "cog_op_s": Dist("lognormal", 0.60, 0.15, 0.25, 1.20, "fitted: as cog_busy"),
     "sign_read_s": Dist(
         "lognormal", 0.45, 0.08, 0.25, 0.80, "assumed: a saccade (latency ~0.2 s) and a reading fixation (~0.25 s) to a roadside sign"
