@@ -214,7 +214,9 @@ class ParticipantDriver:
         self._lane_w = float(getattr(base.guide, "lane_width_m", 3.75) or 3.75)
         g = getattr(base, "geometry", None)
         spacing, seen_at = getattr(g, "spacing_min_m", None), getattr(g, "visibility_m", None)
-        self._finish_after_sign_m = float(spacing - seen_at) if spacing is not None and seen_at is not None else FINISH_AFTER_SIGN_M
+        self._finish_after_sign_m = FINISH_AFTER_SIGN_M
+        if spacing is not None and seen_at is not None:  # (a next sign readable already: end by this one)
+            self._finish_after_sign_m = max(0.0, float(spacing - seen_at))
         self._lanes = len(getattr(base.guide, "lane_laterals_m", ()) or ()) or 1
         # gaze
         self._next_scan = self._scan_gap(0.0)
