@@ -91,15 +91,17 @@ def test_lane_change_starts_after_the_sign_is_read_and_a_lane_chosen(sim: dict[t
 
 
 def test_a_load_acts_only_through_its_mechanism() -> None:
-    # a cognitive task that never holds the channel leaves the drive exactly as at baseline:
-    # the participant's noise does not depend on the load (common random numbers)
+    # with common noise, a cognitive task that never holds the channel leaves the drive
+    # exactly as at baseline; without it each load's drive has its own noise
     env = DetectionResponseTask(gym.make("OpenDS/LaneChangeTest-v0", action="continuous_buttons", signs=2))
     idle = replace(draw_participant(4), cog_busy=0.0)
-    base = run_episode(env, ParticipantDriver(None, idle, "baseline"), 1).metrics
-    cog = run_episode(env, ParticipantDriver(None, idle, "cognitive"), 1).metrics
+    base = run_episode(env, ParticipantDriver(None, idle, "baseline", common_noise=True), 1).metrics
+    cog = run_episode(env, ParticipantDriver(None, idle, "cognitive", common_noise=True), 1).metrics
     assert base["mdev_basic_m"] == cog["mdev_basic_m"] and base["drt_mean_rt_s"] == cog["drt_mean_rt_s"]
-    busy = run_episode(env, ParticipantDriver(None, draw_participant(4), "cognitive"), 1).metrics
+    busy = run_episode(env, ParticipantDriver(None, draw_participant(4), "cognitive", common_noise=True), 1).metrics
     assert busy["drt_mean_rt_s"] != base["drt_mean_rt_s"]
+    own = run_episode(env, ParticipantDriver(None, idle, "cognitive"), 1).metrics
+    assert own["mdev_basic_m"] != base["mdev_basic_m"]
 
 
 def test_participants_differ_and_are_reproducible() -> None:

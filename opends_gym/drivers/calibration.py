@@ -142,7 +142,9 @@ def _runner(make: Callable[[], gym.Env[Any, Any]], read: Reader, **driver: Any) 
         env = make()
         out = []
         for p in population:
-            agent = ParticipantDriver(None, p, load, **driver)
+            # common random numbers: each load's drive meets the same noise, so the measured
+            # effect is the mechanism's (same expectation as independent drives, less variance)
+            agent = ParticipantDriver(None, p, load, common_noise=True, **driver)
             ep = run_episode(env, agent, seed + p.id)
             out.append(read(env, ep.metrics, agent))
         env.close()

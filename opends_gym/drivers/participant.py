@@ -48,9 +48,12 @@ of a number put in for that metric. The mechanisms:
   platoon task, clipped to the task's distance band unless `keep_band=False`).
 
 Each random process (response jitter, lateral and motor noise, scanning, the cognitive
-task, the visual-manual task) draws from its own stream seeded by the episode seed and the
-participant, not the load: a participant meets the same noise under every load, so a load's
-effect on a metric is its mechanism's (common random numbers).
+task, the visual-manual task) draws from its own stream seeded by the episode seed, the
+participant and the load: as with a person, each drive has its own noise, so a study's
+within-participant differences and its power analysis carry trial-to-trial noise.
+`common_noise=True` leaves the load out of the seeds (common random numbers): a participant
+then meets the same noise under every load and a load's effect is its mechanism's alone,
+with the same expectation and less variance; the calibration (`calibration.py`) uses it.
 
 The rule driver (`rule.py`) stays the perfect reference; this is the human one.
 """
@@ -147,6 +150,7 @@ class ParticipantDriver:
         instructed: bool = True,
         drt_modality: str | None = None,
         keep_band: bool = True,
+        common_noise: bool = False,
     ) -> None:
         if load not in LOADS:
             raise ValueError(f"unknown load {load!r}; use one of {', '.join(LOADS)}")
@@ -158,6 +162,7 @@ class ParticipantDriver:
         self.load = load
         self.instructed = instructed
         self.keep_band = keep_band
+        self.common_noise = common_noise
         self.drt_modality = drt_modality
         self.name = f"participant:{params.id}:{load}"
         self.env: Any = env
@@ -176,9 +181,7 @@ class ParticipantDriver:
             raise ValueError("ParticipantDriver needs an env: ParticipantDriver(env, params) or reset(env, seed)")
         self._seed = int(seed) if seed is not None else self._seed
         p = self.params
-        # one stream per process, seeded without the load: the same participant and seed
-        # meet the same lateral noise, scanning schedule and response jitter under every
-        # load (common random numbers), so a load's effect is its mechanism's, not a reshuffle
+        # one stream per process (see the module docstring on `common_noise`)
         self.rng = self._stream(0xD71E)  # response jitter
         self._lat_rng = self._stream(0x1A7E)  # perceived-position error and motor noise
         self._scan_rng = self._stream(0x5CA2)  # scanning glances
@@ -252,7 +255,8 @@ class ParticipantDriver:
 
     # ------------------------------------------------------------------ helpers
     def _stream(self, tag: int) -> np.random.Generator:
-        return np.random.default_rng([self._seed, self.params.id, tag])
+        load = [] if self.common_noise else [LOADS.index(self.load)]
+        return np.random.default_rng([self._seed, self.params.id, tag, *load])
 
     def _centre_share(self) -> float:
         """The share of time the eyes are on the road centre with no secondary task (the
