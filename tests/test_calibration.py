@@ -9,6 +9,7 @@ docs/gen_calibration.py runs the same comparison on a bigger population for the 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import gymnasium as gym
 import numpy as np
@@ -79,6 +80,28 @@ def test_glances_only_under_visual_manual_load_and_last_as_published(sim: dict[t
 
 def test_cognitive_effect_on_mdev_is_smaller_than_the_visual_manual_one(sim: dict[tuple[str, str], list[dict[str, float]]]) -> None:
     assert compare(sim, "mdev_cognitive").value < compare(sim, "mdev_visual_manual").value
+
+
+def test_lane_change_starts_after_the_sign_is_read_and_a_lane_chosen(sim: dict[tuple[str, str], list[dict[str, float]]]) -> None:
+    # reading the roadside sign and choosing among three lanes take longer than a simple
+    # response to a tactile DRT stimulus, for every participant
+    onset = col(sim, "lct", "baseline", "iso_mean_latency_s")
+    drt = col(sim, "lct", "baseline", "drt_mean_rt_s")
+    assert all(o > d + 0.3 for o, d in zip(onset, drt, strict=True))
+
+
+def test_a_load_acts_only_through_its_mechanism() -> None:
+    # with common noise, a cognitive task that never holds the channel leaves the drive
+    # exactly as at baseline; without it each load's drive has its own noise
+    env = DetectionResponseTask(gym.make("OpenDS/LaneChangeTest-v0", action="continuous_buttons", signs=2))
+    idle = replace(draw_participant(4), cog_busy=0.0)
+    base = run_episode(env, ParticipantDriver(None, idle, "baseline", common_noise=True), 1).metrics
+    cog = run_episode(env, ParticipantDriver(None, idle, "cognitive", common_noise=True), 1).metrics
+    assert base["mdev_basic_m"] == cog["mdev_basic_m"] and base["drt_mean_rt_s"] == cog["drt_mean_rt_s"]
+    busy = run_episode(env, ParticipantDriver(None, draw_participant(4), "cognitive", common_noise=True), 1).metrics
+    assert busy["drt_mean_rt_s"] != base["drt_mean_rt_s"]
+    own = run_episode(env, ParticipantDriver(None, idle, "cognitive"), 1).metrics
+    assert own["mdev_basic_m"] != base["mdev_basic_m"]
 
 
 def test_participants_differ_and_are_reproducible() -> None:

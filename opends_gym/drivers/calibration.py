@@ -71,10 +71,12 @@ def literature() -> dict[str, LiteratureRow]:
 
 # ---------------------------------------------------------------------------- tasks
 def _lct(signs: int, visibility_m: float = 40.0, modality: str = "tactile") -> gym.Env[Any, Any]:
-    """The LCT with a DRT of the given ISO 17488 modality (the participant reads it from the wrapper)."""
+    """The LCT with a DRT of the given ISO 17488 modality (the participant reads it from the
+    wrapper), scored as ISO 26022 scores it (`iso_mdev_m`: the lead-in and lead-out, pure lane
+    keeping, are not scored, so a short calibration track reads like the full one)."""
     from ..envs.drt import DetectionResponseTask
 
-    env = gym.make("OpenDS/LaneChangeTest-v0", action="continuous_buttons", signs=signs, visibility_m=visibility_m)
+    env = gym.make("OpenDS/LaneChangeTest-v0", action="continuous_buttons", signs=signs, visibility_m=visibility_m, scoring="iso26022")
     return DetectionResponseTask(env, modality=modality)
 
 
@@ -140,7 +142,9 @@ def _runner(make: Callable[[], gym.Env[Any, Any]], read: Reader, **driver: Any) 
         env = make()
         out = []
         for p in population:
-            agent = ParticipantDriver(None, p, load, **driver)
+            # common random numbers: each load's drive meets the same noise, so the measured
+            # effect is the mechanism's (same expectation as independent drives, less variance)
+            agent = ParticipantDriver(None, p, load, common_noise=True, **driver)
             ep = run_episode(env, agent, seed + p.id)
             out.append(read(env, ep.metrics, agent))
         env.close()
@@ -150,7 +154,7 @@ def _runner(make: Callable[[], gym.Env[Any, Any]], read: Reader, **driver: Any) 
 
 
 def _lct_read(env: gym.Env[Any, Any], m: dict[str, Any], agent: ParticipantDriver) -> dict[str, float]:
-    keys = ("mdev_basic_m", "drt_mean_rt_s", "drt_hit_rate")
+    keys = ("mdev_basic_m", "iso_mdev_m", "iso_mean_latency_s", "drt_mean_rt_s", "drt_hit_rate")
     out = {k: float(m[k]) for k in keys}
     glances = [b - a for a, b in agent.glances]
     out["glance_s"] = float(np.mean(glances)) if glances else math.nan
@@ -172,9 +176,9 @@ RUN_CHECKS: dict[str, tuple[str, str, str | None]] = {
     "sdlp_baseline": ("platoon", "sdlp_m", None),
     "sdlp_visual_manual": ("platoon", "sdlp_m", "visual_manual"),
     "sdlp_cognitive": ("platoon", "sdlp_m", "cognitive"),
-    "mdev_baseline": ("lct", "mdev_basic_m", None),
-    "mdev_visual_manual": ("lct", "mdev_basic_m", "visual_manual"),
-    "mdev_cognitive": ("lct", "mdev_basic_m", "cognitive"),
+    "mdev_baseline": ("lct", "iso_mdev_m", None),
+    "mdev_visual_manual": ("lct", "iso_mdev_m", "visual_manual"),
+    "mdev_cognitive": ("lct", "iso_mdev_m", "cognitive"),
     "time_headway": ("platoon", "time_headway_s", None),
     "lane_change_duration": ("lane_change", "lane_change_s", None),
 }

@@ -14,9 +14,14 @@ of a number put in for that metric. The mechanisms:
   response or by a secondary task's operation. A transient stimulus whose selection cannot
   start within `sensory_memory_s` of its end is lost (a miss). An event the driver was not
   told to expect (`instructed=False`) needs `recognise_s` more to be made sense of
-  (Green 2000: expectancy roughly doubles brake reaction time).
+  (Green 2000: expectancy roughly doubles brake reaction time). A lane-change sign is read
+  first (`sign_read_s`: a saccade to the roadside sign and a fixation on it) and names one
+  of the road's lanes, so its selection is a choice that takes `choice_bit_s` longer per
+  bit (the Hick-Hyman law).
 * **Gaze**: at every load the driver scans mirrors and instruments (`scan_per_min` brief
-  glances); starting a glance is a voluntary act that needs the selection channel free.
+  glances) and, on the road, the scene away from its centre (`road_scan_per_min`, the
+  roadside, the far road); starting a glance is a voluntary act that needs the selection
+  channel free.
   During an off-road glance the driver acts on the **stale percept** from when the eyes left
   the road (the steering is held, the car drifts, forward stimuli go unseen) and corrects
   when the eyes return.
@@ -29,14 +34,26 @@ of a number put in for that metric. The mechanisms:
   response then waits longer (DRT, brake, lane-change initiation alike) and scanning glances
   that fall in a busy moment are not made, so the gaze concentrates on the road ahead
   (Engström, Johansson & Östlund 2005; Victor, Harbluk & Engström 2005).
-* **Control**: lane keeping by the rule driver's Stanley law (`steer_gain`) on a perceived
-  lateral position with a slowly varying error (`lateral_noise_m`, correlation time
-  `lateral_noise_tau_s`) and motor noise (`steer_noise`); lane changes along a smooth
-  (half-cosine) path lasting `lane_change_s` for one lane (a sign-cued change ends by
-  `FINISH_AFTER_SIGN_M` past the sign); while the eyes are away the held wheel wanders (the
+* **Control**: lane keeping, an automatic skill that never waits for the selection channel,
+  by the rule driver's Stanley law (`steer_gain`) on a perceived lateral position with a
+  slowly varying error that grows all the time and is corrected (correlation time
+  `lateral_noise_tau_s`) only while the eyes are on the road centre: its SD is
+  `lateral_noise_m` at the participant's own road-centre share without a task, lower when a
+  cognitive task suppresses scanning, higher with glances to a secondary task; motor noise
+  (`steer_noise`); lane changes along a smooth (half-cosine) path lasting `lane_change_s` for
+  one lane (a sign-cued change is cut short only where it would run past the point at which
+  the next sign can be read); while the eyes are away the held wheel wanders (the
   motor noise accumulates, uncorrected, until the eyes return); speed and car following by the
   rule driver's controllers with `speed_gain` and the participant's `time_headway_s` (in a
   platoon task, clipped to the task's distance band unless `keep_band=False`).
+
+Each random process (response jitter, lateral and motor noise, scanning, the cognitive
+task, the visual-manual task) draws from its own stream seeded by the episode seed, the
+participant and the load: as with a person, each drive has its own noise, so a study's
+within-participant differences and its power analysis carry trial-to-trial noise.
+`common_noise=True` leaves the load out of the seeds (common random numbers): a participant
+then meets the same noise under every load and a load's effect is its mechanism's alone,
+with the same expectation and less variance; the calibration (`calibration.py`) uses it.
 
 The rule driver (`rule.py`) stays the perfect reference; this is the human one.
 """
@@ -57,10 +74,10 @@ from .population import LOADS, ParticipantParams
 from .rule import RuleDriver, RuleParams, start_engine
 
 MANOEUVRE_OFFSET_M = 0.5  # a lane change is under way while the plan is this far from its end
-# a sign-cued change (LCT) ends no later than this far past the sign: the instruction is to
-# be in the new lane at the sign (ISO 26022's basic normative path is there 10 m after it);
-# an assumption, not a measured value
-FINISH_AFTER_SIGN_M = 40.0
+# a sign-cued change (LCT) lasts the participant's own `lane_change_s` unless that would
+# carry it past where the next sign can be read: on a track with a `geometry` (the LCT) at
+# its shortest sign spacing less the visibility distance, else this far past the sign
+FINISH_AFTER_SIGN_M = 100.0
 # a lane change the driver is timed on (OpenDS's LaneChangeReactionTimer, which also wants a
 # minimum steering angle) is made swiftly: at most this long per lane (an assumption; the rule
 # driver's reaction change is 20 m per lane, 1.2 s at 60 km/h)
@@ -133,6 +150,7 @@ class ParticipantDriver:
         instructed: bool = True,
         drt_modality: str | None = None,
         keep_band: bool = True,
+        common_noise: bool = False,
     ) -> None:
         if load not in LOADS:
             raise ValueError(f"unknown load {load!r}; use one of {', '.join(LOADS)}")
@@ -144,6 +162,7 @@ class ParticipantDriver:
         self.load = load
         self.instructed = instructed
         self.keep_band = keep_band
+        self.common_noise = common_noise
         self.drt_modality = drt_modality
         self.name = f"participant:{params.id}:{load}"
         self.env: Any = env
@@ -162,7 +181,13 @@ class ParticipantDriver:
             raise ValueError("ParticipantDriver needs an env: ParticipantDriver(env, params) or reset(env, seed)")
         self._seed = int(seed) if seed is not None else self._seed
         p = self.params
-        self.rng = np.random.default_rng([self._seed, p.id, LOADS.index(self.load), 0xD71E])
+        # one stream per process (see the module docstring on `common_noise`)
+        self.rng = self._stream(0xD71E)  # response jitter
+        self._lat_rng = self._stream(0x1A7E)  # perceived-position error and motor noise
+        self._scan_rng = self._stream(0x5CA2)  # scanning glances
+        self._road_scan_until = -math.inf
+        self._next_road_scan = self._road_scan_gap(0.0)
+        self._f0 = self._centre_share()
         rule_params = RuleParams(
             throttle_kp=RuleParams.throttle_kp * p.speed_gain,
             brake_kp=RuleParams.brake_kp * p.speed_gain,
@@ -172,7 +197,7 @@ class ParticipantDriver:
         self.rule = RuleDriver(rule_params)
         self.rule.reset(self.env, self._seed)
         cognitive = self.load == "cognitive"
-        self.channel = CentralChannel(self.rng, p.cog_busy if cognitive else 0.0, p.cog_op_s)
+        self.channel = CentralChannel(self._stream(0xC06), p.cog_busy if cognitive else 0.0, p.cog_op_s)
         self.task: GlanceProcess | None = None
         if self.load == "visual_manual":
             duty = p.task_episode_s / (p.task_episode_s + p.task_gap_s)
@@ -183,13 +208,19 @@ class ParticipantDriver:
                 glance_sd_s=p.task_glance_sd_s,
                 on_road_glance_s=p.on_road_glance_s,
             )
-            self.task = GlanceProcess(dp, self.rng)
+            self.task = GlanceProcess(dp, self._stream(0x7A5C))
         self.drt = find_drt(self.env)
         modality = self.drt_modality or str(getattr(self.drt, "modality", "tactile"))
         self.drt_visual = modality.lower() in VISUAL_DRT
         base: Any = self.env.unwrapped
         self._dt = float(base.world.dt_s)
         self._lane_w = float(getattr(base.guide, "lane_width_m", 3.75) or 3.75)
+        g = getattr(base, "geometry", None)
+        spacing, seen_at = getattr(g, "spacing_min_m", None), getattr(g, "visibility_m", None)
+        self._finish_after_sign_m = FINISH_AFTER_SIGN_M
+        if spacing is not None and seen_at is not None:  # (a next sign readable already: end by this one)
+            self._finish_after_sign_m = max(0.0, float(spacing - seen_at))
+        self._lanes = len(getattr(base.guide, "lane_laterals_m", ()) or ()) or 1
         # gaze
         self._next_scan = self._scan_gap(0.0)
         self._scan_until = -math.inf
@@ -223,12 +254,26 @@ class ParticipantDriver:
         return list(self._closed)
 
     # ------------------------------------------------------------------ helpers
+    def _stream(self, tag: int) -> np.random.Generator:
+        load = [] if self.common_noise else [LOADS.index(self.load)]
+        return np.random.default_rng([self._seed, self.params.id, tag, *load])
+
+    def _centre_share(self) -> float:
+        """The share of time the eyes are on the road centre with no secondary task (the
+        participant's own scanning): the lane-position error is calibrated at this share."""
+        p = self.params
+        return max(0.3, 1.0 - (p.scan_per_min * p.scan_glance_s + p.road_scan_per_min * p.road_scan_s) / 60.0)
+
+    def _road_scan_gap(self, now: float) -> float:
+        rate = self.params.road_scan_per_min / 60.0
+        return now + float(self._scan_rng.exponential(1.0 / rate)) if rate > 0 else math.inf
+
     def _jit(self, mean: float) -> float:
         return _lognormal(self.rng, mean, self.params.rt_cv * mean)
 
     def _scan_gap(self, now: float) -> float:
         rate = self.params.scan_per_min / 60.0
-        return now + float(self.rng.exponential(1.0 / rate)) if rate > 0 else math.inf
+        return now + float(self._scan_rng.exponential(1.0 / rate)) if rate > 0 else math.inf
 
     def _gaze(self, t: float, may_look_away: bool) -> bool:
         """Whether the eyes are off the road now (advancing the glance processes)."""
@@ -236,20 +281,33 @@ class ParticipantDriver:
         if self._task_was_off and not task_off:  # a task glance ended with a manual entry
             self.channel.acquire(t, self._jit(self.params.manual_op_s))
         self._task_was_off = task_off
+        p = self.params
         if t >= self._next_scan and t >= self._scan_until:
+            length = _lognormal(self._scan_rng, p.scan_glance_s, 0.3 * p.scan_glance_s)  # (drawn either way: common streams)
             if may_look_away and not task_off and not self.channel.busy_at(t):
-                self._scan_until = t + _lognormal(self.rng, self.params.scan_glance_s, 0.3 * self.params.scan_glance_s)
+                self._scan_until = t + length
             self._next_scan = self._scan_gap(t)
+        if t >= self._next_road_scan and t >= self._road_scan_until:
+            # a glance across the road scene away from its centre: voluntary too, so it is
+            # not made while the channel is busy (gaze concentration under cognitive load)
+            length = _lognormal(self._scan_rng, p.road_scan_s, 0.3 * p.road_scan_s)
+            if not task_off and not self.channel.busy_at(t):
+                self._road_scan_until = t + length
+            self._next_road_scan = self._road_scan_gap(t)
         return task_off or t < self._scan_until
 
     def _respond(
-        self, t_det: float, movement_s: float, lost_after: float = math.inf, recognise: bool = False
+        self, t_det: float, movement_s: float, lost_after: float = math.inf, recognise: bool = False, read_choices: int = 0
     ) -> tuple[float, float] | None:
         """(selection end, movement end) of a response to a stimulus detected at `t_det`, or
-        None when the stimulus is lost before selection can start."""
+        None when the stimulus is lost before selection can start. `read_choices` > 0: the
+        stimulus is a sign to be read (`sign_read_s`) naming one of that many responses, whose
+        selection takes `choice_bit_s` longer per bit (the Hick-Hyman law)."""
         p = self.params
         ready = t_det + self._jit(p.detect_s) + (self._jit(p.recognise_s) if recognise else 0.0)
-        select = self._jit(p.select_s)
+        if read_choices > 0:
+            ready += self._jit(p.sign_read_s)
+        select = self._jit(p.select_s + p.choice_bit_s * math.log2(max(read_choices, 1)))
         if self.channel.busy_at(ready) or ready < self.channel.free_at:
             probe = max(ready, self.channel.free_at)
             if self.channel.op_start <= probe < self.channel.op_end:
@@ -276,11 +334,18 @@ class ParticipantDriver:
             self._on_since = t
         self._off = off
         self._last_t = t
-        # perceived lateral position: a slowly varying error (Ornstein-Uhlenbeck)
+        # perceived lateral position: a slowly varying error that grows all the time and is
+        # corrected (decays, correlation time `lateral_noise_tau_s`) only while the eyes are
+        # on the road centre, where the lane is sampled: an Ornstein-Uhlenbeck process whose
+        # SD is `lateral_noise_m` at the participant's own share of road-centre gaze without a
+        # task (`_f0`) and scales with sqrt(f0 / share): gaze concentration under cognitive
+        # load lowers it, glances away raise it (Victor, Harbluk & Engstrom 2005)
         p = self.params
         if dt > 0:
-            a = math.exp(-dt / p.lateral_noise_tau_s)
-            self._noise = a * self._noise + p.lateral_noise_m * math.sqrt(1.0 - a * a) * float(self.rng.normal())
+            centre = not off and t >= self._road_scan_until
+            a = math.exp(-dt / p.lateral_noise_tau_s) if centre else 1.0
+            q = p.lateral_noise_m * math.sqrt(2.0 * self._f0 * dt / p.lateral_noise_tau_s)
+            self._noise = a * self._noise + q * float(self._lat_rng.normal())
         if off:
             if self._stale is None:
                 self._stale = replace(now, lateral_m=now.lateral_m + self._noise)
@@ -305,7 +370,7 @@ class ParticipantDriver:
             )
         else:
             intent = replace(intent, reaction=press)
-        noise = float(self.rng.normal(0.0, p.steer_noise))
+        noise = float(self._lat_rng.normal(0.0, p.steer_noise))
         # with the eyes away the held wheel wanders: the motor noise accumulates unseen
         self._drift = self._drift + noise if off else 0.0
         intent = replace(intent, steering=max(-1.0, min(1.0, intent.steering + noise + self._drift)))
@@ -329,7 +394,10 @@ class ParticipantDriver:
                 continue
             if ch == "press_reaction" and not value:
                 continue
-            r = self._respond(t, self.params.press_s if ch == "press_reaction" else 0.0)
+            if ch == "press_reaction":
+                r = self._respond(t, self.params.press_s)
+            else:  # a new lane: read off a sign (LCT, reaction test) naming one of the lanes
+                r = self._respond(t, 0.0, read_choices=self._lanes if now.lane_change_pending else 0)
             if r is not None:
                 self._pending[ch] = (value, r[0], r[1])
         for ch, (value, _, due) in list(self._pending.items()):
@@ -389,7 +457,7 @@ class ParticipantDriver:
             lanes = abs(target - here) / self._lane_w
             dur = self._jit(self.params.lane_change_s) * math.sqrt(max(lanes, 0.05))
             if p.sign_distance_m is not None:  # a deadline: the sign
-                dur = min(dur, (p.sign_distance_m + FINISH_AFTER_SIGN_M) / max(p.speed_mps, 1.0))
+                dur = min(dur, (p.sign_distance_m + self._finish_after_sign_m) / max(p.speed_mps, 1.0))
             elif p.lane_change_pending:  # a timed reaction (OpenDS reaction test): a swift change
                 dur = min(dur, REACTION_LANE_CHANGE_S * math.sqrt(max(lanes, 0.05)))
             self._plan = (here, target, t, dur)

@@ -84,6 +84,16 @@ class ParticipantParams:
     # a cognitive secondary task (cognitive load): it holds response selection
     cog_busy: float  # fraction of time a cognitive operation holds the selection stage
     cog_op_s: float  # mean length of one cognitive operation
+    # (appended last, with defaults, so that the earlier parameters' draws are unchanged)
+    # reading a lane-change sign: a saccade to it and a fixation that reads it, then a choice
+    # among the lanes (response selection grows by `choice_bit_s` per bit, Hick-Hyman)
+    sign_read_s: float = 0.45
+    choice_bit_s: float = 0.15
+    # on-road scanning away from the road centre (the roadside, the far road, other lanes);
+    # the lane position is sampled (its perceived error corrected) only with the eyes on the
+    # road centre, so these glances, like the mirror glances, let the error grow
+    road_scan_per_min: float = 12.0
+    road_scan_s: float = 0.8
 
 
 _SRC_GREEN = "fitted: expected brake PRT 0.70-0.75 s (Green 2000)"
@@ -111,8 +121,16 @@ DISTRIBUTIONS: dict[str, Dist] = {
     "task_episode_s": Dist("lognormal", 8.0, 2.0, 3.0, 15.0, "assumed"),
     "task_gap_s": Dist("lognormal", 4.0, 1.0, 1.5, 8.0, "assumed"),
     "manual_op_s": Dist("lognormal", 0.15, 0.04, 0.05, 0.30, "assumed"),
-    "cog_busy": Dist("normal", 0.32, 0.08, 0.05, 0.60, "fitted: DRT RT +90-135 ms under a 1-back task (Young, Hsieh & Seaman 2013)"),
+    "cog_busy": Dist("normal", 0.37, 0.08, 0.05, 0.60, "fitted: DRT RT +90-135 ms under a 1-back task (Young, Hsieh & Seaman 2013)"),
     "cog_op_s": Dist("lognormal", 0.60, 0.15, 0.25, 1.20, "fitted: as cog_busy"),
+    "sign_read_s": Dist(
+        "lognormal", 0.45, 0.08, 0.25, 0.80, "assumed: a saccade (latency ~0.2 s) and a reading fixation (~0.25 s) to a roadside sign"
+    ),
+    "choice_bit_s": Dist("lognormal", 0.15, 0.04, 0.05, 0.30, "assumed: Hick-Hyman law, ~0.15 s per bit (Hyman 1953; unverified)"),
+    "road_scan_per_min": Dist(
+        "normal", 12.0, 3.0, 4.0, 24.0, "assumed: with the mirror glances about 20-25 % of gaze off the road centre without a task"
+    ),
+    "road_scan_s": Dist("lognormal", 0.8, 0.2, 0.4, 1.6, "assumed: as road_scan_per_min"),
 }
 
 
