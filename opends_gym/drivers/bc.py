@@ -4,8 +4,10 @@ Why here: every agent spec resolves in `drivers.agents`, so a clone drives `run`
 benchmarks like any other driver. The network and its file format live beside the driver;
 `opends_gym.data.bc` trains it. A saved clone is a folder with `bc.pt` (the weights) and
 `bc.json` (sizes, observation normalisation, action bounds, the env and dataset it came from,
-`history`: how many recent observations the network sees, oldest first, so it can learn a
-driver's delays; a memoryless clone acts the moment it sees a sign).
+`history`: how many recent observations the network sees, oldest first, and `actions`: whether
+it also sees the actions it took before each of them; a driver who answers a sign a second
+later, acts on a stale percept during a glance or moves the wheel smoothly has state the
+current observation does not show, and a memoryless clone acts the moment it sees a sign).
 NAME is that folder (or its `bc.pt`) or a bundled policy folder of that name.
 """
 
@@ -43,6 +45,23 @@ def stack(history: list[np.ndarray], n: int) -> np.ndarray:
     return np.concatenate([frames[0]] * (n - len(frames)) + frames)
 
 
+def stacked_inputs(observations: np.ndarray, actions: np.ndarray, history: int, with_actions: bool) -> np.ndarray:
+    """The network's input at each of an episode's steps: the last `history` observations
+    (oldest first, the first repeated before the episode had them), then, `with_actions`, the
+    `history` actions taken before each of them (zero before the first step: nothing was done).
+    `observations` holds the steps' observations (T rows), `actions` the T actions taken at them."""
+    t = len(observations)
+    lags = np.arange(history - 1, -1, -1)
+    rows = np.arange(t)[:, None] - lags[None, :]
+    parts = [observations[np.clip(rows, 0, None)].reshape(t, -1)]
+    if with_actions:
+        before = np.concatenate([np.zeros((1, actions.shape[1]), actions.dtype), actions[: t - 1]])  # the action before each step
+        shifted = before[np.clip(rows, 0, None)]
+        shifted[rows < 0] = 0.0
+        parts.append(shifted.reshape(t, -1))
+    return np.concatenate(parts, axis=1)
+
+
 def resolve_clone(spec: str | Path) -> Path:
     """The folder of a saved clone: a path (folder or its bc.pt) or a bundled policy's name."""
     p = Path(spec)
@@ -70,23 +89,34 @@ class BCDriver:
         self.low = np.asarray(s["action_low"], dtype=np.float32)
         self.high = np.asarray(s["action_high"], dtype=np.float32)
         self.history = int(s.get("history", 1))
+        self.with_actions = bool(s.get("actions", False))
+        self.obs_size = (len(self.mean) - (self.history * len(self.low) if self.with_actions else 0)) // self.history
         self.net = build_mlp(len(self.mean), len(self.low), tuple(s["hidden"]))
-        self._frames: list[np.ndarray] = []
+        self._obs: list[np.ndarray] = []
+        self._acts: list[np.ndarray] = []
         self.net.load_state_dict(torch.load(self.folder / WEIGHTS, map_location="cpu", weights_only=True))
         self.net.eval()
         self._torch = torch
 
     def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
         shape = env.observation_space.shape
-        size = len(self.mean) // self.history
-        if shape != (size,):
-            raise ValueError(f"clone {self.folder} expects observations of shape ({size},), the env gives {shape}")
-        self._frames = []
+        if shape != (self.obs_size,):
+            raise ValueError(f"clone {self.folder} expects observations of shape ({self.obs_size},), the env gives {shape}")
+        self._obs, self._acts = [], []
 
     def act(self, obs: Any, info: dict[str, Any]) -> Any:
-        self._frames = [*self._frames[-(self.history - 1) :], np.asarray(obs, dtype=np.float32)] if self.history > 1 else [obs]
-        stacked = stack(self._frames, self.history) if self.history > 1 else np.asarray(obs, dtype=np.float32)
+        """The clone's action (the network's output, deterministic) for this observation and the
+        history it keeps, built as `stacked_inputs` built the training inputs."""
+        self._obs = [*self._obs[-(self.history - 1) :], np.asarray(obs, dtype=np.float32)] if self.history > 1 else [np.asarray(obs, dtype=np.float32)]
+        stacked = stack(self._obs, self.history)
+        if self.with_actions:  # the actions before each of the last `history` steps, zero before the first
+            taken = self._acts[-self.history :]
+            pad = [np.zeros(len(self.low), np.float32)] * (self.history - len(taken))
+            stacked = np.concatenate([stacked, *pad, *taken])
         x = np.clip(np.nan_to_num((stacked - self.mean) / self.std, posinf=CLIP, neginf=-CLIP), -CLIP, CLIP)
         with self._torch.no_grad():
             y = self.net(self._torch.from_numpy(x.astype(np.float32))).numpy()
-        return (self.low + (y + 1.0) * 0.5 * (self.high - self.low)).astype(np.float32)
+        action = (self.low + (y + 1.0) * 0.5 * (self.high - self.low)).astype(np.float32)
+        if self.with_actions:
+            self._acts = [*self._acts[-(self.history - 1) :], action] if self.history > 1 else [action]
+        return action
