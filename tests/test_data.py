@@ -96,7 +96,8 @@ def test_behaviour_clone_learns_the_actions_and_drives_as_an_agent(minari_dir: P
     env = make_env("OpenDS/LaneChangeTest-v0", {"max_episode_s": 3.0})
     ds = write_dataset("test/bc", [collect(env, make_agent("constant:0.02,0.7"), seed) for seed in (0, 1)])
     folder = tmp_path / "clone"
-    code, out, _ = _main_output(["train", "bc", "test/bc-v0", "--out", str(folder), "--epochs", "300", "--history", "3", "--validation", "0"])
+    options = ["--epochs", "300", "--history", "3", "--validation", "0"]
+    code, out, _ = _main_output(["train", "bc", "test/bc-v0", "--out", str(folder), *options])
     assert code == 0
     assert json.loads(out)["steps"] == ds.total_steps
     clone = make_agent(f"bc:{folder}")
@@ -127,7 +128,8 @@ def test_clone_with_history_and_actions_sees_at_run_time_what_it_was_trained_on(
     eps = [collect(env, make_agent("constant:-0.03,0.6"), seed) for seed in (0, 1, 2)]
     write_dataset("test/bca", eps)
     folder = tmp_path / "clone"
-    code, out, _ = _main_output(["train", "bc", "test/bca-v0", "--out", str(folder), "--epochs", "300", "--history", "4", "--actions", "--validation", "0.3", "--patience", "300"])
+    options = ["--epochs", "300", "--history", "4", "--actions", "--validation", "0.3", "--patience", "300"]
+    code, out, _ = _main_output(["train", "bc", "test/bca-v0", "--out", str(folder), *options])
     assert code == 0
     summary = json.loads(out)
     assert summary["held_out_episodes"] == 1 and summary["steps"] == 2 * eps[0].steps, summary

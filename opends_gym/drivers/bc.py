@@ -107,7 +107,8 @@ class BCDriver:
     def act(self, obs: Any, info: dict[str, Any]) -> Any:
         """The clone's action (the network's output, deterministic) for this observation and the
         history it keeps, built as `stacked_inputs` built the training inputs."""
-        self._obs = [*self._obs[-(self.history - 1) :], np.asarray(obs, dtype=np.float32)] if self.history > 1 else [np.asarray(obs, dtype=np.float32)]
+        frame = np.asarray(obs, dtype=np.float32)
+        self._obs = [*self._obs[-(self.history - 1) :], frame] if self.history > 1 else [frame]
         stacked = stack(self._obs, self.history)
         if self.with_actions:  # the actions before each of the last `history` steps, zero before the first
             taken = self._acts[-self.history :]
