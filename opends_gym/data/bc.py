@@ -6,7 +6,8 @@ squared error between the network's action and the driver's for every recorded o
 Observations are standardised with the dataset's mean and standard deviation (saved with the
 weights, `drivers.bc`; a feature constant in the data keeps its scale, and standardised values are
 clipped to +-10 as stable-baselines3's VecNormalize clips them, so a new episode's features stay
-in the range the network saw); actions are scaled to [-1, 1] from the action space's bounds. CPU,
+in the range the network saw); actions are scaled to [-1, 1] from the action space's bounds and
+standardised as well (a linear output layer; `drivers.bc.action_output` undoes it). CPU,
 seeded, minibatches in a seeded order: the same dataset and seed give the same clone.
 
 A driver's action often depends on more than what it sees now (a reaction delay, a stale
@@ -96,10 +97,20 @@ def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> di
     std = np.where(std < 1e-6, 1.0, std)  # a feature constant in the data: no scale to learn from it
     low, high = np.asarray(space.low, dtype=np.float32), np.asarray(space.high, dtype=np.float32)
 
+    def scaled(idx: np.ndarray) -> np.ndarray:
+        a = np.concatenate([episodes[i][1] for i in idx])
+        return np.clip(2.0 * (a - low) / (high - low) - 1.0, -1.0, 1.0)
+
+    # actions standardised too: a driver's steering varies by ~0.01 of its range, its pedal far
+    # more; on the bounds' scale the squared error, and so the fit, is all pedal
+    train_target = scaled(train_idx)
+    t_mean = train_target.mean(axis=0)
+    t_std = train_target.std(axis=0)
+    t_std = np.where(t_std < 1e-6, 1.0, t_std)
+
     def tensors(idx: np.ndarray) -> tuple[Any, Any]:
         o = np.nan_to_num(np.concatenate([episodes[i][0] for i in idx]), posinf=0.0, neginf=0.0)
-        a = np.concatenate([episodes[i][1] for i in idx])
-        target = np.clip(2.0 * (a - low) / (high - low) - 1.0, -1.0, 1.0)
+        target = (scaled(idx) - t_mean) / t_std
         return torch.from_numpy(np.clip((o - mean) / std, -CLIP, CLIP).astype(np.float32)), torch.from_numpy(target.astype(np.float32))
 
     x, y = tensors(train_idx)
@@ -132,6 +143,8 @@ def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> di
         "obs_std": std.tolist(),
         "action_low": low.tolist(),
         "action_high": high.tolist(),
+        "target_mean": t_mean.tolist(),
+        "target_std": t_std.tolist(),
     }
     (folder / SETTINGS).write_text(json.dumps(settings, indent=1), encoding="utf-8")
     return {**summary, "out": str(folder), "loss_per_epoch": losses, "validation_loss_per_epoch": held_losses}
@@ -142,7 +155,7 @@ def _fit(torch: Any, x: Any, y: Any, held: tuple[Any, Any] | None, config: BCCon
     epoch and, with held-out data, its loss there (the best epoch's weights are returned)."""
     gen = torch.Generator().manual_seed(config.seed)
     torch.manual_seed(config.seed)
-    net = build_mlp(x.shape[1], y.shape[1], config.hidden)
+    net = build_mlp(x.shape[1], y.shape[1], config.hidden, squash=False)
     opt = torch.optim.Adam(net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
     losses: list[float] = []
     held_losses: list[float] = []

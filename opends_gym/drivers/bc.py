@@ -27,16 +27,26 @@ WEIGHTS, SETTINGS = "bc.pt", "bc.json"
 CLIP = 10.0  # standardised observations are clipped to +-CLIP (as stable-baselines3's VecNormalize)
 
 
-def build_mlp(obs_dim: int, act_dim: int, hidden: tuple[int, ...]) -> Any:
-    """tanh MLP whose output, in [-1, 1], is scaled onto the action bounds by the driver."""
+def build_mlp(obs_dim: int, act_dim: int, hidden: tuple[int, ...], squash: bool = True) -> Any:
+    """tanh MLP. `squash`: its output, in [-1, 1], is the action scaled onto the bounds (clones
+    saved without `target_std`); else a linear output, the standardised action (`action_output`)."""
     torch = require("rl", "torch", "the behaviour-cloned driver")
     layers: list[Any] = []
     last = obs_dim
     for h in hidden:
         layers += [torch.nn.Linear(last, h), torch.nn.Tanh()]
         last = h
-    layers += [torch.nn.Linear(last, act_dim), torch.nn.Tanh()]
+    layers += [torch.nn.Linear(last, act_dim)] + ([torch.nn.Tanh()] if squash else [])
     return torch.nn.Sequential(*layers)
+
+
+def action_output(y: np.ndarray, settings: dict[str, Any]) -> np.ndarray:
+    """The action for network output `y`: un-standardised (`target_mean`, `target_std`) where the
+    clone learnt standardised actions, then mapped from [-1, 1] onto the action bounds."""
+    if "target_std" in settings:
+        y = np.clip(y * np.asarray(settings["target_std"]) + np.asarray(settings["target_mean"]), -1.0, 1.0)
+    low, high = np.asarray(settings["action_low"]), np.asarray(settings["action_high"])
+    return (low + (y + 1.0) * 0.5 * (high - low)).astype(np.float32)
 
 
 def stack(history: list[np.ndarray], n: int) -> np.ndarray:
@@ -91,7 +101,8 @@ class BCDriver:
         self.history = int(s.get("history", 1))
         self.with_actions = bool(s.get("actions", False))
         self.obs_size = (len(self.mean) - (self.history * len(self.low) if self.with_actions else 0)) // self.history
-        self.net = build_mlp(len(self.mean), len(self.low), tuple(s["hidden"]))
+        self.squash = "target_std" not in s
+        self.net = build_mlp(len(self.mean), len(self.low), tuple(s["hidden"]), self.squash)
         self._obs: list[np.ndarray] = []
         self._acts: list[np.ndarray] = []
         self.net.load_state_dict(torch.load(self.folder / WEIGHTS, map_location="cpu", weights_only=True))
@@ -119,9 +130,11 @@ class BCDriver:
             stacked = np.concatenate([stacked, *pad, *taken])
         x = np.clip(np.nan_to_num((stacked - self.mean) / self.std, posinf=CLIP, neginf=-CLIP), -CLIP, CLIP)
         y = x.astype(np.float64)
-        for w, b in self._layers:
-            y = np.tanh(w @ y + b)  # every layer of build_mlp ends in tanh
-        action = (self.low + (y + 1.0) * 0.5 * (self.high - self.low)).astype(np.float32)
+        for i, (w, b) in enumerate(self._layers):
+            y = w @ y + b
+            if i < len(self._layers) - 1 or self.squash:  # build_mlp's tanh layers
+                y = np.tanh(y)
+        action = action_output(y, self.settings)
         if self.with_actions:
             self._acts = [*self._acts[-(self.history - 1) :], action] if self.history > 1 else [action]
         return action
