@@ -86,12 +86,14 @@ def lct(args: argparse.Namespace, cache: Path) -> dict[str, Any]:
         ref.write_text(json.dumps(pooled(_metrics, spec, seeds, args.workers)), encoding="utf-8")
     person = json.loads(ref.read_text(encoding="utf-8"))
     t1 = time.perf_counter()
-    config = BCConfig(epochs=args.epochs, history=args.history)
+    config = BCConfig(epochs=args.epochs, history=args.history, actions=args.actions, patience=args.patience)
     summary = train_bc(name, cache / "lct-clone", config)
     t2 = time.perf_counter()
     cloned = pooled(_metrics, f"bc:{cache / 'lct-clone'}", seeds, args.workers)
     out: dict[str, Any] = {
         "participant": spec,
+        "history": args.history,
+        "actions": args.actions,
         "drives": args.drives,
         "eval_episodes": args.eval,
         "train_steps": summary["steps"],
@@ -171,8 +173,10 @@ def main() -> None:
     ap.add_argument("--participant", type=int, default=1)
     ap.add_argument("--drives", type=int, default=200)
     ap.add_argument("--eval", type=int, default=20)
-    ap.add_argument("--epochs", type=int, default=30, help="LCT clone: most epochs (early stopping on held-out drives)")
+    ap.add_argument("--epochs", type=int, default=12, help="LCT clone: most epochs (early stopping on held-out drives)")
+    ap.add_argument("--patience", type=int, default=3, help="LCT clone: epochs without a better held-out error before it stops")
     ap.add_argument("--history", type=int, default=15, help="LCT clone: observations it sees (drivers.bc)")
+    ap.add_argument("--actions", action=argparse.BooleanOptionalAction, default=True, help="LCT clone: and the actions before them")
     ap.add_argument("--cs-epochs", type=int, default=30, help="Countryside clone: epochs (too few drives to hold any out)")
     ap.add_argument("--cs-history", type=int, default=1)
     ap.add_argument("--seconds", type=float, default=60.0)
