@@ -176,7 +176,7 @@ def main() -> None:
     ap.add_argument("--epochs", type=int, default=12, help="LCT clone: most epochs (early stopping on held-out drives)")
     ap.add_argument("--patience", type=int, default=3, help="LCT clone: epochs without a better held-out error before it stops")
     ap.add_argument("--history", type=int, default=15, help="LCT clone: observations it sees (drivers.bc)")
-    ap.add_argument("--actions", action=argparse.BooleanOptionalAction, default=True, help="LCT clone: and the actions before them")
+    ap.add_argument("--actions", action=argparse.BooleanOptionalAction, default=False, help="LCT clone: and the actions before them")
     ap.add_argument("--cs-epochs", type=int, default=30, help="Countryside clone: epochs (too few drives to hold any out)")
     ap.add_argument("--cs-history", type=int, default=1)
     ap.add_argument("--seconds", type=float, default=60.0)
@@ -187,8 +187,11 @@ def main() -> None:
     ap.add_argument("--json", action="store_true", help="print the full figures as JSON after the table")
     ap.add_argument("--verbose", action="store_true", help="log each training epoch")
     args = ap.parse_args()
-    if args.verbose:
-        logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
+    if args.verbose:  # the trainer's epochs only
+        handler = logging.StreamHandler()
+        handler.setFormatter(logging.Formatter("%(asctime)s %(message)s"))
+        logging.getLogger("opends_gym.data.bc").addHandler(handler)
+        logging.getLogger("opends_gym.data.bc").setLevel(logging.INFO)
     args.cache.mkdir(parents=True, exist_ok=True)
     os.environ["MINARI_DATASETS_PATH"] = str(args.cache / "minari")
     start = time.perf_counter()
