@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import multiprocessing
 import os
 import tempfile
 import time
@@ -63,7 +64,8 @@ def pooled(fn: Any, spec: str, seeds: list[int], workers: int) -> list[Any]:
     if workers <= 1:
         return list(fn(spec, seeds))
     chunks = [seeds[i::workers] for i in range(workers)]
-    with ProcessPoolExecutor(workers) as pool:
+    # spawned, not forked: a worker forked after torch trained in this process hangs on its thread pool's locks
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
         parts = list(pool.map(fn, [spec] * workers, chunks))
     by_seed = {s: r for chunk, part in zip(chunks, parts, strict=True) for s, r in zip(chunk, part, strict=True)}
     return [by_seed[s] for s in seeds]
