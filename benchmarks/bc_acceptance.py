@@ -13,7 +13,8 @@
    away from the logs' paths (they cover parts of it only), no driver that follows it stays within 5 m.
 
 Drives are collected in a process pool (--workers) and cached under --cache (the Minari datasets
-and the participant's evaluation metrics), so a second run only trains and evaluates the clones.
+and the participant's evaluation metrics), so a second run only trains and evaluates the clones (delete the cache after changing the env
+or the participant model: it is keyed by participant, drives and episodes only).
 Prints one table (goal, measured, pass) and, with --json, the full figures.
 
     PYTHONPATH=. python benchmarks/bc_acceptance.py                      # the acceptance (200 drives, 20 episodes)
