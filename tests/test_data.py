@@ -96,7 +96,8 @@ def test_behaviour_clone_learns_the_actions_and_drives_as_an_agent(minari_dir: P
     env = make_env("OpenDS/LaneChangeTest-v0", {"max_episode_s": 3.0})
     ds = write_dataset("test/bc", [collect(env, make_agent("constant:0.02,0.7"), seed) for seed in (0, 1)])
     folder = tmp_path / "clone"
-    code, out, _ = _main_output(["train", "bc", "test/bc-v0", "--out", str(folder), "--epochs", "300", "--history", "3"])
+    options = ["--epochs", "300", "--history", "3", "--validation", "0"]
+    code, out, _ = _main_output(["train", "bc", "test/bc-v0", "--out", str(folder), *options])
     assert code == 0
     assert json.loads(out)["steps"] == ds.total_steps
     clone = make_agent(f"bc:{folder}")
@@ -111,6 +112,39 @@ def test_behaviour_clone_learns_the_actions_and_drives_as_an_agent(minari_dir: P
     code, out, _ = _main_output(["run", "--agent", f"bc:{folder}", "--max-seconds", "1", "--json"])
     assert code == 0
     assert json.loads(out)["episodes"][0]["steps"] == 10
+
+
+def test_clone_with_history_and_actions_sees_at_run_time_what_it_was_trained_on(minari_dir: Path, tmp_path: Path) -> None:
+    """--history N --actions: the network's input at run time is the training input built from
+    the episode the clone drove (drivers.bc.stacked_inputs); one of three episodes is held out."""
+    import torch
+
+    from opends_gym.data.episodes import collect, make_env
+    from opends_gym.data.minari_io import write_dataset
+    from opends_gym.drivers.agents import make_agent
+    from opends_gym.drivers.bc import CLIP, action_output, stacked_inputs
+
+    env = make_env("OpenDS/LaneChangeTest-v0", {"max_episode_s": 2.0})
+    eps = [collect(env, make_agent("constant:-0.03,0.6"), seed) for seed in (0, 1, 2)]
+    write_dataset("test/bca", eps)
+    folder = tmp_path / "clone"
+    options = ["--epochs", "300", "--history", "4", "--actions", "--validation", "0.3", "--patience", "300"]
+    code, out, _ = _main_output(["train", "bc", "test/bca-v0", "--out", str(folder), *options])
+    assert code == 0
+    summary = json.loads(out)
+    assert summary["held_out_episodes"] == 1 and summary["steps"] == 2 * eps[0].steps, summary
+    assert 1 <= summary["best_epoch"] <= 300
+    clone = make_agent(f"bc:{folder}")
+    driven = collect(env, clone, 9)
+    env.close()
+    assert np.asarray(driven.actions) == pytest.approx(np.tile([-0.03, 0.6], (driven.steps, 1)), abs=0.1)
+    s = json.loads((folder / "bc.json").read_text())
+    assert s["history"] == 4 and s["actions"] is True
+    obs, act = np.asarray(driven.observations[:-1], np.float32), np.asarray(driven.actions, np.float32)
+    x = np.clip((stacked_inputs(obs, act, 4, True) - np.asarray(s["obs_mean"])) / np.asarray(s["obs_std"]), -CLIP, CLIP)
+    with torch.no_grad():
+        y = clone.net(torch.from_numpy(x.astype(np.float32))).numpy()
+    assert action_output(y, s) == pytest.approx(act, abs=1e-5)
 
 
 def test_train_bc_without_a_dataset_is_one_line() -> None:

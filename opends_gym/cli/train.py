@@ -22,6 +22,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--output", "--out", default=None, help="run folder (default: the config's `output`; bc: bc-<dataset>)")
     p.add_argument("--epochs", type=int, default=None, help="with bc: training epochs (default 30)")
     p.add_argument("--history", type=int, default=1, help="with bc: recent observations the clone sees (default 1)")
+    p.add_argument("--actions", action="store_true", help="with bc: the clone also sees the actions it took before them")
+    p.add_argument("--validation", type=float, default=0.1, help="with bc: share of episodes held out for early stopping (default 0.1)")
+    p.add_argument("--patience", type=int, default=10, help="with bc: epochs without a lower held-out error before it stops (default 10)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a top-level config key (repeatable)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--resume", default=None, metavar="RUN_DIR", help="continue a finished run (its model.zip) for --total-steps more")
@@ -34,10 +37,12 @@ def _train_bc(args: argparse.Namespace) -> int:
     if not args.dataset:
         print("opends-gym train: bc needs a dataset: opends-gym train bc DATASET [--out FOLDER]", file=sys.stderr)
         return 2
-    config = BCConfig(history=args.history) if args.epochs is None else BCConfig(epochs=args.epochs, history=args.history)
+    options = {"history": args.history, "actions": args.actions, "validation": args.validation, "patience": args.patience}
+    config = BCConfig(**options) if args.epochs is None else BCConfig(epochs=args.epochs, **options)
     out = Path(args.output) if args.output else Path("bc-" + args.dataset.replace("/", "-"))
     summary = train_bc(args.dataset, out, config)
     summary.pop("loss_per_epoch")
+    summary.pop("validation_loss_per_epoch")
     dump_json(summary, sys.stdout, indent=2)
     print(f"drive it with --agent bc:{out}", file=sys.stderr)
     return 0
