@@ -287,7 +287,7 @@ class NativeRow:
     steps_per_s: float  # env-steps of the whole batch per wall second
     cpu_share: float  # this process's CPU time over wall time
     ends_per_k: float  # episodes ended per 1,000 env-steps
-    scoring_us: float  # wall microseconds spent scoring one ended episode (`BatchCore.episodes_metrics`)
+    scoring_us: float  # CPU microseconds (of the scoring thread) per ended episode in `BatchCore.episodes_metrics`
 
     @property
     def steps_per_cpu_s(self) -> float:
@@ -296,8 +296,8 @@ class NativeRow:
 
 def measure_native_task(case: Case, n: int, seconds: float, metrics: bool) -> NativeRow:
     """One native batch of `n` envs with random actions and resets, with or without metrics:
-    its rate, CPU share, how often episodes end and what scoring one costs (wall time inside
-    each shard's `episodes_metrics`; shards in threads score side by side)."""
+    its rate, CPU share, how often episodes end and what scoring one costs (the CPU time of the
+    thread inside each shard's `episodes_metrics`: other programs on the host do not count)."""
     vec: Any = gym.make_vec(case.env_id, num_envs=n, vectorization_mode="vector_entry_point", record_metrics=metrics)
     scoring = [0.0, 0]
     for shard in vec.unwrapped.shards:
@@ -306,9 +306,9 @@ def measure_native_task(case: Case, n: int, seconds: float, metrics: bool) -> Na
             continue
 
         def timed(es: list[int], _score: Callable[[list[int]], Any] = core.episodes_metrics) -> Any:
-            t = time.perf_counter()
+            t = time.thread_time()
             out = _score(es)
-            scoring[0] += time.perf_counter() - t
+            scoring[0] += time.thread_time() - t
             scoring[1] += len(es)
             return out
 
@@ -343,7 +343,7 @@ def native_tasks_table(seconds: float, n: int) -> list[str]:
     lct = {r.metrics: r for r in rows if r.task == "LaneChangeTest"}
     out = [
         f"| task ({n:,} envs, random actions, resets) | metrics | env-steps/s | cpu % | env-steps / CPU s | of the LCT's (wall) "
-        "| of the LCT's (per CPU s) | episodes ended / 1k env-steps | scoring µs / ended episode |",
+        "| of the LCT's (per CPU s) | episodes ended / 1k env-steps | scoring: CPU µs / ended episode |",
         "|---|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
@@ -607,8 +607,8 @@ def main() -> None:
         "",
         "Measured back to back in this run. `cpu %` is this process's CPU time over wall time (the host is shared: below "
         "the core count, other programs took the rest), `env-steps / CPU s` the rate per CPU second, and the shares of the "
-        "LCT's rate compare each task with the LCT's row of the same metrics setting. Scoring: wall time in "
-        "`BatchCore.episodes_metrics` per ended episode (the single env's metric code, in Python).",
+        "LCT's rate compare each task with the LCT's row of the same metrics setting. Scoring: CPU time of the scoring "
+        "thread in `BatchCore.episodes_metrics` per ended episode (the single env's metric code, in Python).",
         "",
     ]
     text = "\n".join([*header, *main_table, "", *goal_intro, *goal_table, *native_intro, *native_table, *scale_intro, *scale_table, ""])
