@@ -75,7 +75,8 @@ class PlatoonBatch(BatchCore):
         self.hold = np.full(shape, np.nan)
         self.objs: list[list[Stimulus | None]] = [[None] * SLOTS for _ in range(n)]
         self.stimuli: list[list[Stimulus]] = [[] for _ in range(n)]
-        self.prng: list[np.random.Generator | None] = [None] * n
+        self.prng: list[np.random.Generator | None] = [None] * n  # built from `prng_seed` when first drawn from
+        self.prng_seed = np.zeros(n, dtype=np.int64)
         cfg: Any = template.config
         self.dev_cap, self.dev_per_m = cfg.reward_deviation_cap_m, cfg.reward_deviation_per_m
         self.progress_per_m, self.off_road_penalty = cfg.reward_progress_per_m, cfg.off_road_penalty
@@ -110,7 +111,10 @@ class PlatoonBatch(BatchCore):
         for e in idx.tolist():
             rng = self.rngs[e]
             assert rng is not None
-            self.prng[e] = np.random.default_rng(int(rng.integers(0, 2**31 - 1)))
+            # the single env seeds its stimulus generator here; building one costs ~10x the draw and most
+            # episodes under random actions end before their first stimulus, so it is built on first use (`_prng`)
+            self.prng_seed[e] = rng.integers(0, 2**31 - 1)
+            self.prng[e] = None
             self.stimuli[e] = []
             self.objs[e] = [None] * SLOTS
         self.traffic.reset_rows(idx, self.traffic.st0)
@@ -153,10 +157,16 @@ class PlatoonBatch(BatchCore):
             return super()._on_action(e, act, trigger)
         kind = str(act.args.get("stimulus_id", ""))
         if kind == "turnSignal":
-            rng = self.prng[e]
-            assert rng is not None
+            rng = self._prng(e)
             kind = "leadingCarTurnSignal" if rng.random() < 0.5 or not self.with_follower else "followerCarTurnSignal"
         self._start(e, kind)
+
+    def _prng(self, e: int) -> np.random.Generator:
+        """Env e's stimulus generator (`ThreeVehiclePlatoonEnv`'s, seeded at reset)."""
+        rng = self.prng[e]
+        if rng is None:
+            rng = self.prng[e] = np.random.default_rng(int(self.prng_seed[e]))
+        return rng
 
     def _start(self, e: int, kind: str) -> None:
         if kind not in KINDS or (KINDS.index(kind) >= SR and self.spec.speed_reduction is None):
@@ -183,9 +193,7 @@ class PlatoonBatch(BatchCore):
                 if k == SR
                 else (sr.target_speed_min_emergency_mps, sr.target_speed_max_emergency_mps)
             )
-            rng = self.prng[e]
-            assert rng is not None
-            target = float(rng.uniform(lo, hi))
+            target = float(self._prng(e).uniform(lo, hi))
             st.ov_speed[row] = max(0.0, target)
             st.ov_decel[row] = abs(self.em_decel) if k == EB else np.nan
         obj = Stimulus(kind, t, t + float(self.durations[k]), target_mps=target, car=self.world.traffic.ids[car])
