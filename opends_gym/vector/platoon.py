@@ -24,15 +24,17 @@ from ..envs.platoon_core import (
     PlatoonState,
     Stimulus,
 )
+from ..metrics import platoon_scores as scores
 from ..sim.traffic.routes import TURN_CODES
 from ..sim.triggers.core import CompiledAction
 from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore
 from .kernels import CHUNK_ENVS
 from .platoon_step import _hook_range, _lead_range, lead_measures, platoon_hook
+from .trace import lane_columns
 from .traffic import FlatTraffic
 
-KINDS = ("brakeLight", "leadingCarTurnSignal", "followerCarTurnSignal", "speedReduction", "emergencyBrake")
+KINDS = scores.KINDS
 BL, LT, FT, SR, EB = range(5)
 SLOTS = 4  # simultaneous stimuli per env (a stimulus lasts <= 5 s; triggers lie >= 250 m apart)
 
@@ -105,6 +107,7 @@ class PlatoonBatch(BatchCore):
         )  # fmt: skip
         # chunks on numba's threads (False: the serial twins, for thread shards and batches of one chunk)
         self.parallel = n > CHUNK_ENVS
+        self._scored: dict[int, dict[str, float]] = {}  # `PlatoonCore.metrics` of envs being scored (`episodes_metrics`)
 
     # ------------------------------------------------------------------ reset
     def _reset_task(self, idx: np.ndarray) -> None:
@@ -305,13 +308,54 @@ class PlatoonBatch(BatchCore):
         self.dirty[:] = False
         return r - self.collision_penalty * info["new_collisions"].astype(np.float64)
 
+    def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
+        """`episode_metrics` of the envs `es`, their platoon metrics (`PlatoonCore.metrics`, the
+        same floats) computed for all of them in one compiled pass (`metrics.platoon_scores`)."""
+        if self.ring is None:
+            raise RuntimeError("episode metrics were switched off (record_metrics=False)")
+        columns = self.ring.columns_of(es)
+        self._scored = self._platoon_scores(es, columns)
+        try:
+            return [(e, self.episode_metrics(e, columns[e])) for e in es]
+        finally:
+            self._scored = {}
+
+    def _platoon_scores(self, es: list[int], columns: dict[int, np.ndarray]) -> dict[int, dict[str, float]]:
+        if not es:
+            return {}
+        col = self.trace_columns.index
+        traces = [columns[e][:, 1:] for e in es]  # (the reset row is no step)
+        starts = np.zeros(len(es) + 1, dtype=np.int64)
+        np.cumsum([t.shape[1] for t in traces], out=starts[1:])
+        lon = np.concatenate([t[col("lon_dev")] for t in traces])
+        x, z = (np.concatenate([t[col(c)] for t in traces]) for c in ("x_m", "z_m"))
+        _, _, off = lane_columns(self.guide, x, z)
+        stims = [s for e in es for s in self.stimuli[e]]
+        stim_starts = np.zeros(len(es) + 1, dtype=np.int64)
+        np.cumsum([len(self.stimuli[e]) for e in es], out=stim_starts[1:])
+        kind = np.array([scores.KINDS.index(s.kind) for s in stims], dtype=np.int64)
+        result = np.array([s.result for s in stims], dtype=np.int64)
+        rt = np.array([s.reaction_time_s for s in stims], dtype=np.float64)
+        lb = self.spec.lateral_tolerance
+        lat_lo, lat_hi = (lb.lower_bound_m, lb.upper_bound_m) if lb is not None else (0.0, 0.0)
+        out = np.empty((len(es), len(scores.KEYS)))
+        scores.platoon_scores(lon, off, starts, float(lat_lo), float(lat_hi), lb is not None, kind, result, rt, stim_starts, out)
+        return {e: dict(zip(scores.KEYS, row)) for e, row in zip(es, out.tolist())}
+
     def _load_episode(self, e: int, columns: np.ndarray | None) -> None:
         assert self.ring is not None
+        platoon = self.template.platoon
+        row = self._scored.get(e)
+        if row is not None:  # scored already: the template's `PlatoonCore.metrics` returns them
+            platoon.state = PlatoonState(stimuli=list(self.stimuli[e]))
+            platoon.metrics = row.copy  # type: ignore[method-assign]
+            return
+        platoon.__dict__.pop("metrics", None)
         off = self.template.trace.col("lane_offset_m")[1:]  # (the episode's trace, loaded just before)
         lb = self.spec.lateral_tolerance
         lat = np.maximum(np.maximum(0.0, lb.lower_bound_m - off), off - lb.upper_bound_m) if lb is not None else np.zeros(0)
         lon = (self.ring.column(e, "lon_dev") if columns is None else columns[self.trace_columns.index("lon_dev")])[1:]
-        self.template.platoon.state = PlatoonState(stimuli=list(self.stimuli[e]), lon_dev=list(lon), lat_dev=list(lat))
+        platoon.state = PlatoonState(stimuli=list(self.stimuli[e]), lon_dev=list(lon), lat_dev=list(lat))
 
 
 class BrakeBatch(PlatoonBatch):
