@@ -1,4 +1,4 @@
-"""The compiled platoon/brake episode scoring gives `PlatoonCore.metrics`'s floats exactly."""
+"""The compiled episode scoring (platoon/brake band and stimulus metrics, car following) gives numpy's floats exactly."""
 
 from __future__ import annotations
 
@@ -9,6 +9,8 @@ import opends_gym  # noqa: F401  (registers the envs)
 from opends_gym.envs.platoon_core import PlatoonState, Stimulus
 from opends_gym.jit import wait_compiled
 from opends_gym.metrics import platoon_scores as scores
+from opends_gym.metrics import sums
+from opends_gym.metrics.headway import car_following_summary
 
 
 def _wide(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -19,11 +21,11 @@ def _wide(rng: np.random.Generator, n: int) -> np.ndarray:
 def test_np_sum_adds_in_numpys_order() -> None:
     rng = np.random.default_rng(3)
     arrays = [_wide(rng, n) for n in (*range(0, 40), 127, 128, 129, 255, 256, 300, 1000, 4099)]
-    for run in (scores.np_sum.py_func, None):  # as Python, then compiled
+    for run in (sums.np_sum.py_func, None):  # as Python, then compiled
         if run is None:
-            scores.np_sum(arrays[0], 0, 0)
+            sums.np_sum(arrays[0], 0, 0)
             wait_compiled()
-            run = scores.np_sum
+            run = sums.np_sum
         for a in arrays:
             lo = 3 if len(a) > 3 else 0
             assert run(a, lo, len(a) - lo) == np.sum(a[lo:]), len(a)
@@ -83,3 +85,32 @@ def test_platoon_scores_equal_the_single_envs_metrics() -> None:
             got = dict(zip(scores.KEYS, out[j].tolist()))
             assert np.array_equal(list(got.values()), list(want.values()), equal_nan=True), (j, got, want)
     env.close()
+
+
+def _numpy_car_following(gap: np.ndarray, vf: np.ndarray, vl: np.ndarray) -> list[float]:
+    """`car_following_summary` as numpy expressions (its definition before it was compiled)."""
+    lead = np.isfinite(gap) & np.isfinite(vl)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        thw = np.where(lead & (vf > 0.0), np.maximum(gap, 0.0) / vf, np.inf)
+        ttc = np.where(lead & (vf - vl > 0.0), np.maximum(gap, 0.0) / (vf - vl), np.inf)
+    n = int(lead.sum())
+    fin_thw, fin_ttc = thw[lead & np.isfinite(thw)], ttc[np.isfinite(ttc)]
+    out = [n / len(gap) if len(gap) else np.nan]
+    out += [fin_thw.mean(), fin_thw.min()] if len(fin_thw) else [np.nan, np.nan]
+    out += [fin_ttc.min() if len(fin_ttc) else np.inf]
+    out += [np.mean(thw[lead] < th) if n else np.nan for th in (1.0, 2.0)] + [np.mean(ttc[lead] < th) if n else np.nan for th in (1.5, 3.0)]
+    return [float(v) for v in out]
+
+
+def test_compiled_car_following_summary_gives_numpys_floats() -> None:
+    """Traces of 0 to 5,000 samples with gaps (no lead, standing follower, opening and
+    closing) give the floats of the numpy expressions, as Python and compiled."""
+    rng = np.random.default_rng(5)
+    for _round in range(2):
+        for n in (0, 1, 5, 8, 9, 64, 129, 1000, 5000):
+            gap = np.where(rng.random(n) < 0.2, np.inf, rng.uniform(-1.0, 80.0, n) * 10.0 ** rng.integers(-3, 3, n))
+            vf = np.where(rng.random(n) < 0.1, 0.0, rng.uniform(0.0, 40.0, n))
+            vl = np.where(rng.random(n) < 0.1, np.nan, rng.uniform(0.0, 40.0, n))
+            got = list(car_following_summary(gap, vf, vl).values())
+            assert np.array_equal(got, _numpy_car_following(gap, vf, vl), equal_nan=True), n
+        wait_compiled()  # (the second round runs the compiled kernel)

@@ -13,6 +13,9 @@ import math
 
 import numpy as np
 
+from ..jit import kernel
+from .sums import maximum, np_sum
+
 
 def time_headway(gap_m: float, lead_length_m: float, follower_speed_mps: float) -> float:
     """Front-to-front headway (s); inf when the follower stands still or there is no lead."""
@@ -78,23 +81,55 @@ def car_following_summary(
     closing in, else inf (Vogel 2003). Shares are of the samples with a lead (equal time
     steps): `thw_below_1s_share` is the share of those with THW < 1 s; `ttc_below_3s_share`
     the share with TTC < 3 s. NaN shares and means when no sample has a lead."""
-    gap = np.asarray(gap_m, dtype=float)
-    vf = np.asarray(follower_speed_mps, dtype=float)
-    vl = np.asarray(lead_speed_mps, dtype=float)
-    lead = np.isfinite(gap) & np.isfinite(vl)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        thw = np.where(lead & (vf > 0.0), np.maximum(gap, 0.0) / vf, np.inf)
-        closing = vf - vl
-        ttc = np.where(lead & (closing > 0.0), np.maximum(gap, 0.0) / closing, np.inf)
-    n = int(lead.sum())
-    out: dict[str, float] = {"lead_share": float(n / len(gap)) if len(gap) else math.nan}
-    finite_thw = thw[lead & np.isfinite(thw)]
-    out["thw_mean_s"] = float(finite_thw.mean()) if len(finite_thw) else math.nan
-    out["thw_min_s"] = float(finite_thw.min()) if len(finite_thw) else math.nan
-    finite_ttc = ttc[np.isfinite(ttc)]
-    out["ttc_min_s"] = float(finite_ttc.min()) if len(finite_ttc) else math.inf
-    for th in thw_thresholds_s:
-        out[f"thw_below_{th:g}s_share"] = float(np.mean(thw[lead] < th)) if n else math.nan
-    for th in ttc_thresholds_s:
-        out[f"ttc_below_{th:g}s_share"] = float(np.mean(ttc[lead] < th)) if n else math.nan
-    return out
+    gap = np.ascontiguousarray(gap_m, dtype=float)
+    vf = np.ascontiguousarray(follower_speed_mps, dtype=float)
+    vl = np.ascontiguousarray(lead_speed_mps, dtype=float)
+    thw_th = np.array(thw_thresholds_s, dtype=float)
+    ttc_th = np.array(ttc_thresholds_s, dtype=float)
+    values = np.empty(4 + len(thw_th) + len(ttc_th))
+    _car_following(gap, vf, vl, thw_th, ttc_th, values)
+    keys = ["lead_share", "thw_mean_s", "thw_min_s", "ttc_min_s"]
+    keys += [f"thw_below_{th:g}s_share" for th in thw_thresholds_s] + [f"ttc_below_{th:g}s_share" for th in ttc_thresholds_s]
+    return dict(zip(keys, values.tolist()))
+
+
+@kernel
+def _car_following(gap: np.ndarray, vf: np.ndarray, vl: np.ndarray, thw_th: np.ndarray, ttc_th: np.ndarray, out: np.ndarray) -> None:
+    """`car_following_summary`'s values in one pass, the floats its numpy expressions give:
+    THW = max(gap, 0) / v_f and TTC = max(gap, 0) / (v_f - v_l) as `np.maximum` and `/`
+    compute them, the mean as `np.mean` sums (`np_sum`), shares as counts / samples."""
+    m = len(gap)
+    kept = np.empty(m)
+    n, nk = 0, 0
+    thw_min, ttc_min = math.inf, math.inf
+    thw_below = np.zeros(len(thw_th), dtype=np.int64)
+    ttc_below = np.zeros(len(ttc_th), dtype=np.int64)
+    for i in range(m):
+        lead = math.isfinite(gap[i]) and math.isfinite(vl[i])
+        if not lead:
+            continue
+        n += 1
+        g = maximum(gap[i], 0.0)
+        h = g / vf[i] if vf[i] > 0.0 else math.inf
+        closing = vf[i] - vl[i]
+        t = g / closing if closing > 0.0 else math.inf
+        if math.isfinite(h):
+            kept[nk] = h
+            nk += 1
+            thw_min = min(thw_min, h)
+        if math.isfinite(t):
+            ttc_min = min(ttc_min, t)
+        for j in range(len(thw_th)):
+            if h < thw_th[j]:
+                thw_below[j] += 1
+        for j in range(len(ttc_th)):
+            if t < ttc_th[j]:
+                ttc_below[j] += 1
+    out[0] = n / m if m else math.nan
+    out[1] = np_sum(kept, 0, nk) / nk if nk else math.nan
+    out[2] = thw_min if nk else math.nan
+    out[3] = ttc_min
+    for j in range(len(thw_th)):
+        out[4 + j] = thw_below[j] / n if n else math.nan
+    for j in range(len(ttc_th)):
+        out[4 + len(thw_th) + j] = ttc_below[j] / n if n else math.nan
