@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from ..jit import kernel
-from .sums import maximum, np_sum
+from .sums import np_sum
 
 
 def time_headway(gap_m: float, lead_length_m: float, follower_speed_mps: float) -> float:
@@ -109,7 +109,7 @@ def _car_following(gap: np.ndarray, vf: np.ndarray, vl: np.ndarray, thw_th: np.n
         if not lead:
             continue
         n += 1
-        g = maximum(gap[i], 0.0)
+        g = gap[i] if gap[i] >= 0.0 else 0.0  # np.maximum(gap, 0.0) of a finite gap
         h = g / vf[i] if vf[i] > 0.0 else math.inf
         closing = vf[i] - vl[i]
         t = g / closing if closing > 0.0 else math.inf

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ..jit import kernel
-from .sums import maximum, np_sum
+from .sums import np_sum
 
 KINDS = ("brakeLight", "leadingCarTurnSignal", "followerCarTurnSignal", "speedReduction", "emergencyBrake")
 KEYS: tuple[str, ...] = (
@@ -64,7 +64,9 @@ def platoon_scores(lon: np.ndarray, off: np.ndarray, starts: np.ndarray, lat_lo:
         if nl > 0:
             outside = 0
             for i in range(lo, lo + nl):
-                v = maximum(maximum(0.0, lat_lo - off[i]), off[i] - lat_hi)
+                a, b = lat_lo - off[i], off[i] - lat_hi
+                u = 0.0 if a <= 0.0 else a  # np.maximum(np.maximum(0.0, a), b), NaNs included
+                v = u if (u >= b or math.isnan(u)) else b
                 lat[i] = v
                 if v > 0.0:
                     outside += 1

@@ -8,8 +8,6 @@ sums blocks of 8 lanes pairwise; `np_sum` repeats numpy's order.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..jit import kernel
@@ -55,9 +53,3 @@ def np_sum(a: np.ndarray, lo: int, n: int) -> float:
     """`float(np.sum(a[lo:lo+n]))` for a float64 array: numpy's add.reduce starts from its
     identity 0.0 and adds the pairwise sum of all n values (so an empty sum is 0.0)."""
     return 0.0 + _pairwise(a, lo, n)
-
-
-@kernel
-def maximum(a: float, b: float) -> float:
-    """`np.maximum(a, b)`: NaN if either is NaN."""
-    return a if (a >= b or math.isnan(a)) else b
