@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import gymnasium as gym
 import numpy as np
 
@@ -114,3 +119,18 @@ def test_compiled_car_following_summary_gives_numpys_floats() -> None:
             got = list(car_following_summary(gap, vf, vl).values())
             assert np.array_equal(got, _numpy_car_following(gap, vf, vl), equal_nan=True), n
         wait_compiled()  # (the second round runs the compiled kernel)
+
+
+def test_compiled_scoring_runs_from_numbas_cache() -> None:
+    """Processes that load the compiled car-following summary from numba's cache (the second
+    here at the latest) get numpy's mean THW over 5,000 samples. (numba's cache loads a kernel
+    calling a recursive one broken, numba issue 6061: with a recursive sum this crashed.)"""
+    code = (
+        "import numpy as np\nfrom opends_gym.jit import wait_compiled\nfrom opends_gym.metrics.headway import car_following_summary as cf\n"
+        "g, v = np.random.default_rng(1).uniform(1.0, 50.0, 5000), np.full(5000, 20.0)\ncf(g[:3], v[:3], v[:3])\nwait_compiled()\n"
+        "assert cf(g, v, v)['thw_mean_s'] == np.mean(g / v)\nprint('ok')"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    for _ in range(2):
+        run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
+        assert run.returncode == 0 and run.stdout.strip() == "ok", (run.returncode, run.stderr[-2000:])
