@@ -90,7 +90,7 @@ def car_following_summary(
     _car_following(gap, vf, vl, thw_th, ttc_th, values)
     keys = ["lead_share", "thw_mean_s", "thw_min_s", "ttc_min_s"]
     keys += [f"thw_below_{th:g}s_share" for th in thw_thresholds_s] + [f"ttc_below_{th:g}s_share" for th in ttc_thresholds_s]
-    return dict(zip(keys, values.tolist()))
+    return {k: math.nan if v != v else v for k, v in zip(keys, values.tolist())}  # (math.nan itself: equal dicts compare equal)
 
 
 @kernel

@@ -340,7 +340,7 @@ class PlatoonBatch(BatchCore):
         lat_lo, lat_hi = (lb.lower_bound_m, lb.upper_bound_m) if lb is not None else (0.0, 0.0)
         out = np.empty((len(es), len(scores.KEYS)))
         scores.platoon_scores(lon, off, starts, float(lat_lo), float(lat_hi), lb is not None, kind, result, rt, stim_starts, out)
-        return {e: dict(zip(scores.KEYS, row)) for e, row in zip(es, out.tolist())}
+        return {e: {k: math.nan if v != v else v for k, v in zip(scores.KEYS, row)} for e, row in zip(es, out.tolist())}  # (as math.nan)
 
     def _load_episode(self, e: int, columns: np.ndarray | None) -> None:
         assert self.ring is not None
