@@ -21,6 +21,11 @@ CPU s` the rate per CPU second. The native LCT is measured with its shards in th
 default) and in worker processes (`processes=`), with random actions and with the lane keeper.
 
     python benchmarks/throughput.py [--quick] [--seconds S] [--rounds R] [--out benchmarks/results/throughput.md]
+    python benchmarks/throughput.py --native [--seconds S]   # the native-batch table alone
+
+The native-batch table: the LCT, brake and platoon batches (4,096 envs) with and without
+episode metrics in one run, their rates and CPU shares, each task's share of the LCT's
+rate (wall and per CPU second), how often episodes end and what scoring one costs.
 """
 
 from __future__ import annotations
@@ -272,6 +277,85 @@ def measure_native(case: Case, backend: str, n: int, seconds: float, keep_lane: 
     return Row(label, backend, mode, n, rate * n, rate * n / case.policy_hz, mb, cpu)
 
 
+NATIVE_TASKS = ("LaneChangeTest", "BrakeReaction", "ThreeVehiclePlatoon")
+
+
+@dataclass
+class NativeRow:
+    task: str
+    metrics: bool
+    steps_per_s: float  # env-steps of the whole batch per wall second
+    cpu_share: float  # this process's CPU time over wall time
+    ends_per_k: float  # episodes ended per 1,000 env-steps
+    scoring_us: float  # CPU microseconds (of the scoring thread) per ended episode in `BatchCore.episodes_metrics`
+
+    @property
+    def steps_per_cpu_s(self) -> float:
+        return self.steps_per_s / self.cpu_share if self.cpu_share > 0 else float("nan")
+
+
+def measure_native_task(case: Case, n: int, seconds: float, metrics: bool) -> NativeRow:
+    """One native batch of `n` envs with random actions and resets, with or without metrics:
+    its rate, CPU share, how often episodes end and what scoring one costs (the CPU time of the
+    thread inside each shard's `episodes_metrics`: other programs on the host do not count)."""
+    vec: Any = gym.make_vec(case.env_id, num_envs=n, vectorization_mode="vector_entry_point", record_metrics=metrics)
+    scoring = [0.0, 0]
+    for shard in vec.unwrapped.shards:
+        core = getattr(shard, "core", None)
+        if core is None:
+            continue
+
+        def timed(es: list[int], _score: Callable[[list[int]], Any] = core.episodes_metrics) -> Any:
+            t = time.thread_time()
+            out = _score(es)
+            scoring[0] += time.thread_time() - t
+            scoring[1] += len(es)
+            return out
+
+        core.episodes_metrics = timed
+    try:
+        vec.reset(seed=0)
+        vec.action_space.seed(0)
+        actions = [vec.action_space.sample() for _ in range(16)]
+        ends = [0, 0]
+
+        def step(i: int) -> None:
+            _, _, term, trunc, _ = vec.step(actions[i % 16])
+            ends[0] += int(np.count_nonzero(term | trunc))
+            ends[1] += n
+
+        for i in range(3):  # warm-up, then count from zero
+            step(i)
+        ends[:], scoring[:] = [0, 0], [0.0, 0]
+        rate, cpu = timed_steps(step, seconds, batch=4)
+    finally:
+        vec.close()
+    per_end = 1e6 * scoring[0] / scoring[1] if scoring[1] else float("nan")
+    return NativeRow(case.label, metrics, rate * n, cpu, 1000.0 * ends[0] / max(ends[1], 1), per_end)
+
+
+def native_tasks_table(seconds: float, n: int) -> list[str]:
+    """The native LCT, brake and platoon batches with and without episode metrics, measured
+    back to back in this run, and each as a share of the LCT's rate (wall and per CPU second:
+    on a shared host the CPU-time figures compare better)."""
+    cases = {c.label: c for c in opends_cases()}
+    rows = [measure_native_task(cases[t], n, seconds, m) for m in (True, False) for t in NATIVE_TASKS]
+    lct = {r.metrics: r for r in rows if r.task == "LaneChangeTest"}
+    out = [
+        f"| task ({n:,} envs, random actions, resets) | metrics | env-steps/s | cpu % | env-steps / CPU s | of the LCT's (wall) "
+        "| of the LCT's (per CPU s) | episodes ended / 1k env-steps | scoring: CPU µs / ended episode |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        base = lct[r.metrics]
+        out.append(
+            f"| {r.task} | {'on' if r.metrics else 'off'} | {fmt(r.steps_per_s)} | {fmt(100 * r.cpu_share)} | {fmt(r.steps_per_cpu_s)} "
+            f"| {fmt(100 * r.steps_per_s / base.steps_per_s, 1)} % | {fmt(100 * r.steps_per_cpu_s / base.steps_per_cpu_s, 1)} % "
+            f"| {fmt(r.ends_per_k, 2)} | {fmt(r.scoring_us) if r.metrics else '-'} |"
+        )
+    return out
+
+
 # ---------------------------------------------------------------------- report
 def fmt(x: float, digits: int = 0) -> str:
     if x != x:
@@ -429,11 +513,17 @@ def main() -> None:
     ap.add_argument("--async-max", type=int, default=None, help="largest AsyncVectorEnv in the scaling table")
     ap.add_argument("--rounds", type=int, default=5, help="interleaved rounds of the goal measurements")
     ap.add_argument("--out", type=Path, default=RESULTS)
+    ap.add_argument("--native", action="store_true", help="only the native LCT/brake/platoon table, with and without metrics (~1 min)")
     args = ap.parse_args()
     logging.disable(logging.WARNING)  # corpus tasks warn about their quirks at load time
     warnings.filterwarnings("ignore")
     quick = args.quick
     seconds = args.seconds or (0.6 if quick else 2.0)
+    if args.native:
+        native = native_tasks_table(args.seconds or 3.0, NATIVE_ENVS)
+        print("\n".join(["", f"`python benchmarks/throughput.py --native` on {os.cpu_count()} cores, {time.strftime('%Y-%m-%d %H:%M')}",
+                         "", *native]))  # fmt: skip
+        return
     async_max = args.async_max or (4 if quick else 64)
     sizes = (1, 4, 16, 64) if quick else SCALING_SIZES
     native_envs = 1024 if quick else NATIVE_ENVS
@@ -487,6 +577,8 @@ def main() -> None:
     rounds = goal_rounds(args.rounds, seconds, native_envs)
     goal_table = goals(rows, rounds)
     print("\n".join(["", *goal_table, ""]), flush=True)
+    native_table = native_tasks_table(seconds, native_envs)
+    print("\n".join(["", *native_table, ""]), flush=True)
     scale_table = scaling(seconds, sizes, async_max)
     elapsed = time.perf_counter() - t_start
     header = [
@@ -509,7 +601,17 @@ def main() -> None:
         "the median of its rounds meets it.",
         "",
     ]
-    text = "\n".join([*header, *main_table, "", *goal_intro, *goal_table, *scale_intro, *scale_table, ""])
+    native_intro = [
+        "",
+        f"## Native batches: LCT, brake and platoon tests, {native_envs:,} envs, with and without episode metrics",
+        "",
+        "Measured back to back in this run. `cpu %` is this process's CPU time over wall time (the host is shared: below "
+        "the core count, other programs took the rest), `env-steps / CPU s` the rate per CPU second, and the shares of the "
+        "LCT's rate compare each task with the LCT's row of the same metrics setting. Scoring: CPU time of the scoring "
+        "thread in `BatchCore.episodes_metrics` per ended episode (the single env's metric code, in Python).",
+        "",
+    ]
+    text = "\n".join([*header, *main_table, "", *goal_intro, *goal_table, *native_intro, *native_table, *scale_intro, *scale_table, ""])
     print("\n" + text)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text)

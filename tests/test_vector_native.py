@@ -103,6 +103,21 @@ def test_lane_change_test_identical_to_single_env() -> None:
     assert seen["episodes"] >= 3 and seen["correct"] >= 3  # ends (off road, end of track), autoresets, lane changes
 
 
+def hard_left(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
+    """Every env but env 0 (straight on) steers off the road the same way, so their episodes end
+    on the same steps."""
+    a = np.zeros((n, 2), dtype=np.float32)
+    a[1:, 0] = 0.5
+    return a
+
+
+def test_episodes_ending_together_report_the_single_envs_metrics() -> None:
+    """The episode metrics of several envs that end on one step are gathered together (a
+    column per metric); each env's equal the single env's, and the other envs have none."""
+    seen = run_identity(LCT, hard_left, n=5, steps=40)
+    assert seen["episodes"] >= 8  # (at least two steps on which four ended)
+
+
 def straight_on(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
     """Holds the wheel straight (the LCT starts aligned with the road), braking now and then."""
     a = np.zeros((n, 2), dtype=np.float32)

@@ -205,6 +205,9 @@ class LaneChangeTestEnv(OpenDSEnv):
     def _off_road_at(self, lateral_m: float) -> bool:
         return abs(lateral_m) > self._off_road_m
 
+    def _off_road_mask(self, lateral_m: np.ndarray) -> np.ndarray:
+        return np.abs(lateral_m) > self._off_road_m  # (`_off_road_at` over the trace in one operation)
+
     def _after_reset_position(self) -> None:
         self._prev = None  # the deviation integral restarts at the lane position
 
@@ -227,7 +230,8 @@ class LaneChangeTestEnv(OpenDSEnv):
             first = d >= np.maximum.accumulate(d)
             d, y, t, steer = d[first], y[first], t[first], steer[first]
         passed = [s for s in self.metric_signs if s.d_m <= d[-1]]
-        out: dict[str, float] = {"signs_reached": float(sum(1 for s in self.metric_signs if s.d_m <= self._furthest_m()))}
+        furthest = self._furthest_m()
+        out: dict[str, float] = {"signs_reached": float(sum(1 for s in self.metric_signs if s.d_m <= furthest))}
         fits = fit_lane_changes(d, y, passed, self.lane_laterals, g.visibility_m) if passed else []
         if len(d) > 1 and passed:
             out.update(lct_mdev(d, y, passed, self.lane_laterals, self.initial_lane, self.basic, g.visibility_m, fits))
@@ -259,8 +263,11 @@ class LaneChangeTestEnv(OpenDSEnv):
         g = self.geometry
         changing = np.zeros(len(d), dtype=bool)
         lane = np.full(len(d), self.initial_lane, dtype=np.int64)
+        furthest = float(np.max(d)) if len(d) else -math.inf  # (NaN: no sign skipped)
         for sign in self.metric_signs:  # (in track order)
             start = sign.d_m - g.visibility_m
+            if start > furthest:  # not readable yet anywhere in the trace: changes nothing (short episodes stop here)
+                continue
             end = sign.d_m - self.basic.start_before_sign_m + self.basic.length_per_lane_m * abs(sign.to_lane - sign.from_lane)
             changing |= (d >= start) & (d <= max(start, end))
             lane[d >= start] = sign.to_lane

@@ -216,14 +216,33 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             info[k] = v
             info[f"_{k}"] = full
         if any(ended_metrics):
-            metrics: dict[str, Any] = {}
+            ended = [(sl.start + e, values_e) for sl, shard_metrics in zip(self._slices, ended_metrics) for e, values_e in shard_metrics]
             mask = np.zeros(self.num_envs, dtype=bool)
-            for sl, shard_metrics in zip(self._slices, ended_metrics):
-                for e, values_e in shard_metrics:
-                    _add_numbers(metrics, values_e, sl.start + e, self.num_envs)
-                    mask[sl.start + e] = True
-            info["episode_metrics"], info["_episode_metrics"] = metrics, mask
+            mask[[e for e, _ in ended]] = True
+            info["episode_metrics"], info["_episode_metrics"] = _metrics_arrays(ended, self.num_envs), mask
         return info
+
+
+def _metrics_arrays(ended: list[tuple[int, dict[str, float]]], n: int) -> dict[str, Any]:
+    """The ended episodes' metrics as `_add_numbers` builds them one by one, a column at a time
+    when every episode has the same float keys in the same order (one task: the usual case)."""
+    first = ended[0][1]
+    keys = tuple(first)
+    if len(ended) < 2 or any(type(v) not in (float, np.float64) for v in first.values()) or any(tuple(m) != keys for _, m in ended):
+        out: dict[str, Any] = {}
+        for e, values in ended:
+            _add_numbers(out, values, e, n)
+        return out
+    rows = np.fromiter((e for e, _ in ended), dtype=np.intp, count=len(ended))
+    table = np.array([tuple(m.values()) for _, m in ended], dtype=np.float64)
+    mask = np.zeros(n, dtype=np.bool_)
+    mask[rows] = True
+    out = {}
+    for j, key in enumerate(keys):
+        column = np.zeros(n)
+        column[rows] = table[:, j]
+        out[key], out[f"_{key}"] = column, mask.copy()
+    return out
 
 
 def _add_numbers(out: dict[str, Any], values: dict[str, float], e: int, n: int) -> None:

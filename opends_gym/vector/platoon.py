@@ -24,15 +24,17 @@ from ..envs.platoon_core import (
     PlatoonState,
     Stimulus,
 )
+from ..metrics import platoon_scores as scores
 from ..sim.traffic.routes import TURN_CODES
 from ..sim.triggers.core import CompiledAction
 from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore
 from .kernels import CHUNK_ENVS
 from .platoon_step import _hook_range, _lead_range, lead_measures, platoon_hook
+from .trace import lane_columns
 from .traffic import FlatTraffic
 
-KINDS = ("brakeLight", "leadingCarTurnSignal", "followerCarTurnSignal", "speedReduction", "emergencyBrake")
+KINDS = scores.KINDS
 BL, LT, FT, SR, EB = range(5)
 SLOTS = 4  # simultaneous stimuli per env (a stimulus lasts <= 5 s; triggers lie >= 250 m apart)
 
@@ -75,7 +77,8 @@ class PlatoonBatch(BatchCore):
         self.hold = np.full(shape, np.nan)
         self.objs: list[list[Stimulus | None]] = [[None] * SLOTS for _ in range(n)]
         self.stimuli: list[list[Stimulus]] = [[] for _ in range(n)]
-        self.prng: list[np.random.Generator | None] = [None] * n
+        self.prng: list[np.random.Generator | None] = [None] * n  # built from `prng_seed` when first drawn from
+        self.prng_seed = np.zeros(n, dtype=np.int64)
         cfg: Any = template.config
         self.dev_cap, self.dev_per_m = cfg.reward_deviation_cap_m, cfg.reward_deviation_per_m
         self.progress_per_m, self.off_road_penalty = cfg.reward_progress_per_m, cfg.off_road_penalty
@@ -104,13 +107,17 @@ class PlatoonBatch(BatchCore):
         )  # fmt: skip
         # chunks on numba's threads (False: the serial twins, for thread shards and batches of one chunk)
         self.parallel = n > CHUNK_ENVS
+        self._scored: dict[int, dict[str, float]] = {}  # `PlatoonCore.metrics` of envs being scored (`episodes_metrics`)
 
     # ------------------------------------------------------------------ reset
     def _reset_task(self, idx: np.ndarray) -> None:
         for e in idx.tolist():
             rng = self.rngs[e]
             assert rng is not None
-            self.prng[e] = np.random.default_rng(int(rng.integers(0, 2**31 - 1)))
+            # the single env seeds its stimulus generator here; building one costs ~10x the draw and most
+            # episodes under random actions end before their first stimulus, so it is built on first use (`_prng`)
+            self.prng_seed[e] = rng.integers(0, 2**31 - 1)
+            self.prng[e] = None
             self.stimuli[e] = []
             self.objs[e] = [None] * SLOTS
         self.traffic.reset_rows(idx, self.traffic.st0)
@@ -153,10 +160,16 @@ class PlatoonBatch(BatchCore):
             return super()._on_action(e, act, trigger)
         kind = str(act.args.get("stimulus_id", ""))
         if kind == "turnSignal":
-            rng = self.prng[e]
-            assert rng is not None
+            rng = self._prng(e)
             kind = "leadingCarTurnSignal" if rng.random() < 0.5 or not self.with_follower else "followerCarTurnSignal"
         self._start(e, kind)
+
+    def _prng(self, e: int) -> np.random.Generator:
+        """Env e's stimulus generator (`ThreeVehiclePlatoonEnv`'s, seeded at reset)."""
+        rng = self.prng[e]
+        if rng is None:
+            rng = self.prng[e] = np.random.default_rng(int(self.prng_seed[e]))
+        return rng
 
     def _start(self, e: int, kind: str) -> None:
         if kind not in KINDS or (KINDS.index(kind) >= SR and self.spec.speed_reduction is None):
@@ -183,9 +196,7 @@ class PlatoonBatch(BatchCore):
                 if k == SR
                 else (sr.target_speed_min_emergency_mps, sr.target_speed_max_emergency_mps)
             )
-            rng = self.prng[e]
-            assert rng is not None
-            target = float(rng.uniform(lo, hi))
+            target = float(self._prng(e).uniform(lo, hi))
             st.ov_speed[row] = max(0.0, target)
             st.ov_decel[row] = abs(self.em_decel) if k == EB else np.nan
         obj = Stimulus(kind, t, t + float(self.durations[k]), target_mps=target, car=self.world.traffic.ids[car])
@@ -297,13 +308,54 @@ class PlatoonBatch(BatchCore):
         self.dirty[:] = False
         return r - self.collision_penalty * info["new_collisions"].astype(np.float64)
 
+    def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
+        """`episode_metrics` of the envs `es`, their platoon metrics (`PlatoonCore.metrics`, the
+        same floats) computed for all of them in one compiled pass (`metrics.platoon_scores`)."""
+        if self.ring is None:
+            raise RuntimeError("episode metrics were switched off (record_metrics=False)")
+        columns = self.ring.columns_of(es)
+        self._scored = self._platoon_scores(es, columns)
+        try:
+            return [(e, self.episode_metrics(e, columns[e])) for e in es]
+        finally:
+            self._scored = {}
+
+    def _platoon_scores(self, es: list[int], columns: dict[int, np.ndarray]) -> dict[int, dict[str, float]]:
+        if not es:
+            return {}
+        col = self.trace_columns.index
+        traces = [columns[e][:, 1:] for e in es]  # (the reset row is no step)
+        starts = np.zeros(len(es) + 1, dtype=np.int64)
+        np.cumsum([t.shape[1] for t in traces], out=starts[1:])
+        lon = np.concatenate([t[col("lon_dev")] for t in traces])
+        x, z = (np.concatenate([t[col(c)] for t in traces]) for c in ("x_m", "z_m"))
+        _, _, off = lane_columns(self.guide, x, z)
+        stims = [s for e in es for s in self.stimuli[e]]
+        stim_starts = np.zeros(len(es) + 1, dtype=np.int64)
+        np.cumsum([len(self.stimuli[e]) for e in es], out=stim_starts[1:])
+        kind = np.array([scores.KINDS.index(s.kind) for s in stims], dtype=np.int64)
+        result = np.array([s.result for s in stims], dtype=np.int64)
+        rt = np.array([s.reaction_time_s for s in stims], dtype=np.float64)
+        lb = self.spec.lateral_tolerance
+        lat_lo, lat_hi = (lb.lower_bound_m, lb.upper_bound_m) if lb is not None else (0.0, 0.0)
+        out = np.empty((len(es), len(scores.KEYS)))
+        scores.platoon_scores(lon, off, starts, float(lat_lo), float(lat_hi), lb is not None, kind, result, rt, stim_starts, out)
+        return {e: {k: math.nan if v != v else v for k, v in zip(scores.KEYS, row)} for e, row in zip(es, out.tolist())}  # (as math.nan)
+
     def _load_episode(self, e: int, columns: np.ndarray | None) -> None:
         assert self.ring is not None
+        platoon = self.template.platoon
+        row = self._scored.get(e)
+        if row is not None:  # scored already: the template's `PlatoonCore.metrics` returns them
+            platoon.state = PlatoonState(stimuli=list(self.stimuli[e]))
+            platoon.metrics = row.copy  # type: ignore[method-assign]
+            return
+        platoon.__dict__.pop("metrics", None)
         off = self.template.trace.col("lane_offset_m")[1:]  # (the episode's trace, loaded just before)
         lb = self.spec.lateral_tolerance
         lat = np.maximum(np.maximum(0.0, lb.lower_bound_m - off), off - lb.upper_bound_m) if lb is not None else np.zeros(0)
         lon = (self.ring.column(e, "lon_dev") if columns is None else columns[self.trace_columns.index("lon_dev")])[1:]
-        self.template.platoon.state = PlatoonState(stimuli=list(self.stimuli[e]), lon_dev=list(lon), lat_dev=list(lat))
+        platoon.state = PlatoonState(stimuli=list(self.stimuli[e]), lon_dev=list(lon), lat_dev=list(lat))
 
 
 class BrakeBatch(PlatoonBatch):
