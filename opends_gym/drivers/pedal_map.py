@@ -24,6 +24,7 @@ from ..task.model_car import Car
 
 SPEED_STEP_MPS = 1.0
 MAX_SPEED_MPS = 60.0
+COAST_TOLERANCE_MPS2 = 0.02  # a throttle within this of coasting's deceleration still coasts
 
 
 def _net_accel(pt: Powertrain, v: float, gas: float, brake: float) -> float:
@@ -37,6 +38,8 @@ def _net_accel(pt: Powertrain, v: float, gas: float, brake: float) -> float:
     pt.state.rpm = max(gear_rpm(v, pt.ratios[gear - 1]), pt.engine.min_rpm)
     pt.forces(0.01, v, gas, brake)
     drive, resist = pt.forces(0.01, v, gas, brake)
+    if drive > 0.0:  # a wheel with engine force does not brake (Bullet's `updateFriction`): the rear two drag
+        resist *= 0.5
     return (drive - resist) / pt.mass_kg
 
 
@@ -57,7 +60,7 @@ class PedalMap:
 
     def _throttle(self, i: int, a: float) -> float:
         row = self.accel[i]
-        k = int(np.searchsorted(row, row[0] + 1e-6))  # the first throttle that beats coasting
+        k = int(np.searchsorted(row, row[0] + COAST_TOLERANCE_MPS2))  # the first throttle that beats coasting
         if k >= len(row):
             return 1.0
         lo = max(k - 1, 0)
