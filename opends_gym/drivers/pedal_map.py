@@ -22,8 +22,8 @@ import numpy as np
 from ..sim.ego.powertrain import Powertrain, gear_rpm
 from ..task.model_car import Car
 
-SPEED_STEP_MPS = 1.0
-MAX_SPEED_MPS = 60.0
+SPEED_STEP_MPS = 2.0
+MAX_SPEED_MPS = 50.0
 COAST_TOLERANCE_MPS2 = 0.02  # a throttle within this of coasting's deceleration still coasts
 
 
@@ -43,7 +43,7 @@ def _net_accel(pt: Powertrain, v: float, gas: float, brake: float) -> float:
     return (drive - resist) / pt.mass_kg
 
 
-GAS = np.linspace(0.0, 1.0, 51)
+GAS = np.linspace(0.0, 1.0, 34)
 
 
 @dataclass(frozen=True)
