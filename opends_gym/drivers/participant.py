@@ -483,9 +483,11 @@ class ParticipantDriver:
         needs `recognise_s` more (Green 2000)."""
         raw = self.rule._pedal(p)
         if raw >= -BRAKE_NEED:
+            # a brake need this small is met by coasting: the foot eases off the accelerator
+            # but stays on it (the car coasts with the pedal in its dead travel, `pedal_map`)
             self._foot_on_brake = False
             self._brake_pending = None
-            self._last_pedal = max(raw, 0.0)
+            self._last_pedal = max(raw, self.rule.pedals.coast_throttle(p.speed_mps))
             return self._last_pedal
         if self._foot_on_brake:
             return raw

@@ -22,6 +22,7 @@ import gymnasium as gym
 
 from ..control.controllers import pure_pursuit, stanley_steering
 from .intent import Intent, to_action
+from .pedal_map import PedalMap, pedal_map
 from .percept import Percept, perceive
 
 
@@ -90,6 +91,7 @@ class RuleDriver:
         so = getattr(getattr(base, "contre", None), "steering_object", None)
         self._bar_speed = float(so.speed) if so is not None and so.speed > 0 else self.params.contre_bar_speed_mps
         self._wheelbase = float(base.world.ego.spec.wheelbase_m)
+        self.pedals: PedalMap = pedal_map(base.world.ego.car, float(base.world.ego.spec.mass_kg))
 
     def act(self, obs: Any, info: dict[str, Any]) -> Any:
         p = perceive(self.env, info)
@@ -143,8 +145,12 @@ class RuleDriver:
         return stanley_steering(p.heading_error_rad, path_heading, p.lateral_m, plan.lateral_m, p.speed_mps, p.yaw_rate_radps)
 
     def _pedal(self, p: Percept) -> float:
-        """A speed set-point (cruise, brake target, lead car) held by a PI controller; the
-        integral supplies the throttle that drag needs at speed."""
+        """A speed set-point (cruise, brake target, lead car) held by a PI controller on top
+        of the car's hold throttle (`pedal_map`: the accelerator that beats drag at this
+        speed). A negative output asks for a deceleration (brake-pedal units): up to the
+        car's coasting deceleration the foot eases the accelerator and stays on it; beyond
+        that it brakes for the rest. So a driver following a steady lead holds the
+        accelerator, as drivers do."""
         prm = self.params
         err = self._speed_setpoint(p) - p.speed_mps
         dt = 0.0 if self._pedal_t is None else min(max(p.t_s - self._pedal_t, 0.0), 0.5)
@@ -158,7 +164,15 @@ class RuleDriver:
             self._integral = max(self._integral, 0.0)
         if abs(err) < prm.speed_deadband_mps:
             err = 0.0
-        pedal = self._integral + (prm.throttle_kp * err if err >= 0.0 else prm.brake_kp * err)
+        u = self._integral + (prm.throttle_kp * err if err >= 0.0 else prm.brake_kp * err)
+        pm = self.pedals
+        hold = pm.hold_throttle(p.speed_mps)
+        if u >= 0.0:
+            pedal = hold + u
+        else:
+            need = -u * pm.brake_mps2  # the deceleration asked for, m/s^2
+            coast = pm.coast_decel(p.speed_mps)
+            pedal = pm.throttle_for(p.speed_mps, -need) if need < coast else -(need - coast) / pm.brake_mps2
         if p.brake_hard:
             pedal = min(pedal, -prm.stimulus_brake)
         return max(-1.0, min(1.0, pedal))
