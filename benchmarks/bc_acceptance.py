@@ -13,8 +13,10 @@
    away from the logs' paths (they cover parts of it only), no driver that follows it stays within 5 m.
 
 Drives are collected in a process pool (--workers) and cached under --cache (the Minari datasets
-and the participant's evaluation metrics), so a second run only trains and evaluates the clones (delete the cache after changing the env
-or the participant model: it is keyed by participant, drives and episodes only).
+and the participant's evaluation metrics), so a second run only trains and evaluates the clones.
+The cache sits in a folder named by `source_key()`: a hash of the package's version and of every
+source file of opends_gym (env, participant model, export) and of the bundled drives, so a change to
+any of them collects the drives anew instead of reusing stale ones.
 Prints one table (goal, measured, pass) and, with --json, the full figures.
 
     PYTHONPATH=. python benchmarks/bc_acceptance.py                      # the acceptance (200 drives, 20 episodes)
@@ -24,6 +26,7 @@ Prints one table (goal, measured, pass) and, with --json, the full figures.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import logging
 import multiprocessing
@@ -41,6 +44,19 @@ DRIVES = ROOT / "tests" / "data" / "opends-drives"
 LCT = "OpenDS/LaneChangeTest-v0"
 METRICS = ("mdev_basic_m", "sdlp_m", "mean_lane_change_latency_s")
 EVAL_SEED = 10_000  # evaluation seeds start here; training drives use 0..drives-1
+
+
+def source_key() -> str:
+    """12 hex digits that change with the package version, any opends_gym source file or the bundled
+    drives: what the cached drives were made with (the participant model, the envs, the export)."""
+    from importlib.metadata import version
+
+    h = hashlib.sha256(version("opends-gym").encode())
+    files = sorted((ROOT / "opends_gym").rglob("*.py")) + sorted(p for p in DRIVES.rglob("*") if p.is_file())
+    for p in files:
+        h.update(p.relative_to(ROOT).as_posix().encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()[:12]
 
 
 def _episodes(spec: str, seeds: list[int]) -> list[Any]:
@@ -195,6 +211,7 @@ def main() -> None:
         handler.setFormatter(logging.Formatter("%(asctime)s %(message)s"))
         logging.getLogger("opends_gym.data.bc").addHandler(handler)
         logging.getLogger("opends_gym.data.bc").setLevel(logging.INFO)
+    args.cache = args.cache / source_key()  # stale drives (another model or env) are never reused
     args.cache.mkdir(parents=True, exist_ok=True)
     os.environ["MINARI_DATASETS_PATH"] = str(args.cache / "minari")
     start = time.perf_counter()
