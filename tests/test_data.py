@@ -229,8 +229,9 @@ def test_analyze_against_a_simulated_population(recording: tuple[Path, dict]) ->
 MID_ROAD_LOG = DRIVES / "drives" / "2019_01_04-11_40_24" / "carData.txt"  # starts ~300 m from the task's start
 
 
-def test_cardata_log_is_redriven_from_its_own_first_pose() -> None:
+def test_cardata_log_is_redriven_from_its_own_first_pose(minari_dir: Path) -> None:
     from opends_gym.data.episodes import cardata_start_pose, load_episode, make_env
+    from opends_gym.data.minari_io import write_dataset
     from opends_gym.errors import UserError
     from opends_gym.record.conform import GOALS, Recorded
 
@@ -242,6 +243,8 @@ def test_cardata_log_is_redriven_from_its_own_first_pose() -> None:
     assert (s.x, s.y, s.z, s.yaw) == pytest.approx((rec.x[0], rec.y[0], rec.z[0], rec.yaw[0]), abs=1e-6)
     assert np.array_equal(obs, ep.observations[0])  # the export started there too
     assert info["speed_kmh"] == pytest.approx(rec.speed_kmh[0], abs=1e-6)
+    meta = next(iter(write_dataset("test/mid", [ep]).storage.get_episode_metadata([0])))
+    assert meta["start_pose/x"] == pytest.approx(rec.x[0]) and meta["start_pose/yaw_rad"] == pytest.approx(rec.yaw[0])
     # the log's actions from its own pose follow its path: within the conformance position goal
     # over a 5 s window, and on the road for 10 s (from the task's start they left it after 5.5 s)
     t0 = rec.sim_t[0]

@@ -54,6 +54,7 @@ class Episode:
     truncations: list[bool] = field(default_factory=list)
     infos: dict[str, list[float]] = field(default_factory=dict)
     metrics: dict[str, float] = field(default_factory=dict)  # the env's episode_metrics (scalars)
+    start_pose: dict[str, float] | None = None  # the reset's start_pose option (envs.start_pose), if any
     env_spec: Any = None  # gymnasium EnvSpec of the env it was driven through
     observation_space: Any = None
     action_space: Any = None
@@ -107,6 +108,8 @@ def drive(env: gym.Env[Any, Any], source: str, kind: str, seed: int | None, opti
     the episode or the actions end."""
     obs, info = env.reset(seed=seed, options=options)
     ep = _start(env, source, kind, seed, obs, info)
+    if options and options.get("start_pose") is not None:
+        ep.start_pose = {k: float(v) for k, v in options["start_pose"].items()}
     base: Any = env.unwrapped
     for item in actions:
         action, hooks = item if isinstance(item, tuple) else (item, {})
