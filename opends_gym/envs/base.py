@@ -173,6 +173,8 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Back to the task's start; `options={"start_pose": {x, y, z, yaw_rad[, speed_mps, engine_on]}}`
+        starts the car in that state instead (a recorded drive's first row, `envs.start_pose`)."""
         super().reset(seed=seed)
         start = parse_start_pose(options)
         self.world.reset(seed=int(self.np_random.integers(0, 2**31 - 1)))
