@@ -5,7 +5,7 @@
    trained on) the clone's and the participant's mean MDEV (mdev_basic_m), SDLP (sdlp_m) and
    lane-change latency (mean_lane_change_latency_s) are compared (goal: each within 15 %).
 2. Countryside: the real OpenDS drives in tests/data/opends-drives are exported through the task's
-   env (from each log's first gas: --trim-idle), a clone is trained on them and drives the task
+   env (each from its own first state at its first gas: --trim-idle; on_collision continue), a clone is trained on them and drives the task
    for 60 s; the figure is the largest distance from the clone's path to the nearest point of the
    paths those logs recorded (goal: 5 m) over 60 s driven; a clone that leaves the road early
    fails, and so does one that drives less far than the longest log did (one that stands still
@@ -14,8 +14,8 @@
 
 Drives are collected in a process pool (--workers) and cached under --cache (the Minari datasets
 and the participant's evaluation metrics), so a second run only trains and evaluates the clones.
-The cache sits in a folder named by `source_key()`: a hash of the package's version and of every
-source file of opends_gym (env, participant model, export) and of the bundled drives, so a change to
+The cache sits in a folder named by `source_key()`: a hash of the package's version, this script and
+every source file of opends_gym (env, participant model, export) and of the bundled drives, so a change to
 any of them collects the drives anew instead of reusing stale ones.
 Prints one table (goal, measured, pass) and, with --json, the full figures.
 
@@ -52,7 +52,7 @@ def source_key() -> str:
     from importlib.metadata import version
 
     h = hashlib.sha256(version("opends-gym").encode())
-    files = sorted((ROOT / "opends_gym").rglob("*.py")) + sorted(p for p in DRIVES.rglob("*") if p.is_file())
+    files = [Path(__file__).resolve(), *sorted((ROOT / "opends_gym").rglob("*.py")), *sorted(p for p in DRIVES.rglob("*") if p.is_file())]
     for p in files:
         h.update(p.relative_to(ROOT).as_posix().encode())
         h.update(p.read_bytes())
@@ -144,7 +144,9 @@ def countryside(args: argparse.Namespace, cache: Path) -> dict[str, Any]:
     logs = sorted((DRIVES / "drives").glob("*/carData*.txt"))
     name = "bench/countryside-v0"
     if name not in minari.list_local_datasets():
-        write_dataset(name, [load_episode(p, None, task, trim_idle=True) for p in logs])
+        # from each log's own first state; through traffic: the logs began minutes into their sessions
+        # (2019_01_04-11_40_24: 107 s), so the env's traffic, started at the task's time 0, is not where OpenDS's was
+        write_dataset(name, [load_episode(p, None, task, {"on_collision": "continue"}, trim_idle=True) for p in logs])
     summary = train_bc(name, cache / "cs-clone", BCConfig(epochs=args.cs_epochs, history=args.cs_history, validation=0.0))
     path = np.concatenate([np.c_[c.columns["x_m"], c.columns["z_m"]] for c in map(read_cardata, logs)])
     env = make_env("OpenDS/DrivingTask-v0", {"task": task, "action": "continuous", "max_episode_s": args.seconds})
