@@ -194,7 +194,7 @@ def main() -> None:
     ap.add_argument("--participant", type=int, default=1)
     ap.add_argument("--drives", type=int, default=200)
     ap.add_argument("--eval", type=int, default=20)
-    ap.add_argument("--epochs", type=int, default=12, help="LCT clone: most epochs (early stopping on held-out drives)")
+    ap.add_argument("--epochs", type=int, default=30, help="LCT clone: most epochs (early stopping on held-out drives)")
     ap.add_argument("--patience", type=int, default=3, help="LCT clone: epochs without a better held-out error before it stops")
     ap.add_argument("--history", type=int, default=15, help="LCT clone: observations it sees (drivers.bc)")
     ap.add_argument("--actions", action=argparse.BooleanOptionalAction, default=False, help="LCT clone: and the actions before them")
