@@ -5,7 +5,7 @@
    trained on) the clone's and the participant's mean MDEV (mdev_basic_m), SDLP (sdlp_m) and
    lane-change latency (mean_lane_change_latency_s) are compared (goal: each within 15 %).
 2. Countryside: the real OpenDS drives in tests/data/opends-drives are exported through the task's
-   env (from each log's first gas: --trim-idle), a clone is trained on them and drives the task
+   env (each from its own first state at its first gas: --trim-idle; on_collision continue), a clone is trained on them and drives the task
    for 60 s; the figure is the largest distance from the clone's path to the nearest point of the
    paths those logs recorded (goal: 5 m) over 60 s driven; a clone that leaves the road early
    fails, and so does one that drives less far than the longest log did (one that stands still
@@ -13,8 +13,10 @@
    away from the logs' paths (they cover parts of it only), no driver that follows it stays within 5 m.
 
 Drives are collected in a process pool (--workers) and cached under --cache (the Minari datasets
-and the participant's evaluation metrics), so a second run only trains and evaluates the clones (delete the cache after changing the env
-or the participant model: it is keyed by participant, drives and episodes only).
+and the participant's evaluation metrics), so a second run only trains and evaluates the clones.
+The cache sits in a folder named by `source_key()`: a hash of the package's version, this script and
+every source file of opends_gym (env, participant model, export) and of the bundled drives, so a change to
+any of them collects the drives anew instead of reusing stale ones.
 Prints one table (goal, measured, pass) and, with --json, the full figures.
 
     PYTHONPATH=. python benchmarks/bc_acceptance.py                      # the acceptance (200 drives, 20 episodes)
@@ -24,6 +26,7 @@ Prints one table (goal, measured, pass) and, with --json, the full figures.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import logging
 import multiprocessing
@@ -41,6 +44,19 @@ DRIVES = ROOT / "tests" / "data" / "opends-drives"
 LCT = "OpenDS/LaneChangeTest-v0"
 METRICS = ("mdev_basic_m", "sdlp_m", "mean_lane_change_latency_s")
 EVAL_SEED = 10_000  # evaluation seeds start here; training drives use 0..drives-1
+
+
+def source_key() -> str:
+    """12 hex digits that change with the package version, any opends_gym source file or the bundled
+    drives: what the cached drives were made with (the participant model, the envs, the export)."""
+    from importlib.metadata import version
+
+    h = hashlib.sha256(version("opends-gym").encode())
+    files = [Path(__file__).resolve(), *sorted((ROOT / "opends_gym").rglob("*.py")), *sorted(p for p in DRIVES.rglob("*") if p.is_file())]
+    for p in files:
+        h.update(p.relative_to(ROOT).as_posix().encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()[:12]
 
 
 def _episodes(spec: str, seeds: list[int]) -> list[Any]:
@@ -128,7 +144,9 @@ def countryside(args: argparse.Namespace, cache: Path) -> dict[str, Any]:
     logs = sorted((DRIVES / "drives").glob("*/carData*.txt"))
     name = "bench/countryside-v0"
     if name not in minari.list_local_datasets():
-        write_dataset(name, [load_episode(p, None, task, trim_idle=True) for p in logs])
+        # from each log's own first state; through traffic: the logs began minutes into their sessions
+        # (2019_01_04-11_40_24: 107 s), so the env's traffic, started at the task's time 0, is not where OpenDS's was
+        write_dataset(name, [load_episode(p, None, task, {"on_collision": "continue"}, trim_idle=True) for p in logs])
     summary = train_bc(name, cache / "cs-clone", BCConfig(epochs=args.cs_epochs, history=args.cs_history, validation=0.0))
     path = np.concatenate([np.c_[c.columns["x_m"], c.columns["z_m"]] for c in map(read_cardata, logs)])
     env = make_env("OpenDS/DrivingTask-v0", {"task": task, "action": "continuous", "max_episode_s": args.seconds})
@@ -176,7 +194,7 @@ def main() -> None:
     ap.add_argument("--participant", type=int, default=1)
     ap.add_argument("--drives", type=int, default=200)
     ap.add_argument("--eval", type=int, default=20)
-    ap.add_argument("--epochs", type=int, default=12, help="LCT clone: most epochs (early stopping on held-out drives)")
+    ap.add_argument("--epochs", type=int, default=30, help="LCT clone: most epochs (early stopping on held-out drives)")
     ap.add_argument("--patience", type=int, default=3, help="LCT clone: epochs without a better held-out error before it stops")
     ap.add_argument("--history", type=int, default=15, help="LCT clone: observations it sees (drivers.bc)")
     ap.add_argument("--actions", action=argparse.BooleanOptionalAction, default=False, help="LCT clone: and the actions before them")
@@ -195,6 +213,7 @@ def main() -> None:
         handler.setFormatter(logging.Formatter("%(asctime)s %(message)s"))
         logging.getLogger("opends_gym.data.bc").addHandler(handler)
         logging.getLogger("opends_gym.data.bc").setLevel(logging.INFO)
+    args.cache = args.cache / source_key()  # stale drives (another model or env) are never reused
     args.cache.mkdir(parents=True, exist_ok=True)
     os.environ["MINARI_DATASETS_PATH"] = str(args.cache / "minari")
     start = time.perf_counter()

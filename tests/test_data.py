@@ -224,3 +224,43 @@ def test_analyze_against_a_simulated_population(recording: tuple[Path, dict]) ->
     pop = [run_episode(env, make_agent(f"participant:{i}"), i).metrics["sdlp_m"] for i in range(2)]
     env.close()
     assert row["percentile"] == pytest.approx(percentile_rank(run["sdlp_m"], pop))
+
+
+MID_ROAD_LOG = DRIVES / "drives" / "2019_01_04-11_40_24" / "carData.txt"  # starts ~300 m from the task's start
+
+
+def test_cardata_log_is_redriven_from_its_own_first_pose(minari_dir: Path) -> None:
+    from opends_gym.data.episodes import cardata_start_pose, load_episode, make_env
+    from opends_gym.data.minari_io import write_dataset
+    from opends_gym.errors import UserError
+    from opends_gym.record.conform import GOALS, Recorded
+
+    rec = Recorded(MID_ROAD_LOG)
+    ep = load_episode(MID_ROAD_LOG, None, str(COUNTRYSIDE))
+    env = make_env(ep.env_spec.id, dict(ep.env_spec.kwargs))
+    obs, info = env.reset(options={"start_pose": cardata_start_pose(rec, 0)})
+    s = env.unwrapped.world.ego.state
+    assert (s.x, s.y, s.z, s.yaw) == pytest.approx((rec.x[0], rec.y[0], rec.z[0], rec.yaw[0]), abs=1e-6)
+    assert np.array_equal(obs, ep.observations[0])  # the export started there too
+    assert info["speed_kmh"] == pytest.approx(rec.speed_kmh[0], abs=1e-6)
+    meta = next(iter(write_dataset("test/mid", [ep]).storage.get_episode_metadata([0])))
+    assert meta["start_pose/x"] == pytest.approx(rec.x[0]) and meta["start_pose/yaw_rad"] == pytest.approx(rec.yaw[0])
+    # the log's actions from its own pose follow its path: within the conformance position goal
+    # over a 5 s window, and on the road for 10 s (from the task's start they left it after 5.5 s)
+    t0 = rec.sim_t[0]
+    for k, a in enumerate(ep.actions[:100]):
+        _, _, terminated, _, info = env.step(a)
+        assert not terminated and info["lane_index"] >= 0
+        if k < 50:
+            t = t0 + (k + 1) / 10
+            err = np.hypot(s.x - np.interp(t, rec.sim_t, rec.x), s.z - np.interp(t, rec.sim_t, rec.z))
+            assert err <= GOALS["median_pos_err_m"]
+    # bad values are one line naming the option and the key
+    too_slow = {**cardata_start_pose(rec, 0), "speed_mps": -1}
+    for bad, words in (({"x": 0.0, "y": 0.0, "z": 0.0}, "yaw_rad is missing"), (too_slow, "speed_mps must be within")):
+        with pytest.raises(UserError, match=words) as e:
+            env.reset(options={"start_pose": bad})
+        assert "\n" not in str(e.value) and "start_pose" in str(e.value)
+    with pytest.raises(UserError, match="x must be a finite number"):
+        env.reset(options={"start_pose": {"x": "1", "y": 0.0, "z": 0.0, "yaw_rad": 0.0}})
+    env.close()

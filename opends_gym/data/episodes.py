@@ -15,8 +15,11 @@ spec travels with the dataset):
   `[steering, gas - brake]` (OpenDS's steering sign, + left; brake wins where both are
   pressed, as a negative pedal). carData time is OpenDS's simulated time (`record.conform`'s
   `Recorded.sim_t`), its "accelerate back" key becomes braking (our continuous action has no
-  reverse). Such a drive starts at the task's start, not at the log's first pose, so it is an
-  approximation of the person's drive: the actions are theirs, the states the env's.
+  reverse). A World-level recording starts at the task's start; a carData log starts in its own
+  first settled state (`Recorded.settled_row`: steering centred, so no yaw rate the log lacks
+  is under way; with `trim_idle` the first such row from the first gas on), through the env's
+  `start_pose` reset option (`envs.start_pose`): pose, speed and engine as logged. Either is
+  an approximation of the person's drive: the actions are theirs, the states the env's.
 
 A drive that ends before the env ends the episode is marked truncated at its last step.
 """
@@ -51,6 +54,7 @@ class Episode:
     truncations: list[bool] = field(default_factory=list)
     infos: dict[str, list[float]] = field(default_factory=dict)
     metrics: dict[str, float] = field(default_factory=dict)  # the env's episode_metrics (scalars)
+    start_pose: dict[str, float] | None = None  # the reset's start_pose option (envs.start_pose), if any
     env_spec: Any = None  # gymnasium EnvSpec of the env it was driven through
     observation_space: Any = None
     action_space: Any = None
@@ -104,6 +108,8 @@ def drive(env: gym.Env[Any, Any], source: str, kind: str, seed: int | None, opti
     the episode or the actions end."""
     obs, info = env.reset(seed=seed, options=options)
     ep = _start(env, source, kind, seed, obs, info)
+    if options and options.get("start_pose") is not None:
+        ep.start_pose = {k: float(v) for k, v in options["start_pose"].items()}
     base: Any = env.unwrapped
     for item in actions:
         action, hooks = item if isinstance(item, tuple) else (item, {})
@@ -215,22 +221,35 @@ def first_gas(pedal: np.ndarray) -> int:
     return int(gas[0]) if gas.size else 0
 
 
+def cardata_start_pose(rec: Any, i: int) -> dict[str, Any]:
+    """The `start_pose` reset option for a carData log's row i (`record.conform.Recorded`)."""
+    return {
+        "x": float(rec.x[i]),
+        "y": float(rec.y[i]),
+        "z": float(rec.z[i]),
+        "yaw_rad": float(rec.yaw[i]),
+        "speed_mps": max(0.0, float(rec.speed_kmh[i]) / 3.6),
+        "engine_on": bool(rec.engine_on[i]),
+    }
+
+
 def from_cardata(
     path: str | Path, env_id: str | None, task: str | None, env_kwargs: dict[str, Any] | None = None, trim_idle: bool = False
 ) -> Episode:
     """An OpenDS carData.txt: its steering, gas and brake through `env_id` (or the task's generic env).
-    `trim_idle` starts at the first gas (a log that waits at the start, steering or not, teaches a
-    clone to wait)."""
+    The episode starts in the log's first settled state (module docstring); `trim_idle` starts
+    at the first gas (a log that waits at the start, steering or not, teaches a clone to wait)."""
     from ..record.conform import Recorded
 
     p = Path(path)
     rec = Recorded(p)
     pedal = np.where(rec.brake > 0.0, -rec.brake, np.maximum(rec.gas, 0.0))
-    i0 = first_gas(pedal) if trim_idle else 0
+    i0 = rec.settled_row(first_gas(pedal) if trim_idle else 0)
     env = _input_env(env_id, task, str(p), env_kwargs or {})
     try:
         hz = _policy_hz(env)
-        return drive(env, str(p), "cardata", None, None, held_inputs(rec.sim_t[i0:], rec.steering[i0:], pedal[i0:], hz))
+        actions = held_inputs(rec.sim_t[i0:], rec.steering[i0:], pedal[i0:], hz)
+        return drive(env, str(p), "cardata", None, {"start_pose": cardata_start_pose(rec, i0)}, actions)
     finally:
         env.close()
 

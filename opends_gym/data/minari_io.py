@@ -4,7 +4,9 @@ Why Minari: offline RL and imitation users load datasets with `minari.load_datas
 rebuild the env with `recover_environment()`; our env spec (registered id, entry point, kwargs)
 goes in so that gives back the env the drives were stepped through. Per step the dataset holds
 the env's numeric info keys (`infos`); per episode its metadata holds the drive's file, how it
-was turned into actions (`kind`) and the env's `episode_metrics` (`metric/<name>`).
+was turned into actions (`kind`), the state it started in where that was not the task's start
+(`start_pose/<key>`: the env's `start_pose` reset option, as a carData log is exported) and the
+env's `episode_metrics` (`metric/<name>`).
 Minari writes under MINARI_DATASETS_PATH (default ~/.minari/datasets).
 """
 
@@ -61,6 +63,11 @@ def _buffer(ep: Episode, index: int) -> Any:
     )
 
 
+def _start_pose(ep: Episode) -> dict[str, float]:
+    """`start_pose/<key>` metadata: `env.reset(options={"start_pose": ...})` starts the episode again."""
+    return {f"start_pose/{k}": v for k, v in (ep.start_pose or {}).items()}
+
+
 def write_dataset(name: str, episodes: Sequence[Episode], description: str = "", author: str | None = None) -> Any:
     """A new Minari dataset `name` from `episodes` (all of one env); returns the MinariDataset."""
     minari = require("data", "minari", "the Minari dataset")
@@ -73,7 +80,10 @@ def write_dataset(name: str, episodes: Sequence[Episode], description: str = "",
     with warnings.catch_warnings():  # Minari's reminders about unset author, e-mail and permalink
         warnings.filterwarnings("ignore", message=r"`(code_permalink|author|author_email|eval_env)` is set to None", category=UserWarning)
         ds = _create(minari, ident, episodes, description, author)
-    meta = [{"source": ep.source, "kind": ep.kind, **{f"metric/{k}": v for k, v in sorted(ep.metrics.items())}} for ep in episodes]
+    meta = [
+        {"source": ep.source, "kind": ep.kind, **_start_pose(ep), **{f"metric/{k}": v for k, v in sorted(ep.metrics.items())}}
+        for ep in episodes
+    ]
     ds.storage.update_episode_metadata(meta, episode_indices=range(len(episodes)))
     return ds
 

@@ -52,6 +52,7 @@ from .collision import COLLISION_SOURCE, collision_mode, collision_reset_pose
 from .config import EnvConfig, build_config
 from .observations import make_observation_type
 from .road_exit import RESET_SOURCE, LanePose, check_mode, held
+from .start_pose import parse_start_pose
 from .trace import COL, Trace
 
 LANE_KEEPING_OFFSET_M = 1.0  # |offset from lane centre| below which a sample counts for SDLP
@@ -172,8 +173,15 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Back to the task's start; `options={"start_pose": {x, y, z, yaw_rad[, speed_mps, engine_on]}}`
+        starts the car in that state instead (a recorded drive's first row, `envs.start_pose`)."""
         super().reset(seed=seed)
+        start = parse_start_pose(options)
         self.world.reset(seed=int(self.np_random.integers(0, 2**31 - 1)))
+        if start is not None:  # a recorded drive's first state (opends_gym.envs.start_pose)
+            ego = self.world.ego
+            engine = ego.powertrain.state.engine_on if start.engine_on is None else start.engine_on
+            ego.reset_to(start.x, start.y, start.z, start.yaw_rad, start.speed_mps, engine_on=engine)
         self.guide.reset()
         self.act_type.reset()
         self.trace.clear()
