@@ -27,16 +27,18 @@ NATIVE_IDS = ("OpenDS/LaneChangeTest-v0",)  # batches that `perceive` reads (dri
 
 
 class _SlotWorld:
-    """The constants a driver reads of `env.unwrapped.world` (time step, car spec)."""
+    """The constants a driver reads of `env.unwrapped.world` (time step, car spec and car
+    block: the rule driver's pedal map is read off the car model)."""
 
     def __init__(self, world: Any) -> None:
         self.dt_s = world.dt_s
-        self.ego = _SlotEgo(world.ego.spec)
+        self.ego = _SlotEgo(world.ego.spec, world.ego.car)
 
 
 class _SlotEgo:
-    def __init__(self, spec: Any) -> None:
+    def __init__(self, spec: Any, car: Any) -> None:
         self.spec = spec
+        self.car = car
 
 
 class BatchSlot:
