@@ -138,3 +138,37 @@ def test_studies_recover_from_collisions_by_default(tmp_path: Path) -> None:
     bad.write_text(text.replace("on_collision: recover", "on_collision: bounce"))
     with pytest.raises(Exception, match=r"bad\.yaml:7: .*on_collision.*must be terminate, recover or continue"):
         load_study(bad)
+
+
+def _overtaker(env: gym.Env[Any, Any], seed: int, steps: int = 4_000) -> tuple[list[dict[str, Any]], bool]:
+    """Full gas, steered to the centre of the other lane (a proportional steering law
+    aimed at the free lane): it drives past the lead car (which voids OpenDS's platoon and
+    brake tests). Returns infos, terminated."""
+    base: Any = env.unwrapped
+    env.reset(seed=seed)
+    target = base.guide.lane_laterals_m[0]  # the lane beside the platoon's (lane 1)
+    infos: list[dict[str, Any]] = []
+    terminated = False
+    for _ in range(steps):
+        lateral = float(base.trace.last("lateral_m"))
+        a = np.array([np.clip(0.08 * (target - lateral), -0.1, 0.1), 1.0], dtype=np.float32)
+        _, _, terminated, truncated, info = env.step(a)
+        infos.append(info)
+        if terminated or truncated:
+            break
+    return infos, terminated
+
+
+@pytest.mark.parametrize("mode", ["terminate", "recover"])
+def test_passing_the_lead_car_ends_the_test_or_puts_the_car_behind_it(mode: str) -> None:
+    env = gym.make(BRAKE, on_collision=mode, on_road_exit="recover", max_episode_s=90.0)
+    infos, terminated = _overtaker(env, seed=2)
+    base: Any = env.unwrapped
+    passed = [e for i in infos for e in i["events"] if e["kind"] == "reset" and e["source"] == "passed_lead"]
+    if mode == "terminate":
+        assert terminated and base._past_lead() and not passed  # OpenDS's rule: overtaking voids the test
+    else:
+        assert passed, "the car passed the lead car and was put back behind it"
+        assert not terminated or base.world.triggers.paused  # never ended by passing the lead
+        assert infos[-1]["resets"] >= len(passed)
+    env.close()

@@ -48,7 +48,7 @@ from ..sim.perception import lead_vehicle
 from ..sim.world import World, WorldConfig
 from ..task import DrivingTask
 from .actions import make_action_type
-from .collision import COLLISION_SOURCE, collision_mode, collision_reset_pose
+from .collision import COLLISION_SOURCE, PASSED_LEAD_SOURCE, collision_mode, collision_reset_pose
 from .config import EnvConfig, build_config
 from .observations import make_observation_type
 from .road_exit import RESET_SOURCE, LanePose, check_mode, held
@@ -327,11 +327,14 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         offset = p.lateral_m - self.guide.lane_laterals_m[lane]
         return LanePose(x, self._lane_y, z, offset, self.guide.heading_at(p.s_m))
 
-    def _reset_to_lane(self, collision: bool = False) -> None:
-        """Put the car back at rest and hold it: at the last lane position, or after a
-        collision behind what it hit (`opends_gym.envs.collision`)."""
+    def _reset_to_lane(self, collision: bool = False, behind: tuple[float, float, int] | None = None) -> None:
+        """Put the car back at rest and hold it: at the last lane position, after a
+        collision behind what it hit, or behind the point (x, z) in lane `behind`
+        (`opends_gym.envs.collision`)."""
         w = self.world
-        if collision:
+        if behind is not None:
+            pose = collision_reset_pose(w, self.guide, behind[2], (behind[0], behind[1]))
+        elif collision:
             lane = int(self.trace.last("lane_index"))
             pose = collision_reset_pose(w, self.guide, lane if lane >= 0 else self._settled_lane)
             self.collision_resets += 1
@@ -346,7 +349,7 @@ class OpenDSEnv(gym.Env[np.ndarray, Any], EzPickle):
         self._was_off_road = self._off_now = False
         self._skip_distance = True  # the jump is no distance driven
         x, _, z = pose.position_m
-        source = COLLISION_SOURCE if collision else RESET_SOURCE
+        source = PASSED_LEAD_SOURCE if behind is not None else COLLISION_SOURCE if collision else RESET_SOURCE
         w.events.emit(w.t_s, "reset", source, x_m=x, z_m=z, yaw_rad=pose.yaw_rad, hold_s=hold, resets=self.resets)
         self.guide.reset()
         self._last_s = self.guide.locate(x, z).s_m

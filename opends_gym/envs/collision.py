@@ -21,6 +21,10 @@ True is `terminate`, False is `continue`):
   with source `collision` marks it. Traffic is not moved: the lead car drives on, and in the
   Three-Vehicle Platoon the follower car may run into the held car (a further collision,
   handled the same way).
+  In the platoon and brake tests, passing the lead car (which voids OpenDS's test and
+  ends the episode under `terminate`) is recovered the same way: the car is put back
+  behind the lead car, in its lane (a `reset` event with source `passed_lead`, counted in
+  `resets`).
 * `continue`: nothing happens; the car drives on through traffic (our traffic has no
   contact physics; obstacles stop it, `WorldConfig.collision_stops_car`).
 """
@@ -39,6 +43,7 @@ from .road_exit import LanePose
 
 COLLISION_MODES = ("terminate", "recover", "continue")
 COLLISION_SOURCE = "collision"  # the `source` of the World's `reset` event for this reset
+PASSED_LEAD_SOURCE = "passed_lead"  # the platoon/brake tests' reset after passing the lead car
 # Ours, not OpenDS's (it has no automatic reset): a short bumper gap once clear of what was hit.
 # A larger one would move the car into a platoon's follower (5-15 m behind).
 COLLISION_GAP_M = 2.0
@@ -77,15 +82,17 @@ def _clear(world: World, pose: Pose) -> bool:
     return not obstacles
 
 
-def collision_reset_pose(world: World, guide: RoadGuide, lane: int) -> Pose:
+def collision_reset_pose(world: World, guide: RoadGuide, lane: int, behind_xz: tuple[float, float] | None = None) -> Pose:
     """Where the car is put back after a collision: in the centre of `lane` (-1: where it
-    is across the road), backed along the road until clear, then `COLLISION_GAP_M` more."""
+    is across the road), backed along the road from the ego (or from `behind_xz`, e.g. the
+    lead car it passed) until clear, then `COLLISION_GAP_M` more."""
     s = world.ego.state
+    x, z = behind_xz if behind_xz is not None else (s.x, s.z)
     pose: Pose | None = None
     for back in np.arange(0.0, BACK_OFF_MAX_M + 1e-9, BACK_OFF_STEP_M):
-        pose = _lane_pose_back(guide, s.x, s.y, s.z, lane, float(back))
+        pose = _lane_pose_back(guide, x, s.y, z, lane, float(back))
         if _clear(world, pose):
-            return _lane_pose_back(guide, s.x, s.y, s.z, lane, float(back) + COLLISION_GAP_M)
+            return _lane_pose_back(guide, x, s.y, z, lane, float(back) + COLLISION_GAP_M)
     assert pose is not None
     return pose
 

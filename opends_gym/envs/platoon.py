@@ -130,6 +130,8 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
         pressed = bool(c.keys or c.buttons)
         gas, brake = self.driver_pedals()  # (not the full brake of a hold after a reset)
         self.platoon.step(gas, brake, pressed, inp.turn_signal, self.trace.last("lane_offset_m"))
+        if self.on_collision == "recover" and self.config.end_when_past_lead and self._past_lead():  # type: ignore[attr-defined]
+            self._put_behind_lead()
         st = self.platoon.state
         if st.lon_dev:
             cfg = self.config
@@ -174,6 +176,19 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
 
     def _stimuli_presented(self) -> int:
         return len(self.platoon.state.stimuli)
+
+    def _put_behind_lead(self) -> None:
+        """`on_collision="recover"` (a study's exposure, not survival): passing the lead car
+        voids OpenDS's test; here the car is put back behind the lead car, in its lane, at
+        rest and held, as after a collision (`envs.collision`), and the drive goes on."""
+        traffic = self.world.traffic
+        assert traffic is not None
+        lead = traffic.positions[traffic.index_of(self.platoon.lead)]
+        lx, lz = float(lead[0]), float(lead[2])
+        lateral = self.guide.locate(lx, lz).lateral_m
+        laterals = self.guide.lane_laterals_m
+        lane = min(range(len(laterals)), key=lambda i: abs(laterals[i] - lateral))
+        self._reset_to_lane(behind=(lx, lz, lane))
 
     def _past_lead(self) -> bool:
         """The ego's centre is level with or ahead of the lead car's: overtaking it voids the test.
