@@ -222,18 +222,26 @@ def test_rule_driver_follows_the_autopilot_route(tmp_path: Path) -> None:
     env.close()
 
 
-def test_run_json_episodes_report_lanes_and_road(capsys: pytest.CaptureFixture[str]) -> None:
+def test_run_json_episodes_report_lanes_and_road() -> None:
     import json
+    import os
+    import subprocess
+    import sys
 
-    from opends_gym.cli.main import main as cli
+    def run_json(*argv: str) -> dict:
+        """`opends-gym run ... --json` in its own process (in-process CLI output once reached
+        pytest's global capture instead of capsys in a parallel run: see test_data)."""
+        env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+        cmd = [sys.executable, "-m", "opends_gym.cli.main", "run", *argv, "--json"]
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        return json.loads(proc.stdout)["episodes"][0]
 
     task = str(CORPUS / "opends-cts" / "MotorwayTask")
-    assert cli(["run", task, "--agent", "rule", "--max-seconds", "30", "--env-arg", "policy_hz=4", "--json"]) == 0
-    episode = json.loads(capsys.readouterr().out)["episodes"][0]
+    episode = run_json(task, "--agent", "rule", "--max-seconds", "30", "--env-arg", "policy_hz=4")
     assert episode["lanes_known"] is True and episode["off_road_s"] == 0.0
     assert 0.0 < episode["mean_abs_lateral_offset_m"] < 1.0  # the slip road's curve is driven, not perfectly
-    assert cli(["run", str(CORPUS / "opends-cts" / "ConTReTask"), "--max-seconds", "2", "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["episodes"][0]["lanes_known"] is False
+    assert run_json(str(CORPUS / "opends-cts" / "ConTReTask"), "--max-seconds", "2")["lanes_known"] is False
 
 
 # ---------------------------------------------------------------------------- loader scan

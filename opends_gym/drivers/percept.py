@@ -144,6 +144,8 @@ def merge_stop_left_m(world: Any, guide: Any, s_m: float, speed_mps: float) -> f
     stop at, before the join, while a traffic car in the joined lane would reach the join
     point within a moment of the ego (gap acceptance); `inf` when the gap is free. A driver checks the
     mirror and yields at a merge; traffic on its path does not brake for the ego in time."""
+    if s_m > guide.join_s_m - MERGE_STOP_BEFORE_M:
+        return math.inf  # past the waiting point: committed to the join (stopping here would leave the nose in the lane)
     tr = world.traffic
     jx, jz, _ = guide.polyline.point_at(guide.join_s_m)
     d, u = max(guide.join_s_m - s_m, 0.0), max(speed_mps, 0.0)

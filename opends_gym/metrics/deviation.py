@@ -202,8 +202,9 @@ def quad_area(wp0: np.ndarray, wp1: np.ndarray, ip1: np.ndarray, ip0: np.ndarray
         d0 = F32(pt_line_dist(x1, y1, x2, y2, float(w0[0]), float(w0[1])))
         d1 = F32(pt_line_dist(x1, y1, x2, y2, float(w1[0]), float(w1[1])))
         s = F32(d0 + d1)
-        x = F32(F32(w0[0] * F32(d1 / s)) + F32(w1[0] * F32(d0 / s)))
-        y = F32(F32(w0[1] * F32(d1 / s)) + F32(w1[1] * F32(d0 / s)))
+        with np.errstate(divide="ignore", invalid="ignore"):  # d0 = d1 = 0 in float32: NaN, as Java's float division
+            x = F32(F32(w0[0] * F32(d1 / s)) + F32(w1[0] * F32(d0 / s)))
+            y = F32(F32(w0[1] * F32(d1 / s)) + F32(w1[1] * F32(d0 / s)))
         a1 = _tri2(F32(w0[0] - x), F32(w0[1] - y), F32(i0[0] - x), F32(i0[1] - y))
         a2 = _tri2(F32(w1[0] - x), F32(w1[1] - y), F32(i1[0] - x), F32(i1[1] - y))
         return float(F32(a1 + a2))
