@@ -172,6 +172,10 @@ class ThreeVehiclePlatoonEnv(OpenDSEnv):
         return np.abs(np.asarray(lateral_m, dtype=np.float64)) > half_road + cfg.off_road_margin_m
 
     def _task_terminated(self) -> bool:
+        """Passing the lead ends the test, except under `on_collision="recover"`, where
+        `_on_physics_step` has already put the car back behind it."""
+        if self.on_collision == "recover":
+            return False
         return bool(self.config.end_when_past_lead) and self._past_lead()  # type: ignore[attr-defined]
 
     def _stimuli_presented(self) -> int:

@@ -244,6 +244,10 @@ class BatchCore:
         record_lanes(s.x, s.z, rows, first, g.sign, self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane,
                      self.offset, rl["n"], rl["mean"], rl["m2"], self.needs_distance, self.prev_x, self.prev_z, rl["dist"],
                      rl["area"])  # fmt: skip
+        self._write_trace(rows, first)
+
+    def _write_trace(self, rows: np.ndarray, first: bool) -> None:
+        """The trace row of the envs `rows` into the ring (a reset's first row restarts it)."""
         if self.ring is not None:
             values = self._trace_values()
             if first:

@@ -278,13 +278,7 @@ class DrivingTaskBatch(BatchCore):
         record_route(s.x, s.z, rows, firsts, seg, xz, ps, sl, self.hint, np.asarray(g.lane_laterals_m, dtype=np.float64),
                      g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.s_route, self.heading, self.lat, self.lane, self.offset, rl["n"],
                      rl["mean"], rl["m2"], self.prev_x, self.prev_z, rl["dist"], rl["area"])  # fmt: skip
-        if self.ring is not None:
-            values = self._trace_values()
-            if first:
-                idx = np.flatnonzero(rows)
-                self.ring.reset_rows(idx, {k: v[idx] for k, v in values.items()})
-            else:
-                self.ring.write(values, None if rows.all() else rows)
+        self._write_trace(rows, first)
 
     # ------------------------------------------------------------------ world
     def _physics_step(self, live: np.ndarray, c: BatchControls) -> None:
