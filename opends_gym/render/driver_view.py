@@ -61,6 +61,21 @@ def pixel_rect(width: int, height: int, vp: Viewport) -> tuple[int, int, int, in
     return x0, y0, max(1, x1 - x0), max(1, y1 - y0)
 
 
+class CameraSlot:
+    """A Panda3D camera node and what was last set on it (lens, background card), so that an
+    unchanged camera costs no Panda3D calls."""
+
+    __slots__ = ("card", "card_bit", "card_exact", "card_key", "lens_key", "node")
+
+    def __init__(self, node: Any, card_bit: int) -> None:
+        self.node = node
+        self.card_bit = card_bit  # the camera-mask bit its background card shows to
+        self.card: Any = None
+        self.card_key: tuple[Any, ...] = ()
+        self.card_exact: tuple[Any, ...] = ()
+        self.lens_key: tuple[Any, ...] = ()
+
+
 class DriverViewRenderer:
     """3D view of a World. `render(w, h)` -> uint8 (h, w, 3); `render_views` for several cameras."""
 
@@ -98,7 +113,7 @@ class DriverViewRenderer:
         self.headlights = True  # the ego's low beam (seen at night); the drive window's toggle_headlight
         self._target: Offscreen | None = None
         self._layout: tuple[Any, ...] = ()
-        self._cams: list[Any] = []
+        self._cams: list[CameraSlot] = []
         self._depth: Offscreen | None = None
         self._surface: Any = None
 
@@ -223,9 +238,9 @@ class DriverViewRenderer:
             if not self._shadow_map_drawn:  # Panda3D makes the shadow buffer during the first frame and fills it from the next
                 target.render()
                 self._shadow_map_drawn = True
-        for k, (node, (vp, cam)) in enumerate(zip(self._cams, views)):
+        for k, (slot, (vp, cam)) in enumerate(zip(self._cams, views)):
             w, h = (width, height) if vp is FULL else pixel_rect(width, height, vp)[2:]
-            self._place(k, node, cam, w, h, inside[k])
+            self._place(slot, cam, w, h, inside[k])
         target.render()
         return target
 
@@ -233,75 +248,91 @@ class DriverViewRenderer:
         layout = (width, height, tuple(vp for vp, _ in views))
         if self._target is not None and self._layout == layout:
             return self._target
-        p3d = panda()
         if self._target is None or (self._target.width, self._target.height) != (width, height):
             if self._target is not None:
                 self._target.close()
             self._target = Offscreen(width, height)
         else:
             self._target.buffer.removeAllDisplayRegions()
-        for node in self._cams:
-            node.removeNode()
+        for slot in self._cams:
+            slot.node.removeNode()
         self._cams = []
-        self._cards: list[Any] = []
-        self._card_keys: list[tuple[Any, ...]] = []
-        self._card_exact: list[tuple[Any, ...]] = []
-        self._lens_keys: list[tuple[Any, ...]] = []
         if self._depth is not None:
             self._depth.close()
             self._depth = None
         for k, (vp, _) in enumerate(views):
-            cam_node = p3d.Camera(f"cam{k}")
-            cam_node.setLens(p3d.PerspectiveLens())
-            node = self.stage.root.attachNewNode(cam_node)
-            self._target.region(*vp, camera=node, sort=k)
-            self._cams.append(node)
-            self._cards.append(None)
-            self._card_keys.append(())
-            self._card_exact.append(())
-            self._lens_keys.append(())
-        self.stage.show_hood = self.show_hood
-        if self.show_hood:
-            self.stage.hood.show(p3d.BitMask32.bit(INSIDE_BIT))
+            slot = self.new_slot(f"cam{k}", CARD_BIT0 + k)
+            self._target.region(*vp, camera=slot.node, sort=k)
+            self._cams.append(slot)
         self._layout = layout
         return self._target
 
-    def _place(self, k: int, node: Any, cam: Camera, w: int, h: int, inside: bool) -> None:
+    def new_slot(self, name: str, card_bit: int) -> CameraSlot:
+        """A camera under this renderer's stage (for a display region of any buffer) whose
+        background card shows to cameras with `card_bit` only."""
+        p3d = panda()
+        cam_node = p3d.Camera(name)
+        cam_node.setLens(p3d.PerspectiveLens())
+        self.stage.show_hood = self.show_hood
+        if self.show_hood:
+            self.stage.hood.show(p3d.BitMask32.bit(INSIDE_BIT))
+        return CameraSlot(self.stage.root.attachNewNode(cam_node), card_bit)
+
+    def needs_post(self) -> bool:
+        """Whether a frame of this view is more than one colour pass: fog or night (a depth
+        pass), rain or snow (drawn over the frame), or shadows (a shadow map)."""
+        if self.shadows_active or self.daylight < DARK_BELOW:
+            return True
+        if not self.weather:
+            return False
+        weather = weather_of(self.world)
+        return fog_for(weather) is not None or weather.get("raining_percent", -1.0) > 0 or weather.get("snowing_percent", -1.0) > 0
+
+    def stage_view(self, slot: CameraSlot, width: int, height: int) -> None:
+        """Sync the stage and aim `slot` as `render(width, height)` would, without drawing: for
+        a caller that draws many renderers' slots in one frame (`batch_view`)."""
+        cam = self.camera(width, height)
+        inside = self.inside_car(cam)
+        self.stage.sync(cam.x, cam.y, cam.z, include_ego=not inside)
+        self._place(slot, cam, width, height, inside)
+
+    def _place(self, slot: CameraSlot, cam: Camera, w: int, h: int, inside: bool) -> None:
+        node = slot.node
         focal = cam.focal_px(w, h)
         lens_key = (w, h, focal, cam.near, cam.far, inside, cam.mirror)
-        if lens_key != self._lens_keys[k]:  # (a lens change makes Panda3D recompute its matrices: only when needed)
+        if lens_key != slot.lens_key:  # (a lens change makes Panda3D recompute its matrices: only when needed)
             p3d = panda()
             lens = node.node().getLens()
             lens.setFilmSize(w, h)
             lens.setFocalLength(focal)
             lens.setNearFar(cam.near, cam.far)
-            mask = p3d.BitMask32.bit(INSIDE_BIT if inside else OUTSIDE_BIT) | p3d.BitMask32.bit(CARD_BIT0 + k)
+            mask = p3d.BitMask32.bit(INSIDE_BIT if inside else OUTSIDE_BIT) | p3d.BitMask32.bit(slot.card_bit)
             if focal >= DETAIL_FOCAL_PX:
                 mask |= p3d.BitMask32.bit(DETAIL_BIT)
             node.node().setCameraMask(mask)
-            self._lens_keys[k] = lens_key
+            slot.lens_key = lens_key
         node.setPosHprScale(
             cam.x, -cam.z, cam.y, math.degrees(cam.yaw), math.degrees(cam.pitch), 0.0, -1.0 if cam.mirror else 1.0, 1.0, 1.0
         )
         eye_height = max(cam.y - self.world.ego.state.y, 0.05)
         exact = (w, h, focal, cam.pitch, eye_height)
-        if exact == self._card_exact[k]:
+        if exact == slot.card_exact:
             return  # (the usual frame: the same lens, pitch and eye height, nothing to round)
-        self._card_exact[k] = exact
+        slot.card_exact = exact
         key = (w, h, round(focal, 3), round(cam.pitch, 4), round(eye_height, 3))
-        if key != self._card_keys[k]:  # the sky-and-grass card: rebuilt only when the lens, pitch or eye height change
+        if key != slot.card_key:  # the sky-and-grass card: rebuilt only when the lens, pitch or eye height change
             p3d = panda()
-            if self._cards[k] is not None:
-                self._cards[k].removeNode()
-            card = node.attachNewNode(meshes.background_node(f"background{k}", w, h, focal, cam.pitch, eye_height, CARD_DIST_M))
+            if slot.card is not None:
+                slot.card.removeNode()
+            card = node.attachNewNode(meshes.background_node("background", w, h, focal, cam.pitch, eye_height, CARD_DIST_M))
             card.setBin("background", ORDER_SKY)
             card.setDepthTest(False)
             card.setDepthWrite(False)
             card.setLightOff(1)
             card.hide(p3d.BitMask32.allOn())
-            card.show(p3d.BitMask32.bit(CARD_BIT0 + k))
-            self._cards[k] = card
-            self._card_keys[k] = key
+            card.show(p3d.BitMask32.bit(slot.card_bit))
+            slot.card = card
+            slot.card_key = key
 
     def _depth_pass(self, width: int, height: int, views: Sequence[tuple[Viewport, Camera]]) -> np.ndarray:
         """Eye depth in metres per pixel (inf where the sky is): the scene drawn again with each
@@ -320,12 +351,14 @@ class DriverViewRenderer:
             ramp.setMagfilter(p3d.SamplerState.FTNearest)
             ramp.setWrapU(p3d.SamplerState.WMClamp)
             self._ramp = ramp
-            for k, ((vp, _), colour_cam) in enumerate(zip(views, self._cams)):
+            for k, ((vp, _), slot) in enumerate(zip(views, self._cams)):
+                colour_cam = slot.node
                 node = colour_cam.attachNewNode(p3d.Camera(f"depth{k}", colour_cam.node().getLens()))
                 self._depth.region(*vp, camera=node, sort=k)
                 self._depth_cams.append(node)
         ts = p3d.TextureStage.getDefault()
-        for (_, cam), colour_cam, node in zip(views, self._cams, self._depth_cams):
+        for (_, cam), slot, node in zip(views, self._cams, self._depth_cams):
+            colour_cam = slot.node
             m = p3d.Mat4(0, 0, 0, 0, 1.0 / cam.far, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1)
             state = p3d.RenderState.make(
                 p3d.TextureAttrib.make(self._ramp),

@@ -13,9 +13,15 @@ from typing import Any
 from .env import NativeVectorEnv
 
 
-def make_lane_change_test(num_envs: int, **kwargs: Any) -> NativeVectorEnv:
+def make_lane_change_test(num_envs: int, **kwargs: Any) -> Any:
+    """The LCT's native batch; with `observation="driver_view"` its images drawn as one batch
+    frame (`pixels.DriverViewVectorEnv`)."""
     from .lct import LctBatch
 
+    if kwargs.get("observation") == "driver_view":
+        from .pixels import DriverViewVectorEnv
+
+        return DriverViewVectorEnv("OpenDS/LaneChangeTest-v0", LctBatch, num_envs, **kwargs)
     return NativeVectorEnv("OpenDS/LaneChangeTest-v0", LctBatch, num_envs, **kwargs)
 
 
