@@ -12,7 +12,7 @@ same run when an OpenGL pipe (GLX with an X display, else EGL) opens on a hardwa
 Both wall-clock and process-CPU rates are printed: on a shared machine the CPU rate is the
 steadier figure.
 
-    python benchmarks/render_speed.py [--seconds 2.0] [--pipe tinydisplay|gl|egl]
+    python benchmarks/render_speed.py [--seconds 2.0] [--pipe tinydisplay|gl|egl] [--batch 16]
     xvfb-run -s "-screen 0 1920x1080x24" python benchmarks/render_speed.py   # a real window
 """
 
@@ -155,6 +155,7 @@ def gpu_pipe() -> tuple[str | None, str]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=2.0, help="measuring time per case")
+    ap.add_argument("--batch", type=int, default=BATCH, help="envs in the batched driver-view row")
     ap.add_argument("--pipe", choices=("tinydisplay", "gl", "egl"), default=None, help="Panda3D pipe (OPENDS_GYM_RENDER_PIPE)")
     args = ap.parse_args()
     if args.pipe:
@@ -164,7 +165,7 @@ def main() -> None:
     cases: list[tuple[str, str, float, Callable[[], object], int]] = [
         ("env steps, kinematics", "-", 0.0, env_steps("kinematics"), 1),
         ("env steps, driver_view", "84x84", 5000.0, env_steps("driver_view"), 1),
-        (f"driver_view, batch of {BATCH}", "84x84", 5000.0, batch_steps("driver_view", BATCH), BATCH),
+        (f"driver_view, batch of {args.batch}", "84x84", 5000.0, batch_steps("driver_view", args.batch), args.batch),
         ("env steps, topdown", "84x84", 2000.0, env_steps("topdown"), 1),
         ("driver_view frame alone", "84x84", 0.0, view_frames(84, 84), 1),
         ("human window", "1280x720", 30.0, window_frames(1280, 720), 1),

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import gymnasium as gym
 import numpy as np
+import pytest
 
 import opends_gym  # noqa: F401
-from opends_gym.render import make_renderer
-from opends_gym.render.batch_view import BatchDriverView
+from opends_gym.render import batch_view, make_renderer
 from opends_gym.sim.world import World
 from opends_gym.task.bundled import BUNDLED_DIR
 
@@ -42,13 +42,14 @@ def test_native_lct_batch_images_equal_the_single_envs_pixel_for_pixel() -> None
     venv.close()
 
 
-def test_batch_view_equals_single_views_with_traffic_and_weather() -> None:
+def test_batch_view_equals_single_views_with_traffic_and_weather(monkeypatch: pytest.MonkeyPatch) -> None:
     """The platoon's cars drawn in the batch as alone; a foggy world is drawn on its own (its depth pass)."""
+    monkeypatch.setattr(batch_view, "STRIP_VIEWS", 2)  # three views in two buffers
     worlds = [World(BUNDLED_DIR / "ThreeVehiclePlatoon") for _ in range(3)]
     for k, w in enumerate(worlds):
         w.run(1.0 + k)
     worlds[1].triggers.weather["fog_percent"] = 80.0
-    batch = BatchDriverView(worlds, 96, 64)
+    batch = batch_view.BatchDriverView(worlds, 96, 64)
     frames = batch.render()
     assert frames.shape == (3, 64, 96, 3)
     for k, w in enumerate(worlds):
