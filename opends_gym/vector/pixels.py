@@ -1,7 +1,7 @@
 """`DriverViewVectorEnv`: the native Lane Change Test batch with `driver_view` image observations.
 
 Why: an RL trainer on pixels steps many envs at once. A `SyncVectorEnv` of single image envs
-pays the single env's Python simulation step (~100 us) plus a Panda3D frame per env and step;
+pays the single env's Python simulation step (~95 us of CPU) plus a Panda3D frame per env and step;
 here the simulation is the native batch's (`NativeVectorEnv`, compiled, microseconds per env)
 and the N driver views are N display regions of one offscreen buffer drawn by one
 `renderFrame` and read once (`render.batch_view.BatchDriverView`).
@@ -14,7 +14,9 @@ pixel (tested); rewards, flags and info are the native batch's, which are the si
 How: one render-only `World` of the task per env holds what the view draws; before each frame
 it gets the batch's car pose (x, z, yaw), simulation time and revealed signs (the LCT's only
 changing scene: its trigger boxes reveal sign pairs in order along the road, never hide them;
-`LctBatch.revealed` is the highest sign index revealed). These Worlds are never stepped.
+`LctBatch.revealed` is the highest sign index revealed, and every sign before it is shown: a
+sign a car passed beside its trigger box lies 100 m or more behind the car by the time the next
+one shows, out of the driver's view). These Worlds are never stepped.
 Supported: the LCT's native batch in this process (not `processes=`); the other tasks' image
 observations run in `vectorization_mode="sync"`.
 """
