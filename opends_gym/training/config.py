@@ -45,6 +45,7 @@ class TrainConfig:
     stop_at: dict[str, list[float]] = field(
         default_factory=dict
     )  # vec_env native: metric -> [low, high] of an evaluation that ends the run
+    warm_start: dict[str, Any] = field(default_factory=dict)  # vec_env native: clone a driver first (training.warm_start)
     rllib: dict[str, Any] = field(default_factory=dict)  # framework rllib: num_env_runners, iterations, train_batch_size, ...
     name: str = ""
 
