@@ -151,7 +151,6 @@ def train(
         raise ValueError(f"vec_env native trains algorithm 'ppo', not {cfg.algorithm!r}")
     s = NativePpoSettings.from_block("", dict(cfg.hyperparameters))
     warm = WarmStart.from_block("", dict(cfg.warm_start)) if cfg.warm_start and resume is None else None
-    t0 = time.perf_counter()
     score = evaluate or (lambda c, model: evaluate_policy_file(c, model, episodes=c.eval_episodes))
     out = out_dir or cfg.output_dir(base_dir)
     (out / "checkpoints").mkdir(parents=True, exist_ok=True)
@@ -175,6 +174,7 @@ def train(
             model = PPO(cfg.policy, stub, n_steps=2, batch_size=2, seed=cfg.seed, policy_kwargs=dict(cfg.policy_kwargs), device="cpu")
             norm = _normalizer(stub, s.gamma, cfg.normalize_observations, cfg.normalize_rewards)
         run = _Run(cfg, s, envs, model, norm, out, progress, score, time.perf_counter())
+        run.frozen_obs = bool(cfg.warm_start)  # (a resumed warm-started run keeps the clone's scale too)
         if warm is not None:
             run.warm_start(warm)
         return run.learn()

@@ -21,8 +21,8 @@ then learns for `value_warmup` rollouts (`NativePpoSettings`) before PPO moves t
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
 from collections.abc import Callable
+from dataclasses import dataclass, fields
 from typing import Any
 
 import gymnasium as gym
