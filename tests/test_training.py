@@ -180,7 +180,10 @@ def test_plot_curves_draws_every_shipped_policy(tmp_path: Path) -> None:
 SHIPPED = {  # policy folder: (env id, what its test requires of one episode)
     "lct_ppo": ("OpenDS/LaneChangeTest-v0", {"lane_changes_correct": (18, 18), "mdev_basic_m": (0.0, 0.5), "collisions": (0, 0)}),
     "lct_sac": ("OpenDS/LaneChangeTest-v0", {"lane_changes_correct": (18, 18), "mdev_basic_m": (0.0, 0.6), "collisions": (0, 0)}),
-    "platoon_ppo": ("OpenDS/ThreeVehiclePlatoon-v0", {"stimuli": (10, 10), "stimulus_misses": (0, 0), "collisions": (0, 0)}),
+    "platoon_ppo": (
+        "OpenDS/ThreeVehiclePlatoon-v0",
+        {"stimuli": (10, 10), "stimulus_misses": (0, 0), "collisions": (0, 0), "longitudinal_deviation_mean_m": (0.0, 10.0)},
+    ),
     "brake_ppo": (
         "OpenDS/BrakeReaction-v0",
         {"stimuli": (6, 6), "stimulus_misses": (0, 0), "BrakeSign_correct": (3, 3), "collisions": (0, 0)},
