@@ -36,6 +36,7 @@ QUALITY = {  # the test's metrics, per env: (curve column, label)
         ("eval_stimuli", "stimuli reached (of 10)"),
         ("eval_stimulus_misses", "missed stimuli"),
         ("eval_collisions", "collisions"),
+        ("eval_longitudinal_deviation_mean_m", "band deviation m (mean)"),
     ],
 }
 
@@ -60,8 +61,9 @@ def plot(runs: list[Path], out: Path) -> Path:
         ax.set_xlabel("training wall time (min)")
         ax.set_xlim(left=0)
         ax.set_ylabel("episode return", color="tab:blue")
+        ax.set_ylim(bottom=min(0.0, *(r["eval_return"] for r in rows)), top=max(1.0, *(r["eval_return"] for r in rows)) * 1.05)
         twin = ax.twinx()
-        styles = (("s--", "tab:orange"), ("^:", "tab:green"), ("v-.", "tab:red"))
+        styles = (("s--", "tab:orange"), ("^:", "tab:green"), ("v-.", "tab:red"), ("D--", "tab:purple"))
         for (column, label), (style, color) in zip(QUALITY.get(str(metrics.get("env")), []), styles, strict=False):
             twin.plot(minutes, [r.get(column, math.nan) for r in rows], style, color=color, label=label)
         twin.legend(fontsize=7, loc="center right")
