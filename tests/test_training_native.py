@@ -182,3 +182,25 @@ def test_warm_start_errors_name_the_key(tmp_path: Path) -> None:
     cfg, base = _config(tmp_path, WARM, warm_start={"noise": -0.1})
     with pytest.raises(ValueError, match="warm_start: noise must be >= 0"):
         train(cfg, base, tmp_path / "y")
+
+
+def test_time_to_quality_plot_draws_the_shipped_native_runs(tmp_path: Path) -> None:
+    """agents/plot_time_to_quality.py (docs/training.md's figure) draws one panel per shipped
+    native run and names the curve that has no evaluations with training time."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    script = str(root / "agents" / "plot_time_to_quality.py")
+    runs = [str(root / "agents" / "policies" / n) for n in ("lct_ppo", "platoon_ppo", "brake_ppo")]
+    done = subprocess.run([sys.executable, script, *runs, "--out", str(tmp_path / "t.png")], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    from PIL import Image
+
+    with Image.open(tmp_path / "t.png") as img:
+        assert img.size[0] >= 3 * 400  # a panel per run
+    sb3 = tmp_path / "sb3_run"
+    sb3.mkdir()
+    (sb3 / "curve.csv").write_text("steps,mean_return_last_10\n8192,1.0\n", encoding="utf-8")
+    done = subprocess.run([sys.executable, script, str(sb3), "--out", str(tmp_path / "x.png")], capture_output=True, text=True, timeout=120)
+    assert done.returncode != 0 and "sb3_run/curve.csv: no evaluations with train_s" in done.stderr
