@@ -182,6 +182,8 @@ def test_warm_start_errors_name_the_key(tmp_path: Path) -> None:
     cfg, base = _config(tmp_path, WARM, warm_start={"noise": -0.1})
     with pytest.raises(ValueError, match="warm_start: noise must be >= 0"):
         train(cfg, base, tmp_path / "y")
+    with pytest.raises(ValueError, match=r"quick\.yaml: warm_start needs vec_env native .* not vec_env 'dummy'"):
+        _config(tmp_path, WARM, vec_env="dummy")
 
 
 def test_time_to_quality_plot_draws_the_shipped_native_runs(tmp_path: Path) -> None:
