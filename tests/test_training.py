@@ -201,7 +201,7 @@ RETRAINED = {"lct_ppo", "platoon_ppo", "brake_ppo"}  # on OpenDS's car
 @pytest.mark.parametrize("name", [pytest.param(n, marks=() if n in RETRAINED else _STALE) for n in sorted(SHIPPED)])
 def test_shipped_policy_passes_its_test(name: str, capsys: pytest.CaptureFixture[str]) -> None:
     """The baselines in agents/policies drive their test through `--agent ppo:PATH` (or
-    `sac:PATH`); a sampling policy (brake_ppo's model.policy.json) repeats exactly per seed."""
+    `sac:PATH`); brake_ppo's drive repeats exactly for its seed."""
     env_id, required = SHIPPED[name]
     model = ROOT / "agents" / "policies" / name / "model.zip"
     algorithm = json.loads((model.parent / "metrics.json").read_text(encoding="utf-8"))["algorithm"]

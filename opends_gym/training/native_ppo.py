@@ -26,6 +26,11 @@ them), `curve.csv` (per rollout: env steps, wall seconds with and without the ev
 mean return of the last 10 episodes, and the evaluation's metrics where one ran),
 `evaluations.npz` (as SB3's EvalCallback writes it), `metrics.json` (the final evaluation).
 
+`warm_start:` in the config clones a driver into the policy before PPO (behaviour cloning
+with DAgger, `training.warm_start`; the curve's row at step 0 scores the clone), and
+`value_warmup` rollouts then train only the value function: from a random policy PPO
+settled on stopping the car in the brake and platoon tests.
+
 `stop_at` in the config (metric: [low, high], e.g. lane_changes_correct: [18, 18]) ends
 the run at the first evaluation whose mean metrics are all within bounds; that checkpoint
 is the run's `model.zip`.
