@@ -4,8 +4,10 @@
 seconds of training (`train_s`, evaluations excluded) and, at each evaluation, the
 evaluation episode's metrics (`eval_*`). This draws, per run folder, the evaluation return
 over training minutes, and the quality metric of its test (LCT: correct lane changes of
-18 and MDEV; brake and platoon: missed stimuli and collisions), marking where the run met its
-config's `stop_at` bar (`metrics.json` `stopped_at`).
+18 and MDEV; brake: brake signs obeyed, missed stimuli and collisions; platoon: stimuli
+reached, missed and collisions), marking where the run met its config's `stop_at` bar
+(`metrics.json` `stopped_at`). A run warm-started by cloning a driver (`warm_start:`) has a
+first evaluation at step 0: the clone, after the wall time the cloning took.
 
     python agents/plot_time_to_quality.py RUN_DIR [RUN_DIR ...] --out docs/images/time_to_quality.png
 """
@@ -25,8 +27,17 @@ import matplotlib.pyplot as plt
 
 QUALITY = {  # the test's metrics, per env: (curve column, label)
     "OpenDS/LaneChangeTest-v0": [("eval_lane_changes_correct", "correct lane changes (of 18)"), ("eval_mdev_basic_m", "MDEV m")],
-    "OpenDS/BrakeReaction-v0": [("eval_stimulus_misses", "missed stimuli"), ("eval_collisions", "collisions")],
-    "OpenDS/ThreeVehiclePlatoon-v0": [("eval_stimulus_misses", "missed stimuli"), ("eval_collisions", "collisions")],
+    "OpenDS/BrakeReaction-v0": [
+        ("eval_BrakeSign_correct", "brake signs obeyed (of 3)"),
+        ("eval_stimulus_misses", "missed stimuli"),
+        ("eval_collisions", "collisions"),
+    ],
+    "OpenDS/ThreeVehiclePlatoon-v0": [
+        ("eval_stimuli", "stimuli reached (of 10)"),
+        ("eval_stimulus_misses", "missed stimuli"),
+        ("eval_collisions", "collisions"),
+        ("eval_longitudinal_deviation_mean_m", "band deviation m (mean)"),
+    ],
 }
 
 
@@ -48,10 +59,13 @@ def plot(runs: list[Path], out: Path) -> Path:
         minutes = [r["train_s"] / 60 for r in rows]
         ax.plot(minutes, [r["eval_return"] for r in rows], "o-", color="tab:blue", label="evaluation return")
         ax.set_xlabel("training wall time (min)")
+        ax.set_xlim(left=0)
         ax.set_ylabel("episode return", color="tab:blue")
+        ax.set_ylim(bottom=min(0.0, *(r["eval_return"] for r in rows)), top=max(1.0, *(r["eval_return"] for r in rows)) * 1.05)
         twin = ax.twinx()
-        for (column, label), style in zip(QUALITY.get(str(metrics.get("env")), []), ("s--", "^:"), strict=False):
-            twin.plot(minutes, [r.get(column, math.nan) for r in rows], style, label=label)
+        styles = (("s--", "tab:orange"), ("^:", "tab:green"), ("v-.", "tab:red"), ("D--", "tab:purple"))
+        for (column, label), (style, color) in zip(QUALITY.get(str(metrics.get("env")), []), styles, strict=False):
+            twin.plot(minutes, [r.get(column, math.nan) for r in rows], style, color=color, label=label)
         twin.legend(fontsize=7, loc="center right")
         stopped = metrics.get("stopped_at")
         title = run.name + (f": bar met at {rows[-1]['train_s'] / 60:.1f} min" if stopped else "")

@@ -134,3 +134,75 @@ def test_a_native_run_resumes_with_its_normaliser(native_run: Path, tmp_path: Pa
         assert pickle.load(f).obs_rms.count > before  # the saved statistics, carried on
     with pytest.raises(ValueError, match="nothing to resume"):
         train(cfg, base, tmp_path / "bad", resume=tmp_path)
+
+
+BRAKE = {"stimuli": 2, "lead_in_m": 100, "lead_out_m": 100, "policy_hz": 5}
+WARM = f"""
+env: OpenDS/BrakeReaction-v0
+env_kwargs: {json.dumps(BRAKE)}
+vec_env: native
+total_steps: 1024
+n_envs: 16
+policy_kwargs: {{net_arch: [32, 32]}}
+warm_start: {{episodes: 2, dagger: 2, epochs: 20, noise: [0.01, 0.1], log_std: [-4.6, -2.3]}}
+hyperparameters: {{n_steps: 32, batch_size: 256, n_epochs: 2, value_warmup: 2}}
+checkpoint_every_steps: 512
+eval_every_steps: 512
+eval_episodes: 1
+progress_bar: false
+"""
+
+
+def test_a_warm_start_clones_the_rule_driver_and_value_warmup_keeps_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`warm_start:` clones the rule driver before PPO (the curve's row at step 0 scores the
+    clone); during `value_warmup` rollouts only the value function learns, so the policy
+    drives as the clone did; the clone answers the brake test's stimuli as the driver does."""
+    cfg, base = _config(tmp_path, WARM)
+    metrics = train(cfg, base, tmp_path / "run")
+    rows = list(csv.DictReader((tmp_path / "run" / "curve.csv").open(encoding="utf-8")))
+    assert [int(r["steps"]) for r in rows] == [0, 512, 1024]
+    assert int(rows[0]["warm_start_steps"]) > 100 and float(rows[0]["warm_start_loss"]) < 0.05
+    assert len({r["eval_return"] for r in rows}) == 1  # value-only rollouts left the policy alone
+    assert rows[0]["eval_stimulus_misses"] == "0.0" and rows[0]["eval_collisions"] == "0.0"
+    assert cli(["run", "OpenDS/BrakeReaction-v0", "--agent", "rule", "--json", "--episodes", "1", "--seed", "1000"]
+               + [a for k, v in BRAKE.items() for a in ("--env-arg", f"{k}={v}")]) == 0  # fmt: skip
+    rule = json.loads(capsys.readouterr().out)["episodes"][0]
+    assert metrics["mean"]["stimuli"] == rule["stimuli"] == 2  # (a clone of 1 drive + 1 DAgger round stopped after 300 m)
+    assert metrics["mean"]["distance_m"] == pytest.approx(rule["distance_m"], rel=0.05)  # to the end of the track
+    from stable_baselines3 import PPO
+
+    log_std = PPO.load(str(tmp_path / "run" / "model.zip")).policy.log_std.detach().numpy()
+    assert np.allclose(log_std, [-4.6, -2.3])  # the exploration noise the config set after cloning
+
+
+def test_warm_start_errors_name_the_key(tmp_path: Path) -> None:
+    cfg, base = _config(tmp_path, WARM, warm_start={"episodez": 1})
+    with pytest.raises(ValueError, match=r"warm_start: unknown key\(s\) episodez; valid keys: .*episodes"):
+        train(cfg, base, tmp_path / "x")
+    cfg, base = _config(tmp_path, WARM, warm_start={"noise": -0.1})
+    with pytest.raises(ValueError, match="warm_start: noise must be >= 0"):
+        train(cfg, base, tmp_path / "y")
+    with pytest.raises(ValueError, match=r"quick\.yaml: warm_start needs vec_env native .* not vec_env 'dummy'"):
+        _config(tmp_path, WARM, vec_env="dummy")
+
+
+def test_time_to_quality_plot_draws_the_shipped_native_runs(tmp_path: Path) -> None:
+    """agents/plot_time_to_quality.py (docs/training.md's figure) draws one panel per shipped
+    native run and names the curve that has no evaluations with training time."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    script = str(root / "agents" / "plot_time_to_quality.py")
+    runs = [str(root / "agents" / "policies" / n) for n in ("lct_ppo", "platoon_ppo", "brake_ppo")]
+    done = subprocess.run([sys.executable, script, *runs, "--out", str(tmp_path / "t.png")], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    from PIL import Image
+
+    with Image.open(tmp_path / "t.png") as img:
+        assert img.size[0] >= 3 * 400  # a panel per run
+    sb3 = tmp_path / "sb3_run"
+    sb3.mkdir()
+    (sb3 / "curve.csv").write_text("steps,mean_return_last_10\n8192,1.0\n", encoding="utf-8")
+    done = subprocess.run([sys.executable, script, str(sb3), "--out", str(tmp_path / "x.png")], capture_output=True, text=True, timeout=120)
+    assert done.returncode != 0 and "sb3_run/curve.csv: no evaluations with train_s" in done.stderr

@@ -45,6 +45,7 @@ class TrainConfig:
     stop_at: dict[str, list[float]] = field(
         default_factory=dict
     )  # vec_env native: metric -> [low, high] of an evaluation that ends the run
+    warm_start: dict[str, Any] = field(default_factory=dict)  # vec_env native: clone a driver first (training.warm_start)
     rllib: dict[str, Any] = field(default_factory=dict)  # framework rllib: num_env_runners, iterations, train_batch_size, ...
     name: str = ""
 
@@ -58,6 +59,8 @@ class TrainConfig:
         for metric, bounds in self.stop_at.items():
             if not (isinstance(bounds, list | tuple) and len(bounds) == 2 and all(isinstance(b, int | float) for b in bounds)):
                 raise ValueError(f"stop_at: {metric} needs [low, high], not {bounds!r}")
+        if self.warm_start and self.framework == "sb3" and self.vec_env != "native":
+            raise ValueError(f"warm_start needs vec_env native (the native PPO trainer), not vec_env {self.vec_env!r}")
         for key in ("total_steps", "n_envs", "checkpoint_every_steps", "eval_every_steps"):
             if int(getattr(self, key)) <= 0:
                 raise ValueError(f"{key} must be positive")

@@ -26,6 +26,11 @@ them), `curve.csv` (per rollout: env steps, wall seconds with and without the ev
 mean return of the last 10 episodes, and the evaluation's metrics where one ran),
 `evaluations.npz` (as SB3's EvalCallback writes it), `metrics.json` (the final evaluation).
 
+`warm_start:` in the config clones a driver into the policy before PPO (behaviour cloning
+with DAgger, `training.warm_start`; the curve's row at step 0 scores the clone), and
+`value_warmup` rollouts then train only the value function: from a random policy PPO
+settled on stopping the car in the brake and platoon tests.
+
 `stop_at` in the config (metric: [low, high], e.g. lane_changes_correct: [18, 18]) ends
 the run at the first evaluation whose mean metrics are all within bounds; that checkpoint
 is the run's `model.zip`.
@@ -48,6 +53,7 @@ import numpy as np
 from ..extras import require
 from ..jsonsafe import json_safe
 from .config import TrainConfig
+from .warm_start import WarmStart, clone, demonstrations
 
 Progress = Callable[[int, str], None]  # (env steps done of total_steps, a note: the last returns)
 
@@ -69,6 +75,7 @@ class NativePpoSettings:
     target_kl: float | None = None  # stop an update's epochs once the KL estimate passes it
     anneal_lr: bool = True  # linearly to 0 over total_steps
     desync: bool = True  # spread the envs over the episode before training (see `desync`)
+    value_warmup: int = 0  # first rollouts that train only the value function (after a warm start)
     torch_threads: int = 1
 
     @staticmethod
@@ -82,6 +89,8 @@ class NativePpoSettings:
         for key in ("n_steps", "batch_size", "n_epochs", "torch_threads"):
             if int(getattr(s, key)) <= 0:
                 raise ValueError(f"{path_hint}hyperparameters: {key} must be positive, not {getattr(s, key)!r}")
+        if int(s.value_warmup) < 0:
+            raise ValueError(f"{path_hint}hyperparameters: value_warmup must be >= 0, not {s.value_warmup!r}")
         return s
 
 
@@ -146,6 +155,7 @@ def train(
     if cfg.algorithm != "ppo":
         raise ValueError(f"vec_env native trains algorithm 'ppo', not {cfg.algorithm!r}")
     s = NativePpoSettings.from_block("", dict(cfg.hyperparameters))
+    warm = WarmStart.from_block("", dict(cfg.warm_start)) if cfg.warm_start and resume is None else None
     score = evaluate or (lambda c, model: evaluate_policy_file(c, model, episodes=c.eval_episodes))
     out = out_dir or cfg.output_dir(base_dir)
     (out / "checkpoints").mkdir(parents=True, exist_ok=True)
@@ -168,7 +178,11 @@ def train(
         else:
             model = PPO(cfg.policy, stub, n_steps=2, batch_size=2, seed=cfg.seed, policy_kwargs=dict(cfg.policy_kwargs), device="cpu")
             norm = _normalizer(stub, s.gamma, cfg.normalize_observations, cfg.normalize_rewards)
-        return _Run(cfg, s, envs, model, norm, out, progress, score).learn()
+        run = _Run(cfg, s, envs, model, norm, out, progress, score, time.perf_counter())
+        run.frozen_obs = bool(cfg.warm_start)  # (a resumed warm-started run keeps the clone's scale too)
+        if warm is not None:
+            run.warm_start(warm)
+        return run.learn()
     finally:
         envs.close()
         torch.set_num_threads(threads)
@@ -225,7 +239,16 @@ class _Run:
     """One training run's state: rollouts, updates, checkpoints, the curve."""
 
     def __init__(
-        self, cfg: TrainConfig, s: NativePpoSettings, envs: Any, model: Any, norm: Any, out: Path, progress: Progress | None, score: Any
+        self,
+        cfg: TrainConfig,
+        s: NativePpoSettings,
+        envs: Any,
+        model: Any,
+        norm: Any,
+        out: Path,
+        progress: Progress | None,
+        score: Any,
+        t0: float,
     ) -> None:
         import torch
 
@@ -240,18 +263,19 @@ class _Run:
         self.start_steps = int(model.num_timesteps)
         self.episode_returns: list[float] = []
         self.curve: list[dict[str, Any]] = []
-        self.t0 = time.perf_counter()
+        self.t0 = t0  # (before the warm start: its time counts)
         self.update_s = 0.0  # of which in the policy updates
         self.eval_s = 0.0
         self.evaluations: list[tuple[int, list[float]]] = []
         self.last_metrics: dict[str, Any] = {}
         self.stopped_at: int | None = None
+        self.frozen_obs = False  # after a warm start: the clone's inputs keep their scale
         self.eval_note = ""  # wall time spent evaluating checkpoints (in wall_s, not in train_s)
 
     # ---------------------------------------------------------------- helpers
     def _obs(self, obs: np.ndarray, update: bool) -> np.ndarray:
         if self.cfg.normalize_observations:
-            if update:
+            if update and not self.frozen_obs:
                 self.norm.obs_rms.update(obs)
             rms, clip = self.norm.obs_rms, self.norm.clip_obs
             obs = np.clip((obs - rms.mean) / np.sqrt(rms.var + self.norm.epsilon), -clip, clip)
@@ -264,11 +288,43 @@ class _Run:
             actions, values, log_prob = self.policy(torch.as_tensor(obs))
         return actions.numpy(), values.flatten().numpy(), log_prob.numpy()
 
+    def _mean_action(self, raw_obs: np.ndarray) -> np.ndarray:
+        import torch
+
+        with torch.no_grad():
+            return self.policy._predict(torch.as_tensor(self._obs(raw_obs[None], update=False)), deterministic=True).numpy()[0]  # type: ignore[no-any-return]
+
     def _value(self, obs: np.ndarray) -> np.ndarray:
         import torch
 
         with torch.no_grad():
             return self.policy.predict_values(torch.as_tensor(obs)).flatten().numpy()  # type: ignore[no-any-return]
+
+    def warm_start(self, w: WarmStart) -> None:
+        """Clone `w.driver` into the policy (`training.warm_start`) and score the clone: the
+        curve's first row (steps 0)."""
+        cfg = self.cfg
+        env_id = cfg.env.split(":", 1)[-1]
+        obs, actions, returns = demonstrations(env_id, dict(cfg.env_kwargs), w, cfg.seed)
+        first_return = float(np.mean(returns))
+        for r in range(w.dagger + 1):
+            if r > 0:  # DAgger: the clone drives, the driver labels what it sees
+                more_obs, more_actions, returns = demonstrations(env_id, dict(cfg.env_kwargs), w, cfg.seed + 100 * r, act=self._mean_action)
+                obs, actions = np.concatenate([obs, more_obs]), np.concatenate([actions, more_actions])
+            if cfg.normalize_observations and r == 0:
+                self.norm.obs_rms.update(obs)
+            loss = clone(self.policy, self._obs(obs, update=False), actions, w, cfg.seed + r)
+        self.frozen_obs = True
+        checkpoint = self.out / "checkpoints" / f"model_{self.model.num_timesteps}_steps.zip"
+        self._save(checkpoint, checkpoint=True)
+        wall = time.perf_counter() - self.t0
+        row: dict[str, Any] = {"steps": self.model.num_timesteps, "wall_s": round(wall, 2), "train_s": round(wall, 2), "update_s": 0.0}
+        row.update(mean_return_last_10=first_return, warm_start_steps=len(obs), warm_start_clone_return=float(np.mean(returns)))
+        row["warm_start_loss"] = round(loss, 5)
+        row.update(self._evaluate(checkpoint))
+        row["wall_s"] = round(time.perf_counter() - self.t0, 2)
+        self.curve.append(row)
+        self._write_curve()
 
     # ---------------------------------------------------------------- loop
     def learn(self) -> dict[str, Any]:
@@ -315,7 +371,7 @@ class _Run:
             b_val[s.n_steps] = self._value(obs)
             adv, ret = gae(b_rew, b_val, b_term, b_end, s.gamma, s.gae_lambda)
             started = time.perf_counter()
-            self._update(b_obs[b_valid], b_act[b_valid], b_logp[b_valid], adv[b_valid], ret[b_valid])
+            self._update(b_obs[b_valid], b_act[b_valid], b_logp[b_valid], adv[b_valid], ret[b_valid], policy=k >= s.value_warmup)
             self.update_s += time.perf_counter() - started
             done_steps += per_rollout
             self.model.num_timesteps = self.start_steps + done_steps
@@ -364,7 +420,8 @@ class _Run:
         bounds = self.cfg.stop_at
         return bool(bounds) and all(low <= row.get(f"eval_{k}", math.nan) <= high for k, (low, high) in bounds.items())
 
-    def _update(self, obs: np.ndarray, act: np.ndarray, logp: np.ndarray, adv: np.ndarray, ret: np.ndarray) -> None:
+    def _update(self, obs: np.ndarray, act: np.ndarray, logp: np.ndarray, adv: np.ndarray, ret: np.ndarray, policy: bool = True) -> None:
+        """PPO's clipped update; with `policy` false only the value function learns."""
         import torch
 
         s = self.s
@@ -385,7 +442,7 @@ class _Run:
                 policy_loss = -torch.min(a * ratio, a * torch.clamp(ratio, 1 - s.clip_range, 1 + s.clip_range)).mean()
                 value_loss = torch.nn.functional.mse_loss(t_ret[idx], values.flatten())
                 entropy_loss = -torch.mean(entropy) if entropy is not None else -torch.mean(-log_prob)
-                loss = policy_loss + s.ent_coef * entropy_loss + s.vf_coef * value_loss
+                loss = policy_loss + s.ent_coef * entropy_loss + s.vf_coef * value_loss if policy else s.vf_coef * value_loss
                 self.optimizer.zero_grad()
                 loss.backward()
                 torch.nn.utils.clip_grad_norm_(self.policy.parameters(), s.max_grad_norm)
