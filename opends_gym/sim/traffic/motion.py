@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 
-from ...jit import inline, kernel
+from ...jit import borrowing_kernel, inline, kernel
 from ..ego.spec import MAX_WHEEL_ANGLE_RAD
 from . import state as ts
 from .paths import PF_DX, PF_DY, PF_DZ, PF_LEN, PF_OK, PF_S, PF_X, PF_Y, PF_YAW, PF_Z, PI_FIRST, PI_LAST_PIECE, PP_LEN, PP_OFF, piece_at
@@ -518,8 +518,18 @@ def step_objects(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, e
     objects left for Python, flagged, or advance_carrots' negative code; lights passed); the
     second is -1 when the step stopped for Python (waits over, legs ended that need it)."""
     n = f.shape[1]
+    return _step_world(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, t_now, ego, dt, work, flags, stop_mask, brake_light,
+                       turn_signal, net, quiet_cars, np.ones(n, dtype=np.bool_))  # fmt: skip
+
+
+@borrowing_kernel
+def _step_world(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray,
+                ext_cmd: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, t_now: np.ndarray, ego: np.ndarray,
+                dt: float, work: np.ndarray, flags: np.ndarray, stop_mask: np.ndarray, brake_light: np.ndarray, turn_signal: np.ndarray,
+                net: np.ndarray, quiet_cars: np.ndarray, active: np.ndarray) -> tuple[int, int]:  # fmt: skip
+    n = f.shape[1]
     return step_rows(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, t_now, ego, dt, work, flags, stop_mask, brake_light,
-                     turn_signal, net, quiet_cars, n if n > 0 else 1, np.ones(n, dtype=np.bool_), 0, n)  # fmt: skip
+                     turn_signal, net, quiet_cars, n if n > 0 else 1, active, 0, n)  # fmt: skip
 
 
 @inline
