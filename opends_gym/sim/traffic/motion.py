@@ -195,41 +195,36 @@ def _move(x: float, z: float, yaw: float, steer: float, v_new: float, dt: float)
 
 
 @inline
-def _carrots(f: np.ndarray, i: np.ndarray, pos: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, work: np.ndarray,
-             flags: np.ndarray, which: int, lo: int, hi: int) -> None:  # fmt: skip
-    """The carrots' points on their paths, and their angles and distances from their objects,
-    for the objects lo..hi-1 with a `flags` bit of `which` (LIVE: all that move)."""
-    # (`paths.sample_point` written out, and the kept sine and cosine of the yaw: an inlined
-    # helper that takes arrays updates their reference counts at every call, which costs more
-    # than the lookup)
-    for k in range(lo, hi):
-        if flags[k] & which:
-            pid = i[ts.I_PID, k]
-            s, hint = f[ts.F_S, k], int(work[W_HINT, k])
-            length = pp[PP_LEN, pid]
-            g = pp[PP_OFF, pid] + ((s if s > 0.0 else 0.0) if s < length else length)
-            first, last = pi[PI_FIRST, pid], pi[PI_LAST_PIECE, pid] + 1
-            if first <= hint < last and pf[PF_S, hint] <= g < pf[PF_S, hint + 1]:
-                p = hint
-            elif first <= hint < last - 1 and pf[PF_S, hint + 1] <= g < pf[PF_S, hint + 2]:
-                p = hint + 1
-            else:
-                p = piece_at(pf, first, last, g)
-            p = p if p < last - 1 else last - 1
-            u = (g - pf[PF_S, p]) / pf[PF_LEN, p] if pf[PF_OK, p] != 0.0 else 0.0
-            cx, cz = pf[PF_X, p] + u * pf[PF_DX, p], pf[PF_Z, p] + u * pf[PF_DZ, p]
-            work[W_HINT, k] = p
-            work[W_CX, k], work[W_CY, k], work[W_CZ, k], work[W_CYAW, k] = cx, pf[PF_Y, p] + u * pf[PF_DY, p], cz, pf[PF_YAW, p]
-            yaw = f[ts.F_YAW, k]
-            if work[W_TRIG_OK, k] != 0.0 and yaw != 0.0 and work[W_TRIG_YAW, k] == yaw:
-                sin_yaw, cos_yaw = work[W_SIN, k], work[W_COS, k]
-            else:
-                sin_yaw, cos_yaw = math.sin(yaw), math.cos(yaw)
-                work[W_SIN, k], work[W_COS, k], work[W_TRIG_YAW, k], work[W_TRIG_OK, k] = sin_yaw, cos_yaw, yaw, 1.0
-            work[W_ANG, k], work[W_D, k] = _aim(cx, cz, pos[k, 0], pos[k, 2], sin_yaw, cos_yaw)
+def _carrot(f: np.ndarray, i: np.ndarray, pos: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, work: np.ndarray,
+            k: int) -> None:  # fmt: skip
+    """Object k's carrot: its point on its path (`paths.sample_point`, written out), and its
+    angle and distance from the object (with the kept sine and cosine of the object's yaw)."""
+    pid = i[ts.I_PID, k]
+    s, hint = f[ts.F_S, k], int(work[W_HINT, k])
+    length = pp[PP_LEN, pid]
+    g = pp[PP_OFF, pid] + ((s if s > 0.0 else 0.0) if s < length else length)
+    first, last = pi[PI_FIRST, pid], pi[PI_LAST_PIECE, pid] + 1
+    if first <= hint < last and pf[PF_S, hint] <= g < pf[PF_S, hint + 1]:
+        p = hint
+    elif first <= hint < last - 1 and pf[PF_S, hint + 1] <= g < pf[PF_S, hint + 2]:
+        p = hint + 1
+    else:
+        p = piece_at(pf, first, last, g)
+    p = p if p < last - 1 else last - 1
+    u = (g - pf[PF_S, p]) / pf[PF_LEN, p] if pf[PF_OK, p] != 0.0 else 0.0
+    cx, cz = pf[PF_X, p] + u * pf[PF_DX, p], pf[PF_Z, p] + u * pf[PF_DZ, p]
+    work[W_HINT, k] = p
+    work[W_CX, k], work[W_CY, k], work[W_CZ, k], work[W_CYAW, k] = cx, pf[PF_Y, p] + u * pf[PF_DY, p], cz, pf[PF_YAW, p]
+    yaw = f[ts.F_YAW, k]
+    if work[W_TRIG_OK, k] != 0.0 and yaw != 0.0 and work[W_TRIG_YAW, k] == yaw:
+        sin_yaw, cos_yaw = work[W_SIN, k], work[W_COS, k]
+    else:
+        sin_yaw, cos_yaw = math.sin(yaw), math.cos(yaw)
+        work[W_SIN, k], work[W_COS, k], work[W_TRIG_YAW, k], work[W_TRIG_OK, k] = sin_yaw, cos_yaw, yaw, 1.0
+    work[W_ANG, k], work[W_D, k] = _aim(cx, cz, pos[k, 0], pos[k, 2], sin_yaw, cos_yaw)
 
 
-@kernel
+@borrowing_kernel
 def advance_carrots(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray,
                     pi: np.ndarray, group: int, active: np.ndarray, t_group: np.ndarray, dt: float, work: np.ndarray,
                     flags: np.ndarray) -> int:  # fmt: skip
@@ -261,11 +256,11 @@ def _advance_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, 
         return NOTHING_LIVE
     if waits:
         return WAITS_OVER
-    _carrots(f, i, pos, pf, pp, pi, work, flags, LIVE, lo, hi)
     arrived = 0
     for k in range(lo, hi):
         if not flags[k] & LIVE:
             continue
+        _carrot(f, i, pos, pf, pp, pi, work, k)
         is_car, span_ok = sp[ts.S_IS_CAR, k] != 0.0, sp[ts.S_SPAN_OK, k] != 0.0
         d_lo, d_hi, span, cap = sp[ts.S_MIN_DIST, k], sp[ts.S_MAX_DIST, k], sp[ts.S_SPAN_SAFE, k], sp[ts.S_MAX_SPEED, k]
         cv = _carrot_speed(work[W_D, k], work[W_ANG, k], d_lo, d_hi, span_ok, span, is_car, f[ts.F_SPEED, k], f[ts.F_V_LEG, k], cap)
@@ -279,7 +274,7 @@ def _advance_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, 
     return arrived
 
 
-@kernel
+@borrowing_kernel
 def continue_on_network(f: np.ndarray, i: np.ndarray, b: np.ndarray, end_xz: np.ndarray, net: np.ndarray, quiet_cars: np.ndarray,
                         flags: np.ndarray) -> int:  # fmt: skip
     """Cars flagged ARRIVED that `quiet_cars` marks (road-network cars with no preferred
@@ -401,7 +396,7 @@ def _obstacles(f: np.ndarray, b: np.ndarray, pos: np.ndarray, group: int, active
             b[ts.B_BLOCKED, k] = hit
 
 
-@kernel
+@borrowing_kernel
 def drive(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray, ext_cmd: np.ndarray,
           sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, group: int, active: np.ndarray, ego: np.ndarray, dt: float,
           work: np.ndarray, flags: np.ndarray, resample: bool, stop_mask: np.ndarray) -> int:  # fmt: skip
@@ -424,25 +419,20 @@ def _drive_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, en
                 ego: np.ndarray, dt: float, work: np.ndarray, flags: np.ndarray, resample: bool, stop_mask: np.ndarray, lo: int,
                 hi: int) -> int:  # fmt: skip
     """`drive` for the objects lo..hi-1 (whole worlds)."""
-    if resample:
-        _carrots(f, i, pos, pf, pp, pi, work, flags, LIVE, lo, hi)
     any_car = False
-    for k in range(lo, hi):
+    for k in range(lo, hi):  # speed wishes, safety distances and headings, before anything moves
         if not flags[k] & LIVE:
             continue
-        if sp[ts.S_IS_CAR, k] != 0.0:
-            flags[k] |= CAR
-            any_car = True
-        else:  # a pedestrian stands on its carrot
+        if resample:
+            _carrot(f, i, pos, pf, pp, pi, work, k)
+        if sp[ts.S_IS_CAR, k] == 0.0:  # a pedestrian stands on its carrot
             pos[k, 0], pos[k, 1], pos[k, 2] = work[W_CX, k], work[W_CY, k], work[W_CZ, k]
             f[ts.F_YAW, k] = work[W_CYAW, k]
             go = flags[k] & MOVING and not b[ts.B_HALTED, k] and math.isnan(f[ts.F_WAIT_UNTIL, k])
             f[ts.F_SPEED, k] = work[W_CV, k] if go else 0.0
-    if not any_car:
-        return 0
-    for k in range(lo, hi):  # speed wishes, safety distances and headings, before anything moves
-        if not flags[k] & CAR:
             continue
+        flags[k] |= CAR
+        any_car = True
         stopped = b[ts.B_HALTED, k] or not math.isnan(f[ts.F_WAIT_UNTIL, k])
         to_end = f[ts.F_LEG_END, k] - (f[ts.F_S, k] - work[W_D, k])  # from the car (about d behind its carrot)
         vt = _target_speed(f[ts.F_V_LEG, k], sp[ts.S_MAX_SPEED, k], to_end, f[ts.F_V_NEXT, k], sp[ts.S_DEC_BRAKE, k],
@@ -452,7 +442,7 @@ def _drive_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, en
         # forward safety distance: max(minForward, 0.5 x speed in km/h), or minForward alone
         by_speed = 1.8 * f[ts.F_SPEED, k] if b[ts.B_SPEED_DEP, k] else 0.0
         work[W_FSAFE, k] = by_speed if by_speed > f[ts.F_MIN_FWD, k] else f[ts.F_MIN_FWD, k]
-        fx, fz = -work[W_SIN, k], -work[W_COS, k]  # (of this yaw: `_carrots` took them this step)
+        fx, fz = -work[W_SIN, k], -work[W_COS, k]  # (of this yaw: `_carrot` took them this step)
         ux, uz = end_xz[k, 0] - pos[k, 0], end_xz[k, 1] - pos[k, 2]
         un = _dist(ux, uz)
         if un > 1e-6:
@@ -461,6 +451,8 @@ def _drive_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, en
         else:
             ux, uz = fx, fz
         work[W_FX, k], work[W_FZ, k], work[W_UX, k], work[W_UZ, k] = fx, fz, ux, uz
+    if not any_car:
+        return 0
     _obstacles(f, b, pos, group, active, ego, work, flags, lo, hi)
     passed = 0
     for k in range(lo, hi):
@@ -493,7 +485,7 @@ def _drive_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, en
     return passed
 
 
-@kernel
+@borrowing_kernel
 def outputs(i: np.ndarray, b: np.ndarray, brake_light: np.ndarray, turn_signal: np.ndarray) -> None:
     """Brake lights and turn signals: an override, else the path's setting, else braking."""
     _outputs_rows(i, b, brake_light, turn_signal, 0, i.shape[1])
