@@ -291,6 +291,16 @@ def parallel_kernel(fn: F) -> F:
     return cast(F, njit(cache=True, nogil=True, parallel=True)(fn))
 
 
+def borrowing_kernel(fn: F) -> F:
+    """A `kernel` compiled without numba's reference counting (`_nrt=False`), for the hottest
+    loops: every inlined helper that takes arrays otherwise updates their reference counts
+    (atomic operations) at each call, ~15 % of the traffic step's time. Such a kernel must not
+    allocate (no `np.empty`, no array-returning numpy call); the arrays it indexes are its
+    arguments, which its caller keeps alive."""
+    options: dict[str, Any] = {"cache": True, "nogil": True, "_nrt": False}  # (`_nrt`: numba's own option, not in its stubs)
+    return cast(F, _background(njit(**options)(fn)))
+
+
 def inline(fn: F) -> F:
     """A `kernel` that is inlined into the kernels calling it: a call between compiled
     functions passes every array as a struct of seven words and updates its reference count,

@@ -84,6 +84,7 @@ class NetTraffic(FlatTraffic):
         self.brake = np.zeros(n * self.c, dtype=bool)
         self.turn = np.zeros(n * self.c, dtype=np.int64)
         self.all_rows = np.ones(self.c, dtype=bool)
+        self.car_rows = np.ones(n * self.c, dtype=bool)
         self.parallel = n > CHUNK_ENVS
         self.half = np.tile(tm.half_extents, (n, 1))
         self.ego_length = ego_length_m
@@ -105,7 +106,8 @@ class NetTraffic(FlatTraffic):
         t = np.ascontiguousarray(t_env, dtype=np.float64)
         self.ego[0], self.ego[1] = ex, ez
         args = (st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, self.sp.packed, pf, pp, pi, t, self.ego, dt, self.work,
-                self.flags, self.no_lights, self.brake, self.turn, self.net, self.quiet, c, live_env, self.codes)  # fmt: skip
+                self.flags, self.no_lights, self.brake, self.turn, self.net, self.quiet, c, live_env, self.codes,
+                self.car_rows)  # fmt: skip
         left = step_worlds(*args) if self.parallel else _worlds_range(0, self.n, *args)
         if left:
             for w in np.flatnonzero((self.codes != 0) & (self.codes != NOTHING_LIVE)).tolist():

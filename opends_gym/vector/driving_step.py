@@ -16,20 +16,22 @@ import math
 import numpy as np
 from numba import prange
 
-from ..jit import kernel, parallel_kernel
+from ..jit import borrowing_kernel, kernel, parallel_kernel
 from ..sim.geometry2d import boxes_overlap
-from ..sim.traffic.motion import NOTHING_LIVE, step_objects
+from ..sim.traffic.motion import NOTHING_LIVE, step_rows
 from .kernels import chunk_count
 
 
-@kernel
+@borrowing_kernel
 def _worlds_range(lo: int, hi: int, f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray,
                   light_xz: np.ndarray, ext_cmd: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray,
                   t: np.ndarray, ego: np.ndarray, dt: float, work: np.ndarray, flags: np.ndarray, stop_mask: np.ndarray,
                   brake_light: np.ndarray, turn_signal: np.ndarray, net: np.ndarray, quiet: np.ndarray, c: int, live: np.ndarray,
-                  codes: np.ndarray) -> int:  # fmt: skip
-    """`step_objects` for the worlds lo..hi-1 that are `live` (each `c` cars); codes[w]: 0 done,
-    NOTHING_LIVE, or the code of a step that stopped for Python. Returns how many stopped."""
+                  codes: np.ndarray, rows: np.ndarray) -> int:  # fmt: skip
+    """`step_objects` for the worlds lo..hi-1 that are `live` (each `c` cars; `motion.step_rows`
+    on the whole arrays); codes[w]: 0 done, NOTHING_LIVE, or the code of a step that stopped for
+    Python. Returns how many stopped. `rows`: all True, one per car (compiled without
+    reference counting, `jit.borrowing_kernel`: it allocates nothing)."""
     left = 0
     for w in range(lo, hi):
         a, z = w * c, (w + 1) * c
@@ -38,9 +40,8 @@ def _worlds_range(lo: int, hi: int, f: np.ndarray, i: np.ndarray, b: np.ndarray,
             for k in range(a, z):
                 flags[k] = 0
             continue
-        code, _ = step_objects(f[:, a:z], i[:, a:z], b[:, a:z], pos[a:z], end_xz[a:z], light_xz[a:z], ext_cmd[a:z], sp[:, a:z], pf, pp,
-                               pi, t[w : w + 1], ego[:, w : w + 1], dt, work[:, a:z], flags[a:z], stop_mask, brake_light[a:z],
-                               turn_signal[a:z], net, quiet[a:z])  # fmt: skip
+        code, _ = step_rows(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, t, ego, dt, work, flags, stop_mask, brake_light,
+                            turn_signal, net, quiet, c, rows, a, z)  # fmt: skip
         codes[w] = code
         if code != 0 and code != NOTHING_LIVE:
             left += 1
@@ -51,14 +52,14 @@ def _worlds_range(lo: int, hi: int, f: np.ndarray, i: np.ndarray, b: np.ndarray,
 def step_worlds(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray,
                 ext_cmd: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, t: np.ndarray, ego: np.ndarray,
                 dt: float, work: np.ndarray, flags: np.ndarray, stop_mask: np.ndarray, brake_light: np.ndarray, turn_signal: np.ndarray,
-                net: np.ndarray, quiet: np.ndarray, c: int, live: np.ndarray, codes: np.ndarray) -> int:  # fmt: skip
+                net: np.ndarray, quiet: np.ndarray, c: int, live: np.ndarray, codes: np.ndarray, rows: np.ndarray) -> int:  # fmt: skip
     """`_worlds_range` over all worlds, chunks on numba's threads."""
     n = len(live)
     chunks = chunk_count(n)
     left = np.zeros(chunks, dtype=np.int64)
     for k in prange(chunks):
         left[k] = _worlds_range(k * n // chunks, (k + 1) * n // chunks, f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, t,
-                                ego, dt, work, flags, stop_mask, brake_light, turn_signal, net, quiet, c, live, codes)  # fmt: skip
+                                ego, dt, work, flags, stop_mask, brake_light, turn_signal, net, quiet, c, live, codes, rows)  # fmt: skip
     return int(left.sum())
 
 

@@ -36,10 +36,10 @@ import math
 
 import numpy as np
 
-from ...jit import inline, kernel
+from ...jit import borrowing_kernel, inline, kernel
 from ..ego.spec import MAX_WHEEL_ANGLE_RAD
 from . import state as ts
-from .paths import sample_point
+from .paths import PF_DX, PF_DY, PF_DZ, PF_LEN, PF_OK, PF_S, PF_X, PF_Y, PF_YAW, PF_Z, PI_FIRST, PI_LAST_PIECE, PP_LEN, PP_OFF, piece_at
 from .state import MotionState, Specs
 
 __all__ = ["MotionState", "Specs", "advance_carrots", "bend_speed", "continue_on_network", "drive", "outputs"]
@@ -50,7 +50,13 @@ BEND_ACCEL_MPS2 = 4.0  # lateral acceleration a car accepts when its carrot asks
 BEND_MIN_ANGLE_RAD = 0.25 * math.pi  # ... that is, when the carrot lies more than 45 degrees off its heading
 # rows of the per-step scratch array `work` (one column per object)
 W_CX, W_CY, W_CZ, W_CYAW, W_ANG, W_D, W_CV, W_VT, W_FSAFE, W_FX, W_FZ, W_UX, W_UZ, W_HINT, W_KEY = range(15)
-N_WORK = 15
+# ... and rows kept from step to step that only save work (results never depend on them): sin
+# and cos of the yaw W_TRIG_YAW (valid where W_TRIG_OK is 1; a yaw of zero is always taken
+# afresh, its sign unchecked), and each world's objects in order along its sorted axis (object
+# indices, as floats; W_RANK: the inverse, rebuilt every step)
+W_SIN, W_COS, W_TRIG_YAW, W_TRIG_OK, W_ORDER, W_RANK = range(15, 21)
+N_WORK = 21
+TWO_PI = 2.0 * math.pi
 # bits of `flags` (one per object): what Python must handle between and after the kernels
 WAIT_OVER, ARRIVED, MOVING, PASSED_LIGHT, BLOCK, LIVE, CAR = 1, 2, 4, 8, 16, 32, 64
 NOTHING_LIVE, WAITS_OVER = -2, -1
@@ -69,9 +75,9 @@ def _dist(dx: float, dz: float) -> float:
 
 
 @inline
-def _aim(cx: float, cz: float, x: float, z: float, yaw: float) -> tuple[float, float]:
-    """(angle to the carrot at (cx, cz), positive to the left; distance to it) from (x, z, yaw)."""
-    sin_yaw, cos_yaw = math.sin(yaw), math.cos(yaw)
+def _aim(cx: float, cz: float, x: float, z: float, sin_yaw: float, cos_yaw: float) -> tuple[float, float]:
+    """(angle to the carrot at (cx, cz), positive to the left; distance to it) from (x, z),
+    heading with sine and cosine sin_yaw, cos_yaw."""
     dx, dz = cx - x, cz - z
     ndx = -dx
     ahead = ndx * sin_yaw - dz * cos_yaw
@@ -177,27 +183,48 @@ def _longitudinal(v: float, vt: float, dt: float, engine_on: bool, accel: float,
 
 
 @inline
-def _move(x: float, z: float, yaw: float, steer: float, v_new: float, dt: float) -> tuple[float, float, float]:
-    """The kinematic bicycle: (x, z, yaw) after `dt` at speed v_new and steering input `steer`."""
+def _move(x: float, z: float, yaw: float, steer: float, v_new: float, dt: float) -> tuple[float, float, float, float, float]:
+    """The kinematic bicycle: (x, z, yaw) after `dt` at speed v_new and steering input `steer`,
+    and the sine and cosine of the new yaw."""
     yaw = yaw + v_new / WHEELBASE_M * math.tan(steer * MAX_WHEEL_ANGLE_RAD) * dt
-    yaw = (yaw + math.pi) % (2.0 * math.pi) - math.pi
-    return x - v_new * math.sin(yaw) * dt, z - v_new * math.cos(yaw) * dt, yaw
+    turned = yaw + math.pi
+    # Python's `%` (a C fmod call) is the identity on [0, 2 pi): skip it there, same floats
+    yaw = (turned if 0.0 <= turned < TWO_PI else turned % TWO_PI) - math.pi
+    sin_yaw, cos_yaw = math.sin(yaw), math.cos(yaw)
+    return x - v_new * sin_yaw * dt, z - v_new * cos_yaw * dt, yaw, sin_yaw, cos_yaw
 
 
 @inline
-def _carrots(f: np.ndarray, i: np.ndarray, pos: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, work: np.ndarray,
-             flags: np.ndarray) -> None:  # fmt: skip
-    """Every live carrot's point on its path, and its angle and distance from its object."""
-    for k in range(len(flags)):
-        if flags[k] & LIVE:
-            pid = i[ts.I_PID, k]
-            cx, cy, cz, cyaw, hint = sample_point(pf, pp, pi, pid, f[ts.F_S, k], int(work[W_HINT, k]))
-            work[W_HINT, k] = hint
-            work[W_CX, k], work[W_CY, k], work[W_CZ, k], work[W_CYAW, k] = cx, cy, cz, cyaw
-            work[W_ANG, k], work[W_D, k] = _aim(cx, cz, pos[k, 0], pos[k, 2], f[ts.F_YAW, k])
+def _carrot(f: np.ndarray, i: np.ndarray, pos: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, work: np.ndarray,
+            k: int) -> None:  # fmt: skip
+    """Object k's carrot: its point on its path (`paths.sample_point`, written out), and its
+    angle and distance from the object (with the kept sine and cosine of the object's yaw)."""
+    pid = i[ts.I_PID, k]
+    s, hint = f[ts.F_S, k], int(work[W_HINT, k])
+    length = pp[PP_LEN, pid]
+    g = pp[PP_OFF, pid] + ((s if s > 0.0 else 0.0) if s < length else length)
+    first, last = pi[PI_FIRST, pid], pi[PI_LAST_PIECE, pid] + 1
+    if first <= hint < last and pf[PF_S, hint] <= g < pf[PF_S, hint + 1]:
+        p = hint
+    elif first <= hint < last - 1 and pf[PF_S, hint + 1] <= g < pf[PF_S, hint + 2]:
+        p = hint + 1
+    else:
+        p = piece_at(pf, first, last, g)
+    p = p if p < last - 1 else last - 1
+    u = (g - pf[PF_S, p]) / pf[PF_LEN, p] if pf[PF_OK, p] != 0.0 else 0.0
+    cx, cz = pf[PF_X, p] + u * pf[PF_DX, p], pf[PF_Z, p] + u * pf[PF_DZ, p]
+    work[W_HINT, k] = p
+    work[W_CX, k], work[W_CY, k], work[W_CZ, k], work[W_CYAW, k] = cx, pf[PF_Y, p] + u * pf[PF_DY, p], cz, pf[PF_YAW, p]
+    yaw = f[ts.F_YAW, k]
+    if work[W_TRIG_OK, k] != 0.0 and yaw != 0.0 and work[W_TRIG_YAW, k] == yaw:
+        sin_yaw, cos_yaw = work[W_SIN, k], work[W_COS, k]
+    else:
+        sin_yaw, cos_yaw = math.sin(yaw), math.cos(yaw)
+        work[W_SIN, k], work[W_COS, k], work[W_TRIG_YAW, k], work[W_TRIG_OK, k] = sin_yaw, cos_yaw, yaw, 1.0
+    work[W_ANG, k], work[W_D, k] = _aim(cx, cz, pos[k, 0], pos[k, 2], sin_yaw, cos_yaw)
 
 
-@kernel
+@borrowing_kernel
 def advance_carrots(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray,
                     pi: np.ndarray, group: int, active: np.ndarray, t_group: np.ndarray, dt: float, work: np.ndarray,
                     flags: np.ndarray) -> int:  # fmt: skip
@@ -208,9 +235,16 @@ def advance_carrots(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray
     carrots flagged ARRIVED at the end of their leg (Python decides what comes next).
     `active` selects the worlds that step (`group` objects each, at times `t_group`).
     """
-    n = f.shape[1]
+    return _advance_rows(f, i, b, pos, sp, pf, pp, pi, group, active, t_group, dt, work, flags, 0, f.shape[1])
+
+
+@inline
+def _advance_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray,
+                  pi: np.ndarray, group: int, active: np.ndarray, t_group: np.ndarray, dt: float, work: np.ndarray, flags: np.ndarray,
+                  lo: int, hi: int) -> int:  # fmt: skip
+    """`advance_carrots` for the objects lo..hi-1 (whole worlds)."""
     live = waits = 0
-    for k in range(n):
+    for k in range(lo, hi):
         flags[k] = 0
         if active[k] and b[ts.B_ENABLED, k] and i[ts.I_PID, k] >= 0:
             flags[k] = LIVE
@@ -222,14 +256,14 @@ def advance_carrots(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray
         return NOTHING_LIVE
     if waits:
         return WAITS_OVER
-    _carrots(f, i, pos, pf, pp, pi, work, flags)
     arrived = 0
-    for k in range(n):
+    for k in range(lo, hi):
         if not flags[k] & LIVE:
             continue
+        _carrot(f, i, pos, pf, pp, pi, work, k)
         is_car, span_ok = sp[ts.S_IS_CAR, k] != 0.0, sp[ts.S_SPAN_OK, k] != 0.0
-        lo, hi, span, cap = sp[ts.S_MIN_DIST, k], sp[ts.S_MAX_DIST, k], sp[ts.S_SPAN_SAFE, k], sp[ts.S_MAX_SPEED, k]
-        cv = _carrot_speed(work[W_D, k], work[W_ANG, k], lo, hi, span_ok, span, is_car, f[ts.F_SPEED, k], f[ts.F_V_LEG, k], cap)
+        d_lo, d_hi, span, cap = sp[ts.S_MIN_DIST, k], sp[ts.S_MAX_DIST, k], sp[ts.S_SPAN_SAFE, k], sp[ts.S_MAX_SPEED, k]
+        cv = _carrot_speed(work[W_D, k], work[W_ANG, k], d_lo, d_hi, span_ok, span, is_car, f[ts.F_SPEED, k], f[ts.F_V_LEG, k], cap)
         work[W_CV, k] = cv
         if not b[ts.B_HALTED, k] and math.isnan(f[ts.F_WAIT_UNTIL, k]) and not b[ts.B_EXT, k]:
             flags[k] |= MOVING
@@ -240,7 +274,7 @@ def advance_carrots(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray
     return arrived
 
 
-@kernel
+@borrowing_kernel
 def continue_on_network(f: np.ndarray, i: np.ndarray, b: np.ndarray, end_xz: np.ndarray, net: np.ndarray, quiet_cars: np.ndarray,
                         flags: np.ndarray) -> int:  # fmt: skip
     """Cars flagged ARRIVED that `quiet_cars` marks (road-network cars with no preferred
@@ -248,8 +282,15 @@ def continue_on_network(f: np.ndarray, i: np.ndarray, b: np.ndarray, end_xz: np.
     it needs Python (`net`: `RoadNetwork.continuations`): no wait at the waypoint, no end
     point, jump, traffic light or random choice of the segment after. Their ARRIVED flag is
     cleared; the others keep it. Returns how many are left for Python."""
+    return _continue_rows(f, i, b, end_xz, net, quiet_cars, flags, 0, len(flags))
+
+
+@inline
+def _continue_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, end_xz: np.ndarray, net: np.ndarray, quiet_cars: np.ndarray,
+                   flags: np.ndarray, lo: int, hi: int) -> int:  # fmt: skip
+    """`continue_on_network` for the objects lo..hi-1."""
     left = 0
-    for k in range(len(flags)):
+    for k in range(lo, hi):
         if not flags[k] & ARRIVED or not quiet_cars[k]:
             left += 1 if flags[k] & ARRIVED else 0
             continue
@@ -280,64 +321,82 @@ def continue_on_network(f: np.ndarray, i: np.ndarray, b: np.ndarray, end_xz: np.
 
 
 @inline
-def _sort_worlds(pos: np.ndarray, group: int, order: np.ndarray, rank: np.ndarray, axes: np.ndarray, work: np.ndarray) -> None:
-    """Each world's objects sorted along the coordinate (x or z) they spread most on."""
-    for lo in range(0, len(order), group):
-        hi = lo + group
-        axis = 0 if np.ptp(pos[lo:hi, 0]) >= np.ptp(pos[lo:hi, 2]) else 2
-        axes[lo // group] = axis
-        for k in range(lo, hi):
-            work[W_KEY, k] = pos[k, axis]
-        sorted_k = np.argsort(work[W_KEY, lo:hi], kind="mergesort")
-        for p in range(group):
-            order[lo + p] = lo + sorted_k[p]
-            rank[lo + sorted_k[p]] = lo + p
+def _sort_world(pos: np.ndarray, lo: int, hi: int, work: np.ndarray) -> int:
+    """Objects lo..hi-1 (one world) in order along the coordinate (x or z) they spread most
+    on: `work[W_ORDER]` (kept from the step before, so an insertion sort has little to do;
+    any order it holds that is not a permutation of lo..hi-1 is started afresh) and its
+    inverse `work[W_RANK]`. Returns the axis (0: x, 2: z)."""
+    x0 = x1 = pos[lo, 0]
+    z0 = z1 = pos[lo, 2]
+    for k in range(lo + 1, hi):
+        x, z = pos[k, 0], pos[k, 2]
+        x0, x1 = (x if x < x0 else x0), (x if x > x1 else x1)
+        z0, z1 = (z if z < z0 else z0), (z if z > z1 else z1)
+    axis = 0 if x1 - x0 >= z1 - z0 else 2
+    for p in range(lo, hi):
+        work[W_RANK, p] = -1.0
+    for p in range(lo, hi):
+        j = work[W_ORDER, p]
+        if not lo <= j < hi or work[W_RANK, int(j)] != -1.0:
+            for q in range(lo, hi):
+                work[W_ORDER, q] = q
+            break
+        work[W_RANK, int(j)] = p
+    for p in range(lo + 1, hi):
+        j = work[W_ORDER, p]
+        key = pos[int(j), axis]
+        q = p - 1
+        while q >= lo and pos[int(work[W_ORDER, q]), axis] > key:
+            work[W_ORDER, q + 1] = work[W_ORDER, q]
+            q -= 1
+        work[W_ORDER, q + 1] = j
+    for p in range(lo, hi):
+        work[W_RANK, int(work[W_ORDER, p])] = p
+    return axis
 
 
 @inline
 def _obstacles(f: np.ndarray, b: np.ndarray, pos: np.ndarray, group: int, active: np.ndarray, ego: np.ndarray, work: np.ndarray,
-               flags: np.ndarray) -> None:  # fmt: skip
+               flags: np.ndarray, first: int, end: int) -> None:  # fmt: skip
     """`blocked` of every car of an active world: an enabled object of its world, or that
     world's ego car, in its safety box; of two cars that see each other, the one listed first
     goes. Candidates are visited from the car outwards along a sorted coordinate (in larger
-    worlds) and only as far as the car's reach: objects farther along it cannot be in the box.
+    worlds) and only as far as the car's reach: objects farther along it cannot be in the box
+    (so the answer does not depend on the order of objects at the same coordinate).
     """
-    n = len(flags)
-    checked = np.zeros(n, dtype=np.bool_)
-    for k in range(n):
-        checked[k] = flags[k] & CAR and not b[ts.B_EXT, k]
-    order, rank, axes = np.arange(n), np.arange(n), np.zeros(n // group, dtype=np.int64)
-    if group > SORT_ABOVE:
-        _sort_worlds(pos, group, order, rank, axes, work)
-    for k in range(n):
-        if not active[k]:
-            continue
-        hit = False
-        if checked[k]:
-            g = k // group
-            x, z, fsafe, lat = pos[k, 0], pos[k, 2], work[W_FSAFE, k], f[ts.F_LAT_SAFE, k]
-            fx, fz, ux, uz = work[W_FX, k], work[W_FZ, k], work[W_UX, k], work[W_UZ, k]
-            hit = _sees(x, z, fx, fz, ux, uz, fsafe, lat, ego[0, g], ego[1, g])
-            reach = fsafe + lat
-            lo, hi = g * group, (g + 1) * group
-            axis = axes[g]
-            for step in (-1, 1):
-                p = rank[k] + step
-                while not hit and lo <= p < hi:
-                    j = order[p]
-                    p += step
-                    if group > SORT_ABOVE and abs(pos[j, axis] - pos[k, axis]) >= reach:
-                        break
-                    if j == k or not b[ts.B_ENABLED, j] or not _sees(x, z, fx, fz, ux, uz, fsafe, lat, pos[j, 0], pos[j, 2]):
-                        continue
-                    if checked[j] and k < j and _sees(pos[j, 0], pos[j, 2], work[W_FX, j], work[W_FZ, j], work[W_UX, j],
-                                                      work[W_UZ, j], work[W_FSAFE, j], f[ts.F_LAT_SAFE, j], x, z):  # fmt: skip
-                        continue  # they see each other: k goes
-                    hit = True
-        b[ts.B_BLOCKED, k] = hit
+    sort = group > SORT_ABOVE
+    for lo in range(first, end, group):
+        hi = lo + group
+        axis = _sort_world(pos, lo, hi, work) if sort else 0
+        g = lo // group
+        for k in range(lo, hi):
+            if not active[k]:
+                continue
+            hit = False
+            if flags[k] & CAR and not b[ts.B_EXT, k]:
+                x, z, fsafe, lat = pos[k, 0], pos[k, 2], work[W_FSAFE, k], f[ts.F_LAT_SAFE, k]
+                fx, fz, ux, uz = work[W_FX, k], work[W_FZ, k], work[W_UX, k], work[W_UZ, k]
+                hit = _sees(x, z, fx, fz, ux, uz, fsafe, lat, ego[0, g], ego[1, g])
+                reach = fsafe + lat
+                at = int(work[W_RANK, k]) if sort else k
+                for step in (-1, 1):
+                    p = at + step
+                    while not hit and lo <= p < hi:
+                        j = int(work[W_ORDER, p]) if sort else p
+                        p += step
+                        if sort and abs(pos[j, axis] - pos[k, axis]) >= reach:
+                            break
+                        if j == k or not b[ts.B_ENABLED, j] or not _sees(x, z, fx, fz, ux, uz, fsafe, lat, pos[j, 0], pos[j, 2]):
+                            continue
+                        if flags[j] & CAR and not b[ts.B_EXT, j] and k < j and _sees(pos[j, 0], pos[j, 2], work[W_FX, j], work[W_FZ, j],
+                                                                                      work[W_UX, j], work[W_UZ, j], work[W_FSAFE, j],
+                                                                                      f[ts.F_LAT_SAFE, j], x, z):  # fmt: skip
+                            continue  # they see each other: k goes
+                        hit = True
+            b[ts.B_BLOCKED, k] = hit
 
 
-@kernel
+@borrowing_kernel
 def drive(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray, ext_cmd: np.ndarray,
           sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, group: int, active: np.ndarray, ego: np.ndarray, dt: float,
           work: np.ndarray, flags: np.ndarray, resample: bool, stop_mask: np.ndarray) -> int:  # fmt: skip
@@ -350,26 +409,30 @@ def drive(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: 
     events), so their points and angles are taken again. Returns how many cars passed the
     traffic light they were queued for (flagged PASSED_LIGHT for Python).
     """
-    n = f.shape[1]
-    if resample:
-        _carrots(f, i, pos, pf, pp, pi, work, flags)
+    return _drive_rows(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, group, active, ego, dt, work, flags, resample, stop_mask, 0,
+                       f.shape[1])  # fmt: skip
+
+
+@inline
+def _drive_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray,
+                ext_cmd: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, group: int, active: np.ndarray,
+                ego: np.ndarray, dt: float, work: np.ndarray, flags: np.ndarray, resample: bool, stop_mask: np.ndarray, lo: int,
+                hi: int) -> int:  # fmt: skip
+    """`drive` for the objects lo..hi-1 (whole worlds)."""
     any_car = False
-    for k in range(n):
+    for k in range(lo, hi):  # speed wishes, safety distances and headings, before anything moves
         if not flags[k] & LIVE:
             continue
-        if sp[ts.S_IS_CAR, k] != 0.0:
-            flags[k] |= CAR
-            any_car = True
-        else:  # a pedestrian stands on its carrot
+        if resample:
+            _carrot(f, i, pos, pf, pp, pi, work, k)
+        if sp[ts.S_IS_CAR, k] == 0.0:  # a pedestrian stands on its carrot
             pos[k, 0], pos[k, 1], pos[k, 2] = work[W_CX, k], work[W_CY, k], work[W_CZ, k]
             f[ts.F_YAW, k] = work[W_CYAW, k]
             go = flags[k] & MOVING and not b[ts.B_HALTED, k] and math.isnan(f[ts.F_WAIT_UNTIL, k])
             f[ts.F_SPEED, k] = work[W_CV, k] if go else 0.0
-    if not any_car:
-        return 0
-    for k in range(n):  # speed wishes, safety distances and headings, before anything moves
-        if not flags[k] & CAR:
             continue
+        flags[k] |= CAR
+        any_car = True
         stopped = b[ts.B_HALTED, k] or not math.isnan(f[ts.F_WAIT_UNTIL, k])
         to_end = f[ts.F_LEG_END, k] - (f[ts.F_S, k] - work[W_D, k])  # from the car (about d behind its carrot)
         vt = _target_speed(f[ts.F_V_LEG, k], sp[ts.S_MAX_SPEED, k], to_end, f[ts.F_V_NEXT, k], sp[ts.S_DEC_BRAKE, k],
@@ -379,8 +442,7 @@ def drive(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: 
         # forward safety distance: max(minForward, 0.5 x speed in km/h), or minForward alone
         by_speed = 1.8 * f[ts.F_SPEED, k] if b[ts.B_SPEED_DEP, k] else 0.0
         work[W_FSAFE, k] = by_speed if by_speed > f[ts.F_MIN_FWD, k] else f[ts.F_MIN_FWD, k]
-        yaw = f[ts.F_YAW, k]
-        fx, fz = -math.sin(yaw), -math.cos(yaw)
+        fx, fz = -work[W_SIN, k], -work[W_COS, k]  # (of this yaw: `_carrot` took them this step)
         ux, uz = end_xz[k, 0] - pos[k, 0], end_xz[k, 1] - pos[k, 2]
         un = _dist(ux, uz)
         if un > 1e-6:
@@ -389,9 +451,11 @@ def drive(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: 
         else:
             ux, uz = fx, fz
         work[W_FX, k], work[W_FZ, k], work[W_UX, k], work[W_UZ, k] = fx, fz, ux, uz
-    _obstacles(f, b, pos, group, active, ego, work, flags)
+    if not any_car:
+        return 0
+    _obstacles(f, b, pos, group, active, ego, work, flags, lo, hi)
     passed = 0
-    for k in range(n):
+    for k in range(lo, hi):
         if not flags[k] & CAR:
             continue
         block = b[ts.B_BLOCKED, k] or (flags[k] & BLOCK) != 0
@@ -407,7 +471,9 @@ def drive(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: 
         ang = work[W_ANG, k]
         q = 4.0 * abs(ang) / math.pi
         steer = ext_cmd[k, 0] if ext else (1.0 if ang > 0.0 else -1.0 if ang < 0.0 else 0.0) * (q if q < 1.0 else 1.0)
-        pos[k, 0], pos[k, 2], f[ts.F_YAW, k] = _move(pos[k, 0], pos[k, 2], f[ts.F_YAW, k], steer, v_new, dt)
+        pos[k, 0], pos[k, 2], yaw, sin_yaw, cos_yaw = _move(pos[k, 0], pos[k, 2], f[ts.F_YAW, k], steer, v_new, dt)
+        f[ts.F_YAW, k] = yaw
+        work[W_SIN, k], work[W_COS, k], work[W_TRIG_YAW, k], work[W_TRIG_OK, k] = sin_yaw, cos_yaw, yaw, 1.0
         f[ts.F_SPEED, k] = v_new
         pos[k, 1] = work[W_CY, k]
         if li >= 0:
@@ -419,10 +485,15 @@ def drive(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: 
     return passed
 
 
-@kernel
+@borrowing_kernel
 def outputs(i: np.ndarray, b: np.ndarray, brake_light: np.ndarray, turn_signal: np.ndarray) -> None:
     """Brake lights and turn signals: an override, else the path's setting, else braking."""
-    for k in range(i.shape[1]):
+    _outputs_rows(i, b, brake_light, turn_signal, 0, i.shape[1])
+
+
+@inline
+def _outputs_rows(i: np.ndarray, b: np.ndarray, brake_light: np.ndarray, turn_signal: np.ndarray, lo: int, hi: int) -> None:
+    for k in range(lo, hi):
         ob, bp = i[ts.I_OV_BRAKE, k], i[ts.I_BRAKE_PATH, k]
         brake_light[k] = ob == 1 if ob >= 0 else bp == 1 if bp >= 0 else b[ts.B_BRAKING, k]
         ot = i[ts.I_OV_TURN, k]
@@ -439,14 +510,35 @@ def step_objects(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, e
     objects left for Python, flagged, or advance_carrots' negative code; lights passed); the
     second is -1 when the step stopped for Python (waits over, legs ended that need it)."""
     n = f.shape[1]
-    active = np.ones(n, dtype=np.bool_)
-    group = n if n > 0 else 1
-    code = advance_carrots(f, i, b, pos, sp, pf, pp, pi, group, active, t_now, dt, work, flags)
+    return _step_world(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, t_now, ego, dt, work, flags, stop_mask, brake_light,
+                       turn_signal, net, quiet_cars, np.ones(n, dtype=np.bool_))  # fmt: skip
+
+
+@borrowing_kernel
+def _step_world(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray,
+                ext_cmd: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, t_now: np.ndarray, ego: np.ndarray,
+                dt: float, work: np.ndarray, flags: np.ndarray, stop_mask: np.ndarray, brake_light: np.ndarray, turn_signal: np.ndarray,
+                net: np.ndarray, quiet_cars: np.ndarray, active: np.ndarray) -> tuple[int, int]:  # fmt: skip
+    n = f.shape[1]
+    return step_rows(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, t_now, ego, dt, work, flags, stop_mask, brake_light,
+                     turn_signal, net, quiet_cars, n if n > 0 else 1, active, 0, n)  # fmt: skip
+
+
+@inline
+def step_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray, ext_cmd: np.ndarray,
+              sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, t_group: np.ndarray, ego: np.ndarray, dt: float,
+              work: np.ndarray, flags: np.ndarray, stop_mask: np.ndarray, brake_light: np.ndarray, turn_signal: np.ndarray, net: np.ndarray,
+              quiet_cars: np.ndarray, group: int, active: np.ndarray, lo: int, hi: int) -> tuple[int, int]:  # fmt: skip
+    """`step_objects` for the objects lo..hi-1, one world of `group` objects (times `t_group`,
+    ego cars `ego` by world; `active` must hold its rows), on the whole arrays: the native
+    batch steps each world so, with no array views (each costs reference counting)."""
+    code = _advance_rows(f, i, b, pos, sp, pf, pp, pi, group, active, t_group, dt, work, flags, lo, hi)
     moved_on = code > 0
     if moved_on:
-        code = continue_on_network(f, i, b, end_xz, net, quiet_cars, flags)
+        code = _continue_rows(f, i, b, end_xz, net, quiet_cars, flags, lo, hi)
     if code != 0:
         return code, -1
-    passed = drive(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, group, active, ego, dt, work, flags, moved_on, stop_mask)
-    outputs(i, b, brake_light, turn_signal)
+    passed = _drive_rows(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, group, active, ego, dt, work, flags, moved_on,
+                         stop_mask, lo, hi)  # fmt: skip
+    _outputs_rows(i, b, brake_light, turn_signal, lo, hi)
     return 0, passed

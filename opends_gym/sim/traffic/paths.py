@@ -86,16 +86,23 @@ def sample_point(pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, pid: int, s: fl
     elif first <= hint < last - 1 and pf[PF_S, hint + 1] <= g < pf[PF_S, hint + 2]:
         lo = hint + 1
     else:
-        lo, hi = first, last
-        while lo < hi:
-            mid = (lo + hi + 1) // 2
-            if pf[PF_S, mid] <= g:
-                lo = mid
-            else:
-                hi = mid - 1
+        lo = piece_at(pf, first, last, g)
     k = lo if lo < last - 1 else last - 1
     f = (g - pf[PF_S, k]) / pf[PF_LEN, k] if pf[PF_OK, k] != 0.0 else 0.0
     return pf[PF_X, k] + f * pf[PF_DX, k], pf[PF_Y, k] + f * pf[PF_DY, k], pf[PF_Z, k] + f * pf[PF_DZ, k], pf[PF_YAW, k], k
+
+
+@kernel
+def piece_at(pf: np.ndarray, first: int, last: int, g: float) -> int:
+    """The last sample of first..last at or before global arc length g (binary search)."""
+    lo, hi = first, last
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        if pf[PF_S, mid] <= g:
+            lo = mid
+        else:
+            hi = mid - 1
+    return lo
 
 
 @kernel
