@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from ..envs.base import OpenDSEnv
+from ..envs.brake import brake_metrics
 from ..envs.platoon import ThreeVehiclePlatoonEnv
 from ..envs.platoon_core import (
     BAND_GAIN,
@@ -24,7 +26,9 @@ from ..envs.platoon_core import (
     PlatoonState,
     Stimulus,
 )
+from ..metrics import episode_scores
 from ..metrics import platoon_scores as scores
+from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..sim.traffic.routes import TURN_CODES
 from ..sim.triggers.core import CompiledAction
 from .actions import SIGNAL_OFF, BatchControls
@@ -107,7 +111,10 @@ class PlatoonBatch(BatchCore):
         )  # fmt: skip
         # chunks on numba's threads (False: the serial twins, for thread shards and batches of one chunk)
         self.parallel = n > CHUNK_ENVS
-        self._scored: dict[int, dict[str, float]] = {}  # `PlatoonCore.metrics` of envs being scored (`episodes_metrics`)
+        self._scored: dict[int, dict[str, float]] = {}  # `PlatoonCore.metrics` of envs to score by the template (`episode_metrics`)
+        if type(template)._instructed_lane_keeping is not OpenDSEnv._instructed_lane_keeping or template.on_road_exit != "terminate":
+            raise TypeError("episode_scores scores tasks without instructed lane changes or resets; change it with them")
+        self._score_params = episode_scores.scoring_params(cfg.physics_hz, self.off_road_limit, self.guide.road_edges_m)
 
     # ------------------------------------------------------------------ reset
     def _reset_task(self, idx: np.ndarray) -> None:
@@ -309,16 +316,80 @@ class PlatoonBatch(BatchCore):
         return r - self.collision_penalty * info["new_collisions"].astype(np.float64)
 
     def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
-        """`episode_metrics` of the envs `es`, their platoon metrics (`PlatoonCore.metrics`, the
-        same floats) computed for all of them in one compiled pass (`metrics.platoon_scores`)."""
+        """`episode_metrics` of the envs `es`, the same floats, in two compiled passes over all
+        of them: the generic trace metrics (`metrics.episode_scores`) and the platoon metrics
+        (`PlatoonCore.metrics`, `metrics.platoon_scores`); the reaction counts and the task's
+        own extras (`_extra_metrics`) are Python."""
         if self.ring is None:
             raise RuntimeError("episode metrics were switched off (record_metrics=False)")
+        if not es:
+            return []
         columns = self.ring.columns_of(es)
-        self._scored = self._platoon_scores(es, columns)
-        try:
-            return [(e, self.episode_metrics(e, columns[e])) for e in es]
-        finally:
-            self._scored = {}
+        platoon = self._platoon_scores(es, columns)
+        base = self._base_scores(es, columns)
+        return [(e, self._assemble(e, row, platoon[e], columns[e])) for e, row in zip(es, base, strict=True)]
+
+    def _base_scores(self, es: list[int], columns: dict[int, np.ndarray]) -> list[list[float]]:
+        """`episode_scores.KEYS` of the envs `es` (their whole traces, reset row first)."""
+        col = self.trace_columns.index
+        traces = [columns[e] for e in es]
+        counts = [t.shape[1] for t in traces]
+        starts = np.zeros(len(es) + 1, dtype=np.int64)
+        np.cumsum(counts, out=starts[1:])
+        x, z, speed, steering, gap, lead_v, headway, ttc = (
+            np.concatenate([t[col(c)] for t in traces])
+            for c in ("x_m", "z_m", "speed_mps", "steering", "gap_m", "lead_speed_mps", "headway_s", "ttc_s")
+        )
+        t = np.concatenate([np.arange(k) * self.dt for k in counts])  # (`TraceRing.to_trace`'s clock)
+        lat, lane, off = lane_columns(self.guide, x, z)
+        ds = np.hypot(np.diff(x), np.diff(z))
+        out = np.empty((len(es), len(episode_scores.KEYS)))
+        episode_scores.episode_scores(starts, t, ds, speed, steering * STEERING_WHEEL_MAX_DEG, gap, lead_v, headway, ttc, lat,
+                                      lane.astype(np.float64), off, *self._score_params, out)  # fmt: skip
+        return [[math.nan if v != v else v for v in row] for row in out.tolist()]  # (NaNs as math.nan)
+
+    def _assemble(self, e: int, row: list[float], platoon: dict[str, float], columns: np.ndarray) -> dict[str, float]:
+        """Env e's `OpenDSEnv.episode_metrics` dict (its keys in order) from its scores."""
+        tpl = self.template
+        reactions = self.timers.results_of(e)
+        correct = [r for r in reactions if r.result == 1]
+        v = dict(zip(episode_scores.KEYS, row, strict=True))
+        out: dict[str, float] = {
+            "duration_s": float(self.t[e]),
+            "distance_m": v.pop("distance_m"),
+            "mean_speed_kmh": v.pop("mean_speed_kmh"),
+            "fuel_used_l": float(self.s.fuel_used[e]),
+            "collisions": float(self.collisions[e]),
+            "sdlp_m": v.pop("sdlp_m"),
+            "steering_reversal_rate_per_min": v.pop("steering_reversal_rate_per_min"),
+            "mean_headway_s": v.pop("mean_headway_s"),
+            "min_ttc_s": v.pop("min_ttc_s"),
+            "reactions": float(len(reactions)),
+            "reactions_correct": float(len(correct)),
+            "reactions_failed": float(sum(1 for r in reactions if r.result == -1)),
+            "reactions_missed": float(sum(1 for r in reactions if r.result == -2)),
+            "mean_reaction_time_s": float(np.mean([r.reaction_time_s for r in correct])) if correct else math.nan,
+            "lanes_known": float(self.guide.lanes_known),
+            "mean_abs_lateral_offset_m": v.pop("mean_abs_lateral_offset_m"),
+            "off_road_s": v.pop("off_road_s"),
+            "stimuli_presented": float(self._presented(e)),
+            "road_exits": v.pop("road_exits"),
+            "resets": float(tpl.resets),
+            "collision_resets": float(tpl.collision_resets),
+            "reset_time_s": tpl.reset_time_s,
+        }
+        out.update(v)
+        out.update(platoon)
+        out.update(self._extra_metrics(e, reactions, columns))
+        return out
+
+    def _presented(self, e: int) -> int:
+        """`_stimuli_presented` of env e's episode."""
+        return len(self.stimuli[e])
+
+    def _extra_metrics(self, e: int, reactions: list[Any], columns: np.ndarray) -> dict[str, float]:
+        """The task's own metrics after `PlatoonCore.metrics` (none for the platoon test)."""
+        return {}
 
     def _platoon_scores(self, es: list[int], columns: dict[int, np.ndarray]) -> dict[int, dict[str, float]]:
         if not es:
@@ -336,10 +407,12 @@ class PlatoonBatch(BatchCore):
         kind = np.array([scores.KINDS.index(s.kind) for s in stims], dtype=np.int64)
         result = np.array([s.result for s in stims], dtype=np.int64)
         rt = np.array([s.reaction_time_s for s in stims], dtype=np.float64)
+        onset = np.array([s.onset_s for s in stims], dtype=np.float64)
         lb = self.spec.lateral_tolerance
         lat_lo, lat_hi = (lb.lower_bound_m, lb.upper_bound_m) if lb is not None else (0.0, 0.0)
         out = np.empty((len(es), len(scores.KEYS)))
-        scores.platoon_scores(lon, off, starts, float(lat_lo), float(lat_hi), lb is not None, kind, result, rt, stim_starts, out)
+        scores.platoon_scores(lon, off, starts, float(lat_lo), float(lat_hi), lb is not None, kind, result, rt, onset, stim_starts,
+                              self.t[es], float(self.spec.max_reaction_time_s), out)  # fmt: skip
         return {e: {k: math.nan if v != v else v for k, v in zip(scores.KEYS, row)} for e, row in zip(es, out.tolist())}  # (as math.nan)
 
     def _load_episode(self, e: int, columns: np.ndarray | None) -> None:
@@ -383,6 +456,17 @@ class BrakeBatch(PlatoonBatch):
                 self.revealed[e, self.sign_ids.index(oid)] = True
             return
         super()._on_action(e, act, trigger)
+
+    def _presented(self, e: int) -> int:
+        return super()._presented(e) + int(np.count_nonzero(self.revealed[e]))
+
+    def _extra_metrics(self, e: int, reactions: list[Any], columns: np.ndarray) -> dict[str, float]:
+        """`BrakeReactionEnv`'s own metrics (`envs.brake.brake_metrics`, Python)."""
+        col = self.trace_columns.index
+        t = np.arange(columns.shape[1]) * self.dt
+        reset_t = [ev.t_s for ev in self.world.events.since(0) if ev.kind == "reset"]
+        shown = int(np.count_nonzero(self.revealed[e]))
+        return brake_metrics(t, columns[col("accelerator")], columns[col("brake")], self.stimuli[e], reactions, reset_t, shown)
 
     def _stimulus(self) -> np.ndarray:
         visible = np.any(self.revealed & (self.sign_z[None, :] < self.s.z[:, None]), axis=1)
