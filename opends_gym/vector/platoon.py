@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..envs.base import OpenDSEnv
+from ..envs.base import LANE_KEEPING_OFFSET_M, OpenDSEnv
 from ..envs.brake import brake_metrics
 from ..envs.platoon import ThreeVehiclePlatoonEnv
 from ..envs.platoon_core import (
@@ -34,7 +34,7 @@ from ..sim.triggers.core import CompiledAction
 from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore
 from .kernels import CHUNK_ENVS
-from .platoon_step import _hook_range, _lead_range, lead_measures, platoon_hook
+from .platoon_step import _after_range, _hook_range, _lead_range, lead_measures, platoon_after, platoon_hook
 from .trace import lane_columns
 from .traffic import FlatTraffic
 
@@ -111,6 +111,16 @@ class PlatoonBatch(BatchCore):
         )  # fmt: skip
         # chunks on numba's threads (False: the serial twins, for thread shards and batches of one chunk)
         self.parallel = n > CHUNK_ENVS
+        self._changed = np.zeros(shape, dtype=np.int64)  # platoon_after's stimuli that changed result (1 missed, 2 reacted)
+        self._react = np.zeros(shape)  # and their reaction times
+        sr_spec = self.spec.speed_reduction
+        self._stim_consts = np.array([BRAKE_THRESHOLD, REGULAR_SPEED_TOLERANCE_MPS, sr_spec.min_time_all_conditions_met_s if sr_spec else
+                                      math.inf, self.spec.max_reaction_time_s, SR])  # fmt: skip
+        self._pedals = self.trace_columns[9:] == ("accelerator", "brake")
+        if self.trace_columns[:9] != PlatoonBatch.trace_columns or len(self.trace_columns) not in (9, 11) or SIGNAL_OFF != 0:
+            raise TypeError("platoon_after writes these trace columns; change it with them")
+        self._no_block = np.empty((1, 1, len(self.trace_columns)))
+        self._no_steps = np.zeros(n, dtype=np.int64)
         self._scored: dict[int, dict[str, float]] = {}  # `PlatoonCore.metrics` of envs to score by the template (`episode_metrics`)
         if type(template)._instructed_lane_keeping is not OpenDSEnv._instructed_lane_keeping or template.on_road_exit != "terminate":
             raise TypeError("episode_scores scores tasks without instructed lane changes or resets; change it with them")
@@ -237,6 +247,52 @@ class PlatoonBatch(BatchCore):
         self._stimuli_step(rows, c, first=k == 0)
         if self.ring is not None:  # the lon_dev row of this step (written with the trace row just before)
             self.ring.set_last("lon_dev", self.lon_dev)
+
+    def _physics_steps(self, live: np.ndarray, c: BatchControls) -> None:
+        """`BatchCore._physics_steps` with what follows each physics step's ego, traffic,
+        trigger and timer part (trace row, band control, stimuli, early stop) in one compiled
+        pass over the envs (`platoon_after`)."""
+        for k in range(self.repeat):
+            self._physics_step(live, c)
+            self._after_step(live, k, c)
+            if not live.any():
+                break
+
+    def _after_step(self, live: np.ndarray, k: int, c: BatchControls) -> None:
+        s, st, tr, ring, g = self.s, self.traffic.st, self.traffic, self.ring, self.guide
+        rl = self.rl
+        if ring is not None:
+            block, row, steps = ring.reserve(1)[0], ring.g % ring.BLOCK, ring.steps
+        else:
+            block, row, steps = self._no_block, 0, self._no_steps
+        args = (
+            live, k, (s.x, s.z, s.yaw, s.u, s.steer_in, s.gas_in, s.brake_in, self.t),
+            (st.pos, st.yaw, st.speed, st.enabled, self._half_len, tr.c, tr.ego_length, self.lead_j, self.lead_gap, self.lead_v,
+             self.headway, self.ttc, self.gap_m, self.lead_speed_mps),
+            (g.sign, self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, rl["n"], rl["mean"],
+             rl["m2"], self.prev_x, self.prev_z, rl["dist"], rl["area"]),
+            (block, row, steps, self._pedals, ring is not None),
+            (st.ov_speed, st.ov_decel, self.on, self.kind, self.car, self.lead_i, self.follow_i, bool(self.with_follower), self.lon_dev,
+             self.reward_acc),
+            self._band,
+            (self.kind, self.onset, self.end, self.target, self.result, self.hold, self.reset_on, c.pressed, c.signal, st.ov_brake,
+             st.ov_turn, self._changed, self._react, self._stim_consts),
+            (self.off_road_limit, self.end_past_lead, bool(self.config.terminate_on_collision), self.trig.paused, self.collisions,
+             self.collisions_seen),
+        )  # fmt: skip
+        changed = platoon_after(*args) if self.parallel else _after_range(0, self.n, *args)
+        if ring is not None:
+            ring.g += 1
+        if changed:
+            for e, slot in zip(*np.nonzero(self._changed), strict=True):
+                obj = self.objs[e][slot]
+                assert obj is not None
+                if self._changed[e, slot] == 2:
+                    obj.reaction_s = float(self._react[e, slot])
+                obj.result = int(self.result[e, slot])
+                if self.kind[e, slot] == SR:
+                    obj.hold_since_s = float(self.hold[e, slot])
+                self.dirty[e] = True
 
     def _stimuli_step(self, rows: np.ndarray, c: BatchControls, first: bool) -> None:
         act = self.on & rows[:, None]
