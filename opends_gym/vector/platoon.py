@@ -1,10 +1,12 @@
 """The platoon and brake-reaction tests for a native batch (`envs.platoon_core` over N envs).
 
 Why: the lead/follower band control, the stimuli (`setTVPTStimulus`) and their reaction
-rules run every physics step, so they are array operations here: each env has a few
-stimulus slots (onset, end, target, result, hold time); starting, scoring and ending a
-stimulus is rare and keeps the single env's `Stimulus` records per env, which its own
-`PlatoonCore.metrics()` scores at the end of the episode.
+rules run every physics step, so they run in the compiled pass that follows each physics
+step (`platoon_step.platoon_after`): each env has a few stimulus slots (onset, end, target,
+result, hold time); starting a stimulus (a trigger's action) and recording a result are
+rare and keep the single env's `Stimulus` records per env. Ended episodes are scored in
+two compiled passes over all of them (`metrics.episode_scores`, `metrics.platoon_scores`),
+with the single env's floats.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from ..sim.triggers.core import CompiledAction
 from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore
 from .kernels import CHUNK_ENVS
-from .platoon_step import _after_range, _hook_range, _lead_range, lead_measures, platoon_after, platoon_hook
+from .platoon_step import _after_range, _lead_range, lead_measures, platoon_after
 from .trace import lane_columns
 from .traffic import FlatTraffic
 
@@ -223,31 +225,6 @@ class PlatoonBatch(BatchCore):
         self.onset[e, slot], self.end[e, slot], self.target[e, slot] = obj.onset_s, obj.end_s, target
         self.result[e, slot], self.hold[e, slot] = 0, np.nan
 
-    def _end_slots(self, es: np.ndarray, slots: np.ndarray) -> None:
-        st, c = self.traffic.st, self.traffic.c
-        rows = es * c + self.car[es, slots]
-        k = self.kind[es, slots]
-        st.ov_brake[rows] = np.where(k == BL, -1, st.ov_brake[rows])
-        st.ov_turn[rows] = np.where((k == LT) | (k == FT), -1, st.ov_turn[rows])
-        speed = k >= SR
-        st.ov_speed[rows[speed]] = np.nan
-        st.ov_decel[rows[speed]] = np.nan
-        self.on[es, slots] = False
-
-    def _on_physics_step(self, rows: np.ndarray, k: int, c: BatchControls) -> None:
-        """The band control, deviations and reward shares in one compiled pass (`platoon_hook`),
-        then the stimuli (their reactions, results and ends)."""
-        s, st = self.s, self.traffic.st
-        args = (rows, s.x, s.z, s.yaw, s.u, st.pos, st.ov_speed, st.ov_decel, self.traffic.c, self.on, self.kind, self.car, self.lead_i,
-                self.follow_i, bool(self.with_follower), self._band, self.offset, self.ttc, self.lon_dev, self.reward_acc)  # fmt: skip
-        if self.parallel:
-            platoon_hook(*args)
-        else:
-            _hook_range(0, self.n, *args)
-        self._stimuli_step(rows, c, first=k == 0)
-        if self.ring is not None:  # the lon_dev row of this step (written with the trace row just before)
-            self.ring.set_last("lon_dev", self.lon_dev)
-
     def _physics_steps(self, live: np.ndarray, c: BatchControls) -> None:
         """`BatchCore._physics_steps` with what follows each physics step's ego, traffic,
         trigger and timer part (trace row, band control, stimuli, early stop) in one compiled
@@ -293,48 +270,6 @@ class PlatoonBatch(BatchCore):
                 if self.kind[e, slot] == SR:
                     obj.hold_since_s = float(self.hold[e, slot])
                 self.dirty[e] = True
-
-    def _stimuli_step(self, rows: np.ndarray, c: BatchControls, first: bool) -> None:
-        act = self.on & rows[:, None]
-        if not act.any():
-            return
-        t = self.t[:, None]
-        s = self.s
-        pressed = c.pressed if first else np.zeros(self.n, dtype=bool)  # a press is an edge: the first substep only
-        signal = c.signal
-        kind = self.kind
-        brake_hit = (s.brake_in >= BRAKE_THRESHOLD)[:, None]
-        turn_hit = (pressed | (signal != SIGNAL_OFF))[:, None]
-        sr = self.spec.speed_reduction
-        ok = (s.u[:, None] <= self.target + REGULAR_SPEED_TOLERANCE_MPS) & act & (kind == SR)
-        self.hold = np.where(act & (kind == SR) & ~ok, np.nan, self.hold)
-        self.hold = np.where(ok & np.isnan(self.hold), t, self.hold)
-        sr_done = ok & (t - self.hold >= (sr.min_time_all_conditions_met_s if sr else math.inf) - 1e-9)
-        reacted = np.where((kind == BL) | (kind == EB), brake_hit, np.where(kind == SR, sr_done, turn_hit)) & act
-        new = reacted & (self.result == 0)
-        react_s = np.where(kind == SR, self.hold, t)
-        max_rt = self.spec.max_reaction_time_s
-        verdict = np.where(react_s - self.onset <= max_rt + 1e-9, 1, -2)
-        self.result = np.where(new, verdict, self.result)
-        ends_now = new & self.reset_on[kind]
-        missed = act & ~ends_now & (self.result == 0) & (t - self.onset > max_rt)
-        self.result = np.where(missed, -2, self.result)
-        timeout = act & ~ends_now & (t >= self.end)
-        changed = new | missed
-        if changed.any():
-            for e, slot in zip(*np.nonzero(changed)):
-                obj = self.objs[e][slot]
-                assert obj is not None
-                if new[e, slot]:
-                    obj.reaction_s = float(react_s[e, slot])
-                obj.result = int(self.result[e, slot])
-                if kind[e, slot] == SR:
-                    obj.hold_since_s = float(self.hold[e, slot])
-                self.dirty[e] = True
-        done = ends_now | timeout
-        if done.any():
-            es, slots = np.nonzero(done)
-            self._end_slots(es, slots)
 
     # ------------------------------------------------------------------ outputs
     def _stimulus(self) -> np.ndarray:

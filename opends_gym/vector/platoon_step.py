@@ -2,11 +2,13 @@
 
 Why: `PlatoonBatch` computed the lead car (`perception.lead_vehicle`), headway and TTC, the
 lead and follower band control (`PlatoonCore._band_control`) and the band deviations and
-reward shares with a dozen numpy expressions per physics step, each allocating N- or
-NxC-sized temporaries. Here each is one pass over the envs, chunked like `lct_step`
-(`parallel` runs the chunks on numba's threads; the `_range` twins run serially, for thread
-shards and batches of one chunk). The formulas are the numpy ones, operand for operand, so
-the floats are the same (`_max`/`_min` keep numpy's NaN rules).
+reward shares, the stimuli (`setTVPTStimulus`: reactions, results, ends) and the early stop
+with a few dozen numpy expressions per physics step, each allocating N- or NxC-sized
+temporaries. Here all that follows a physics step's ego, traffic, trigger and timer part is
+one pass over the envs (`platoon_after`), chunked like `lct_step` (`parallel` runs the
+chunks on numba's threads; the `_range` twins run serially, for thread shards and batches
+of one chunk). The formulas are the numpy ones, operand for operand, so the floats are the
+same (`_max`/`_min` keep numpy's NaN rules).
 """
 
 from __future__ import annotations
@@ -82,25 +84,12 @@ def _lead_range(lo: int, hi: int, x: np.ndarray, z: np.ndarray, yaw: np.ndarray,
         ttc[e] = _max(gap, 0.0) / closing if ok and closing > 0.0 else math.inf
 
 
-@parallel_kernel
-def platoon_hook(rows: np.ndarray, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, u: np.ndarray, pos: np.ndarray,
-                 ov_speed: np.ndarray, ov_decel: np.ndarray, c: int, on: np.ndarray, kind: np.ndarray, car: np.ndarray,
-                 lead_i: int, follow_i: int, with_follower: bool, band: tuple, offset: np.ndarray, ttc: np.ndarray,
-                 lon_dev: np.ndarray, reward_acc: np.ndarray) -> None:  # fmt: skip
-    """`PlatoonBatch._on_physics_step` but its stimuli, for every env (see `_hook_range`)."""
-    n = len(x)
-    chunks = chunk_count(n)
-    for k in prange(chunks):
-        _hook_range(k * n // chunks, (k + 1) * n // chunks, rows, x, z, yaw, u, pos, ov_speed, ov_decel, c, on, kind, car, lead_i,
-                    follow_i, with_follower, band, offset, ttc, lon_dev, reward_acc)  # fmt: skip
-
-
 @kernel
 def _hook_range(lo: int, hi: int, rows: np.ndarray, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, u: np.ndarray, pos: np.ndarray,
                 ov_speed: np.ndarray, ov_decel: np.ndarray, c: int, on: np.ndarray, kind: np.ndarray, car: np.ndarray, lead_i: int,
                 follow_i: int, with_follower: bool, band: tuple, offset: np.ndarray, ttc: np.ndarray, lon_dev: np.ndarray,
                 reward_acc: np.ndarray) -> None:  # fmt: skip
-    """For the envs lo..hi-1 that step (`rows`): the lead car's speed held in its distance band
+    """For the envs lo..hi-1 that step (`rows`; a part of `_after_range`): the lead car's speed held in its distance band
     and the follower's at the middle of its band unless a speed stimulus drives that car
     (`PlatoonCore._band_control`), then the longitudinal and lateral band deviations and the
     step's share of the deviation and TTC penalties (`ThreeVehiclePlatoonEnv._on_physics_step`).
@@ -167,7 +156,7 @@ def _after_range(lo: int, hi: int, live: np.ndarray, k: int, a: tuple, lead: tup
     """`platoon_after` for the envs lo..hi-1, in the order of `BatchCore._physics_steps`:
     `_record_row` (`_lead_measures` of every env, then for the envs `live`: `record_lanes`
     and the trace row), `_on_physics_step` (`_hook_range`, the lon_dev column, the stimuli
-    of `_stimuli_step`) and `_stop_early` (`_terminated`: live envs that end stop).
+    of the former `_stimuli_step`) and `_stop_early` (`_terminated`: live envs that end stop).
 
     The tuples: `a` the ego arrays (x, z, yaw, u, steer_in, gas_in, brake_in, t); `lead`
     `_lead_range`'s arguments after the ego's and `gap_m`, `lead_speed_mps`; `lanes`
