@@ -123,6 +123,7 @@ class PlatoonBatch(BatchCore):
             raise TypeError("platoon_after writes these trace columns; change it with them")
         self._no_block = np.empty((1, 1, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
+        self._no_hits = np.zeros(n, dtype=np.int64)
         self._scored: dict[int, dict[str, float]] = {}  # `PlatoonCore.metrics` of envs to score by the template (`episode_metrics`)
         if type(template)._instructed_lane_keeping is not OpenDSEnv._instructed_lane_keeping or template.on_road_exit != "terminate":
             raise TypeError("episode_scores scores tasks without instructed lane changes or resets; change it with them")
@@ -150,7 +151,7 @@ class PlatoonBatch(BatchCore):
         self.traffic.step(rows, self.dt, self.t, self.s.x, self.s.z)
 
     def _traffic_hits(self, box: tuple[np.ndarray, ...], rows: np.ndarray) -> np.ndarray:
-        return self.traffic.new_hits(rows, box[0], box[1], box[2], self.car_half)
+        return self._no_hits  # (`platoon_after` counts them)
 
     def _lead_measures(self) -> None:
         s, st = self.s, self.traffic.st
@@ -254,6 +255,7 @@ class PlatoonBatch(BatchCore):
             self._band,
             (self.kind, self.onset, self.end, self.target, self.result, self.hold, self.reset_on, c.pressed, c.signal, st.ov_brake,
              st.ov_turn, self._changed, self._react, self._stim_consts),
+            (self.car_shift, self.car_half[0], self.car_half[1], tr.reach, tr.half, tr.hitting),
             (self.off_road_limit, self.end_past_lead, bool(self.config.terminate_on_collision), self.trig.paused, self.collisions,
              self.collisions_seen),
         )  # fmt: skip

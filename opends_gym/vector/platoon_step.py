@@ -19,6 +19,7 @@ import numpy as np
 from numba import prange
 
 from ..jit import inline, kernel, parallel_kernel
+from ..sim.geometry2d import boxes_overlap
 from .kernels import chunk_count, lane_measures
 
 
@@ -136,35 +137,39 @@ def _hook_range(lo: int, hi: int, rows: np.ndarray, x: np.ndarray, z: np.ndarray
 
 @parallel_kernel
 def platoon_after(live: np.ndarray, k: int, a: tuple, lead: tuple, lanes: tuple, ring: tuple, hook: tuple, band: tuple, stim: tuple,
-                  stop: tuple) -> int:  # fmt: skip
+                  hits: tuple, stop: tuple) -> int:  # fmt: skip
     """What follows the ego, traffic, trigger and timer part of each physics step of the
     platoon and brake batches (`PlatoonBatch._after_step`), in one pass over every env:
     the lead car measures, the lane measures, the trace row, the band control and
-    deviations, the stimuli and the early stop (see `_after_range`). Returns how many
+    deviations, the stimuli, the new contacts with traffic cars and the early stop (see
+    `_after_range`). Returns how many
     stimuli changed result (their `Stimulus` records are Python's)."""
     n = len(live)
     chunks = chunk_count(n)
     changed = np.zeros(chunks, dtype=np.int64)
     for j in prange(chunks):
-        changed[j] = _after_range(j * n // chunks, (j + 1) * n // chunks, live, k, a, lead, lanes, ring, hook, band, stim, stop)
+        changed[j] = _after_range(j * n // chunks, (j + 1) * n // chunks, live, k, a, lead, lanes, ring, hook, band, stim, hits, stop)
     return changed.sum()
 
 
 @kernel
 def _after_range(lo: int, hi: int, live: np.ndarray, k: int, a: tuple, lead: tuple, lanes: tuple, ring: tuple, hook: tuple, band: tuple,
-                 stim: tuple, stop: tuple) -> int:  # fmt: skip
+                 stim: tuple, hits: tuple, stop: tuple) -> int:  # fmt: skip
     """`platoon_after` for the envs lo..hi-1, in the order of `BatchCore._physics_steps`:
     `_record_row` (`_lead_measures` of every env, then for the envs `live`: `record_lanes`
     and the trace row), `_on_physics_step` (`_hook_range`, the lon_dev column, the stimuli
-    of the former `_stimuli_step`) and `_stop_early` (`_terminated`: live envs that end stop).
+    of the former `_stimuli_step`), the contacts with traffic cars that begin (`FlatTraffic.new_hits`,
+    counted here: no trigger action or timer reads them) and `_stop_early` (`_terminated`:
+    live envs that end stop).
 
     The tuples: `a` the ego arrays (x, z, yaw, u, steer_in, gas_in, brake_in, t); `lead`
     `_lead_range`'s arguments after the ego's and `gap_m`, `lead_speed_mps`; `lanes`
     `lane_measures`' constants and arrays; `ring` (block, row, ring steps, with pedals, recording);
     `hook` `_hook_range`'s arguments after the ego's but `band` (a separate argument: numba's
     parallel loops take no tuple nested in a tuple); `stim` the stimulus slots and
-    constants, `changed` (1 missed, 2 reacted) and `react` out; `stop` the early-stop
-    arguments."""
+    constants, `changed` (1 missed, 2 reacted) and `react` out; `hits` the ego box (shift of
+    its centre, half width, half length), each car's reach and half extents and the cars
+    touching the ego; `stop` the early-stop arguments."""
     x, z, yaw, u, steer_in, gas_in, brake_in, t = a
     pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap, lead_v, headway, ttc, gap_m, lead_speed = lead
     sign, centres, half_width, keep_m, lat, lane, offset, sd_n, sd_mean, sd_m2, prev_x, prev_z, dist, area = lanes
@@ -172,6 +177,7 @@ def _after_range(lo: int, hi: int, live: np.ndarray, k: int, a: tuple, lead: tup
     ov_speed, ov_decel, on, kind, car, lead_i, follow_i, with_follower, lon_dev, reward_acc = hook
     (s_kind, s_onset, s_end, s_target, s_result, s_hold, reset_on, pressed, signal, ov_brake, ov_turn, changed, react, consts) = stim
     brake_threshold, tolerance, sr_hold, max_rt, speed_kind = consts[0], consts[1], consts[2], consts[3], int(consts[4])
+    car_shift, ehx, ehz, reach, half, hitting = hits
     off_road, past_lead, terminate_on_collision, paused, collisions, collisions_seen = stop
     _lead_range(lo, hi, x, z, yaw, u, pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap, lead_v, headway, ttc)
     for e in range(lo, hi):
@@ -244,10 +250,19 @@ def _after_range(lo: int, hi: int, live: np.ndarray, k: int, a: tuple, lead: tup
                     ov_speed[r] = math.nan
                     ov_decel[r] = math.nan
                 on[e, s] = False
+        sy, cy = math.sin(yaw[e]), math.cos(yaw[e])
+        bx, bz = x[e] - car_shift * sy, z[e] - car_shift * cy  # (the box is centred half a wheelbase ahead)
+        for i in range(c):
+            r = e * c + i
+            hit = False
+            if enabled[r] and np.hypot(pos[r, 0] - bx, pos[r, 2] - bz) < reach[r]:
+                hit = boxes_overlap(bx, bz, yaw[e], ehx, ehz, pos[r, 0], pos[r, 2], car_yaw[r], half[r, 0], half[r, 1])
+            if hit and not hitting[r]:
+                collisions[e] += 1
+            hitting[r] = hit
         task_end = abs(lat[e]) > off_road
         if past_lead and not task_end:
             r = e * c + lead_i
-            sy, cy = math.sin(yaw[e]), math.cos(yaw[e])
             task_end = (pos[r, 0] - x[e]) * -sy + (pos[r, 2] - z[e]) * -cy < 0.0
         if paused[e] or task_end or (terminate_on_collision and collisions[e] - collisions_seen[e] > 0):
             live[e] = False
