@@ -41,6 +41,26 @@ from .trace import lane_columns
 from .traffic import FlatTraffic
 
 KINDS = scores.KINDS
+_BASE_KEYS = (
+    "duration_s",
+    *episode_scores.KEYS[:2],
+    "fuel_used_l",
+    "collisions",
+    *episode_scores.KEYS[2:6],
+    "reactions",
+    "reactions_correct",
+    "reactions_failed",
+    "reactions_missed",
+    "mean_reaction_time_s",
+    "lanes_known",
+    *episode_scores.KEYS[6:8],
+    "stimuli_presented",
+    "road_exits",
+    "resets",
+    "collision_resets",
+    "reset_time_s",
+    *episode_scores.KEYS[9:],
+)  # (`OpenDSEnv.episode_metrics`' keys in its order, before the task's own)
 BL, LT, FT, SR, EB = range(5)
 SLOTS = 4  # simultaneous stimuli per env (a stimulus lasts <= 5 s; triggers lie >= 250 m apart)
 
@@ -343,37 +363,25 @@ class PlatoonBatch(BatchCore):
 
     def _assemble(self, e: int, row: list[float], platoon: dict[str, float], columns: np.ndarray) -> dict[str, float]:
         """Env e's `OpenDSEnv.episode_metrics` dict (its keys in order) from its scores."""
+        reactions = self.timers.results_of(e) if self.timers.results[e] else []
+        n_correct = n_failed = n_missed = 0
+        mean_rt = math.nan
+        if reactions:
+            correct = [r for r in reactions if r.result == 1]
+            n_correct, n_failed = len(correct), sum(1 for r in reactions if r.result == -1)
+            n_missed = sum(1 for r in reactions if r.result == -2)
+            mean_rt = float(np.mean([r.reaction_time_s for r in correct])) if correct else math.nan
         tpl = self.template
-        reactions = self.timers.results_of(e)
-        correct = [r for r in reactions if r.result == 1]
-        v = dict(zip(episode_scores.KEYS, row, strict=True))
-        out: dict[str, float] = {
-            "duration_s": float(self.t[e]),
-            "distance_m": v.pop("distance_m"),
-            "mean_speed_kmh": v.pop("mean_speed_kmh"),
-            "fuel_used_l": float(self.s.fuel_used[e]),
-            "collisions": float(self.collisions[e]),
-            "sdlp_m": v.pop("sdlp_m"),
-            "steering_reversal_rate_per_min": v.pop("steering_reversal_rate_per_min"),
-            "mean_headway_s": v.pop("mean_headway_s"),
-            "min_ttc_s": v.pop("min_ttc_s"),
-            "reactions": float(len(reactions)),
-            "reactions_correct": float(len(correct)),
-            "reactions_failed": float(sum(1 for r in reactions if r.result == -1)),
-            "reactions_missed": float(sum(1 for r in reactions if r.result == -2)),
-            "mean_reaction_time_s": float(np.mean([r.reaction_time_s for r in correct])) if correct else math.nan,
-            "lanes_known": float(self.guide.lanes_known),
-            "mean_abs_lateral_offset_m": v.pop("mean_abs_lateral_offset_m"),
-            "off_road_s": v.pop("off_road_s"),
-            "stimuli_presented": float(self._presented(e)),
-            "road_exits": v.pop("road_exits"),
-            "resets": float(tpl.resets),
-            "collision_resets": float(tpl.collision_resets),
-            "reset_time_s": tpl.reset_time_s,
-        }
-        out.update(v)
+        values = [
+            float(self.t[e]), row[0], row[1], float(self.s.fuel_used[e]), float(self.collisions[e]), *row[2:6], float(len(reactions)),
+            float(n_correct), float(n_failed), float(n_missed), mean_rt, float(self.guide.lanes_known), row[6], row[7],
+            float(self._presented(e)), row[8], float(tpl.resets), float(tpl.collision_resets), tpl.reset_time_s, *row[9:],
+        ]  # fmt: skip
+        out = dict(zip(_BASE_KEYS, values, strict=True))
         out.update(platoon)
-        out.update(self._extra_metrics(e, reactions, columns))
+        extra = self._extra_metrics(e, reactions, columns)
+        if extra:
+            out.update(extra)
         return out
 
     def _presented(self, e: int) -> int:
@@ -424,6 +432,9 @@ class PlatoonBatch(BatchCore):
         platoon.state = PlatoonState(stimuli=list(self.stimuli[e]), lon_dev=list(lon), lat_dev=list(lat))
 
 
+BRAKE_KINDS = ("brakeLight", "emergencyBrake")  # the stimuli `brake_metrics` scores
+
+
 class BrakeBatch(PlatoonBatch):
     handled_actions = frozenset({"setTVPTStimulus", "manipulateObject", "setupBrakeReactionTimer"})
     trace_columns = PlatoonBatch.trace_columns + ("accelerator", "brake")
@@ -433,6 +444,7 @@ class BrakeBatch(PlatoonBatch):
         self.sign_ids = [oid for oid, objs in self.world.objects.by_id.items() if oid.endswith("_Sign")]
         self.sign_z = np.array([self.world.objects.by_id[oid][0].position[2] for oid in self.sign_ids])
         self.revealed = np.zeros((n, len(self.sign_ids)), dtype=bool)
+        self._no_trials = brake_metrics(np.zeros(1), np.zeros(1), np.zeros(1), [], [], [], 0)  # (`brake_metrics` of an episode without any)
 
     def _reset_task(self, idx: np.ndarray) -> None:
         super()._reset_task(idx)
@@ -459,6 +471,8 @@ class BrakeBatch(PlatoonBatch):
         t = np.arange(columns.shape[1]) * self.dt
         reset_t = [ev.t_s for ev in self.world.events.since(0) if ev.kind == "reset"]
         shown = int(np.count_nonzero(self.revealed[e]))
+        if not reactions and not any(st.kind in BRAKE_KINDS for st in self.stimuli[e]):  # (most episodes: no trial, no timer)
+            return self._no_trials | {"BrakeSign_unscored": float(shown)}
         return brake_metrics(t, columns[col("accelerator")], columns[col("brake")], self.stimuli[e], reactions, reset_t, shown)
 
     def _stimulus(self) -> np.ndarray:
