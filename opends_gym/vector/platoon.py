@@ -338,28 +338,24 @@ class PlatoonBatch(BatchCore):
         if not es:
             return []
         columns = self.ring.columns_of(es)
-        platoon = self._platoon_scores(es, columns)
-        base = self._base_scores(es, columns)
-        return [(e, self._assemble(e, row, platoon[e], columns[e])) for e, row in zip(es, base, strict=True)]
-
-    def _base_scores(self, es: list[int], columns: dict[int, np.ndarray]) -> list[list[float]]:
-        """`episode_scores.KEYS` of the envs `es` (their whole traces, reset row first)."""
-        col = self.trace_columns.index
-        traces = [columns[e] for e in es]
-        counts = [t.shape[1] for t in traces]
+        counts = np.array([columns[e].shape[1] for e in es], dtype=np.int64)
         starts = np.zeros(len(es) + 1, dtype=np.int64)
         np.cumsum(counts, out=starts[1:])
-        x, z, speed, steering, gap, lead_v, headway, ttc = (
-            np.concatenate([t[col(c)] for t in traces])
-            for c in ("x_m", "z_m", "speed_mps", "steering", "gap_m", "lead_speed_mps", "headway_s", "ttc_s")
-        )
-        t = np.concatenate([np.arange(k) * self.dt for k in counts])  # (`TraceRing.to_trace`'s clock)
+        data = np.concatenate([columns[e] for e in es], axis=1)  # (column, row): the episodes one after another, reset rows first
+        col = self.trace_columns.index
+        x, z = data[col("x_m")], data[col("z_m")]
         lat, lane, off = lane_columns(self.guide, x, z)
-        ds = np.hypot(np.diff(x), np.diff(z))
-        out = np.empty((len(es), len(episode_scores.KEYS)))
-        episode_scores.episode_scores(starts, t, ds, speed, steering * STEERING_WHEEL_MAX_DEG, gap, lead_v, headway, ttc, lat,
-                                      lane.astype(np.float64), off, *self._score_params, out)  # fmt: skip
-        return [[math.nan if v != v else v for v in row] for row in out.tolist()]  # (NaNs as math.nan)
+        steps = np.ones(len(x), dtype=bool)
+        steps[starts[:-1]] = False  # (the reset row is no step of the platoon metrics)
+        platoon = self._platoon_scores(es, data[col("lon_dev")][steps], off[steps], starts - np.arange(len(es) + 1))
+        t = (np.arange(len(x)) - np.repeat(starts[:-1], counts)) * self.dt  # (`TraceRing.to_trace`'s clock)
+        base = np.empty((len(es), len(episode_scores.KEYS)))
+        episode_scores.episode_scores(starts, t, np.hypot(np.diff(x), np.diff(z)), data[col("speed_mps")],
+                                      data[col("steering")] * STEERING_WHEEL_MAX_DEG, data[col("gap_m")], data[col("lead_speed_mps")],
+                                      data[col("headway_s")], data[col("ttc_s")], lat, lane.astype(np.float64), off, *self._score_params,
+                                      base)  # fmt: skip
+        rows = [[math.nan if v != v else v for v in row] for row in base.tolist()]  # (NaNs as math.nan)
+        return [(e, self._assemble(e, row, platoon[e], columns[e])) for e, row in zip(es, rows, strict=True)]
 
     def _assemble(self, e: int, row: list[float], platoon: dict[str, float], columns: np.ndarray) -> dict[str, float]:
         """Env e's `OpenDSEnv.episode_metrics` dict (its keys in order) from its scores."""
@@ -392,16 +388,9 @@ class PlatoonBatch(BatchCore):
         """The task's own metrics after `PlatoonCore.metrics` (none for the platoon test)."""
         return {}
 
-    def _platoon_scores(self, es: list[int], columns: dict[int, np.ndarray]) -> dict[int, dict[str, float]]:
-        if not es:
-            return {}
-        col = self.trace_columns.index
-        traces = [columns[e][:, 1:] for e in es]  # (the reset row is no step)
-        starts = np.zeros(len(es) + 1, dtype=np.int64)
-        np.cumsum([t.shape[1] for t in traces], out=starts[1:])
-        lon = np.concatenate([t[col("lon_dev")] for t in traces])
-        x, z = (np.concatenate([t[col(c)] for t in traces]) for c in ("x_m", "z_m"))
-        _, _, off = lane_columns(self.guide, x, z)
+    def _platoon_scores(self, es: list[int], lon: np.ndarray, off: np.ndarray, starts: np.ndarray) -> dict[int, dict[str, float]]:
+        """`PlatoonCore.metrics` of the envs `es`: lon[starts[j]:starts[j+1]] and off[...] are
+        the longitudinal band deviations and lane offsets of env es[j]'s steps."""
         stims = [s for e in es for s in self.stimuli[e]]
         stim_starts = np.zeros(len(es) + 1, dtype=np.int64)
         np.cumsum([len(self.stimuli[e]) for e in es], out=stim_starts[1:])
