@@ -276,7 +276,9 @@ def _after_range(lo: int, hi: int, live: np.ndarray, k: int, a: tuple, lead: tup
         for i in range(c):
             r = e * c + i
             hit = False
-            if enabled[r] and np.hypot(pos[r, 0] - bx, pos[r, 2] - bz) < reach[r]:
+            dx, dz, far = pos[r, 0] - bx, pos[r, 2] - bz, 1.000001 * reach[r]
+            # (a car beyond 1.000001 x its reach by the squared distance is beyond it by `np.hypot` too: no hypot for it)
+            if enabled[r] and dx * dx + dz * dz < far * far and np.hypot(dx, dz) < reach[r]:
                 hit = boxes_overlap(bx, bz, yaw[e], ehx, ehz, pos[r, 0], pos[r, 2], car_yaw[r], half[r, 0], half[r, 1])
             if hit and not hitting[r]:
                 collisions[e] += 1
