@@ -24,8 +24,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..data.episodes import load_episode
+    from ..data.episodes import NeverSetsOff, load_episode
     from ..data.minari_io import dataset_id, write_dataset
+    from ..errors import UserError
     from .run import _parse_value
 
     ident = dataset_id(args.minari)
@@ -35,9 +36,15 @@ def run(args: argparse.Namespace) -> int:
         kwargs[key] = _parse_value(value)
     episodes = []
     for path in args.drives:
-        ep = load_episode(path, args.env, args.task, kwargs, args.trim_idle)
+        try:
+            ep = load_episode(path, args.env, args.task, kwargs, args.trim_idle)
+        except NeverSetsOff as e:  # a log of someone waiting: with --trim-idle nothing of it is driving
+            print(f"{e}: skipped", file=sys.stderr)
+            continue
         print(f"{path}: {ep.steps} steps ({ep.kind}) on {ep.env_spec.id}", file=sys.stderr)
         episodes.append(ep)
+    if not episodes:
+        raise UserError("no drive gives gas: nothing to export with --trim-idle")
     ds = write_dataset(ident, episodes, author=args.author)
     print(f"wrote Minari dataset {ident}: {ds.total_episodes} episodes, {ds.total_steps} steps")
     return 0
