@@ -264,7 +264,7 @@ def countryside_logs(args: argparse.Namespace, cache: Path) -> tuple[str, list[P
     if args.synthetic_countryside:
         spec = f"participant:{args.cs_participant}"
         secs = args.seconds + args.cs_extra_s
-        folder = cache / f"synthetic-p{args.cs_participant}-{secs:g}s"
+        folder = cache / f"synthetic-p{args.cs_participant.replace(':', '-')}-{secs:g}s"
         label = f"{args.synthetic_countryside} drives of {spec}, {secs:g} s each, as carData.txt"
         return label, synthetic_logs(folder, args.synthetic_countryside, secs, spec, args.workers)
     if args.countryside_logs:
@@ -378,7 +378,7 @@ def main() -> None:
         "--countryside-logs", type=Path, metavar="DIR", help="clone from the carData*.txt logs under DIR (default: the bundled ones)"
     )
     logs.add_argument("--synthetic-countryside", type=int, default=0, metavar="N", help="clone from N carData logs of --cs-participant")
-    ap.add_argument("--cs-participant", type=int, default=1, help="--synthetic-countryside: the virtual participant who drives")
+    ap.add_argument("--cs-participant", default="1", help="--synthetic-countryside: the virtual participant who drives, ID[:LOAD]")
     ap.add_argument(
         "--cs-extra-s", type=float, default=15.0, help="--synthetic-countryside: the logs drive this much longer than --seconds"
     )

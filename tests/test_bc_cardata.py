@@ -86,6 +86,20 @@ def test_clone_of_cardata_logs_drives_their_span_within_5_m_of_their_path(
     assert driven >= least - GOAL_M > 100.0  # it set off and kept up (one that stands still is on the path)
 
 
+def test_a_wheel_log_cut_mid_drive_is_redriven_from_its_first_row(logs: tuple[list[Path], list[Path]], tmp_path: Path) -> None:
+    from opends_gym.data.episodes import load_episode
+
+    # a wheel is never exactly centred and the car is moving: the log has no settled row
+    lines = logs[1][0].read_text().splitlines()
+    cut = tmp_path / "carData.txt"
+    cut.write_text("\n".join(lines[:4] + lines[4 + 100 :]) + "\n")  # from 5 s into the drive
+    first = read_cardata(cut)
+    assert first.columns["speed_kmh"][0] > 30.0 and np.all(first.columns["steering"] != 0.0)
+    ep = load_episode(cut, None, str(TASK), {"on_collision": "continue"}, trim_idle=True)
+    assert ep.start_pose is not None and ep.start_pose["x"] == pytest.approx(first.columns["x_m"][0])
+    assert ep.steps == pytest.approx(first.t_s()[-1] * 10, abs=1)  # all of it, not its last row
+
+
 ENGINE_LATE = DRIVES / "drives" / "2019_01_04-11_26_07" / "carData(2).txt"  # gas with the engine off, then starts it
 NO_GAS = DRIVES / "drives" / "2019_01_04-11_26_07" / "carData.txt"  # 1.6 s standing, no pedal touched
 

@@ -263,13 +263,17 @@ def cardata_pedal(rec: Any) -> np.ndarray:
 
 
 def cardata_start_row(rec: Any, trim_idle: bool) -> int:
-    """The row a carData log's episode starts at: its first settled row (`Recorded.settled_row`),
-    with `trim_idle` from the first gas given with the engine running (gas with the engine off
-    moves nothing: OpenDS's `Car.setEngineOn`); NeverSetsOff where there is none."""
-    if not trim_idle:
-        return rec.settled_row(0)
-    pedal = np.where(np.asarray(rec.engine_on) > 0.5, cardata_pedal(rec), 0.0)
-    return rec.settled_row(_set_off(pedal, str(rec.path)))
+    """The row a carData log's episode starts at: its first settled row (`Recorded.settled_row`;
+    the first row where it has none), with `trim_idle` from the first gas given with the engine
+    running (gas with the engine off moves nothing: OpenDS's `Car.setEngineOn`); NeverSetsOff
+    where there is none."""
+    first = 0
+    if trim_idle:
+        first = _set_off(np.where(np.asarray(rec.engine_on) > 0.5, cardata_pedal(rec), 0.0), str(rec.path))
+    row = rec.settled_row(first)
+    # a wheel (not keys) is seldom exactly centred: a log that is moving and steering all along has
+    # no settled row; it starts at its first (a yaw rate it lacks dies out within ~0.1 s) rather than its last
+    return first if row == rec.n - 1 and first < rec.n - 1 else row
 
 
 def from_cardata(
