@@ -232,13 +232,15 @@ def drive_clone(
     from opends_gym.data.episodes import collect, make_env
     from opends_gym.drivers.agents import make_agent
 
-    env = make_env("OpenDS/DrivingTask-v0", {"task": str(CS_TASK), "action": "continuous", "max_episode_s": seconds, **env_kwargs})
+    agent = make_agent(spec)
+    clone_kwargs = getattr(agent, "env_kwargs", {})  # a clone's observation options (road_preview_m), as `run --agent bc:` makes the env
+    kwargs = {"task": str(CS_TASK), "action": "continuous", "max_episode_s": seconds, **clone_kwargs, **env_kwargs}
+    env = make_env("OpenDS/DrivingTask-v0", kwargs)
     base: Any = env.unwrapped
     try:
         if start_pose is None:
-            metrics = collect(env, make_agent(spec), 0).metrics
+            metrics = collect(env, agent, 0).metrics
         else:  # collect() resets without options: step by hand from the log's first state
-            agent = make_agent(spec)
             obs, info = env.reset(seed=0, options={"start_pose": start_pose})
             agent.reset(env, 0)
             done = False
@@ -284,7 +286,9 @@ def countryside(args: argparse.Namespace, cache: Path) -> dict[str, Any]:
 
     t0 = time.perf_counter()
     label, logs = countryside_logs(args, cache)
-    key = logs_key(logs)
+    preview = tuple(float(v) for v in args.cs_preview.split(",") if v.strip())
+    export = {**CS_EXPORT, "road_preview_m": preview} if preview else CS_EXPORT  # the dataset's env spec: the clone's env
+    key = logs_key(logs) + ("-preview-" + "-".join(f"{d:g}" for d in preview) if preview else "")
     name = f"bench/countryside-{key}-v0"
     if name not in minari.list_local_datasets():
         # from each log's own first state at its first gas; through traffic: the real logs began minutes into their
@@ -292,7 +296,7 @@ def countryside(args: argparse.Namespace, cache: Path) -> dict[str, Any]:
         episodes = []
         for p in logs:
             try:
-                episodes.append(load_episode(p, None, str(CS_TASK), CS_EXPORT, trim_idle=True))
+                episodes.append(load_episode(p, None, str(CS_TASK), export, trim_idle=True))
             except NeverSetsOff:  # as `opends-gym export --trim-idle` skips it
                 continue
         write_dataset(name, episodes)
@@ -306,6 +310,7 @@ def countryside(args: argparse.Namespace, cache: Path) -> dict[str, Any]:
         "logs": label,
         "log_files": len(logs),
         "history": args.cs_history,
+        "road_preview_m": list(preview),
         "train_steps": summary["steps"],
         "reach_m": reach_m(logs, args.seconds),
         "collect_s": t1 - t0,
@@ -382,6 +387,12 @@ def main() -> None:
     ap.add_argument(
         "--cs-extra-s", type=float, default=15.0, help="--synthetic-countryside: the logs drive this much longer than --seconds"
     )
+    ap.add_argument(
+        "--cs-preview",
+        default="10,25,50",
+        metavar="D,...",
+        help="Countryside: the road preview the logs are exported with (env road_preview_m, metres; '' for none)",
+    )
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "opends-gym-bc-acceptance")
@@ -411,7 +422,8 @@ def main() -> None:
     for check, goal, measured, ok in rows:
         print(f"{check:<{width}}  {goal:<18}  {measured:<44}  {'yes' if ok else 'NO'}")
     if "countryside" in result:
-        print(f"Countryside: cloned from {result['countryside']['logs']}")
+        cs = result["countryside"]
+        print(f"Countryside: cloned from {cs['logs']}, road preview {cs['road_preview_m'] or 'none'} m")
     print(f"wall {result['wall_s']:.0f} s (cache {args.cache})")
     if args.json:
         print(json.dumps(result, indent=1))
