@@ -69,12 +69,22 @@ def test_clone_of_cardata_logs_drives_their_span_within_5_m_of_their_path(
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
     cardata = logs[1]
     export = ["export", *map(str, cardata), "--task", str(TASK), "--trim-idle", "--env-arg", "on_collision=continue"]
-    assert _quiet([*export, "--minari", "test/countryside"]) == 0
+    # with the road preview (the far point ahead): the dataset's env spec carries it, and so the clone's env
+    assert _quiet([*export, "--env-arg", "road_preview_m=10,25,50", "--minari", "test/countryside"]) == 0
+    import minari
+
+    recovered = minari.load_dataset("test/countryside-v0").recover_environment()
+    assert recovered.unwrapped.config.road_preview_m == (10.0, 25.0, 50.0)
+    recovered.close()
     clone = tmp_path / "clone"
     assert _quiet(["train", "bc", "test/countryside-v0", "--out", str(clone), "--history", "15", "--epochs", "20"]) == 0
     drive_clone = ["run", str(TASK), "--agent", f"bc:{clone}", "--max-seconds", str(SECONDS)]
     assert _quiet([*drive_clone, "--record", str(tmp_path / "clone.mcap")]) == 0
 
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):  # refused without the preview, in one line
+        assert main([*drive_clone, "--env-arg", "road_preview_m="]) == 2
+    assert "trained with road_preview_m=(10.0, 25.0, 50.0)" in err.getvalue() and err.getvalue().count("\n") == 1
     drive = load_drive(tmp_path / "clone.mcap")
     xz = np.c_[drive.col("x_m"), drive.col("z_m")]
     logged = [np.c_[c.columns["x_m"], c.columns["z_m"]] for c in map(read_cardata, cardata)]
