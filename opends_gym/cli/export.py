@@ -8,6 +8,7 @@ through the env at its policy rate (`opends_gym.data.episodes`) and written with
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 
 
@@ -24,20 +25,32 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..data.episodes import load_episode
+    from ..data.episodes import NeverSetsOff, load_episode
     from ..data.minari_io import dataset_id, write_dataset
+    from ..envs.config import EnvConfig
+    from ..errors import UserError
     from .run import _parse_value
+    from .targets import _coerce
 
     ident = dataset_id(args.minari)
+    # the options every env shares typed by EnvConfig (road_preview_m=10,25,50), the rest as they read
+    # (the env, a recording's or a carData log's, is known only once a drive is loaded)
+    shared = {f.name: str(f.type) for f in dataclasses.fields(EnvConfig)}
     kwargs = {}
     for item in args.env_arg:
         key, _, value = item.partition("=")
-        kwargs[key] = _parse_value(value)
+        kwargs[key] = _coerce(key, value, shared[key]) if key in shared else _parse_value(value)
     episodes = []
     for path in args.drives:
-        ep = load_episode(path, args.env, args.task, kwargs, args.trim_idle)
+        try:
+            ep = load_episode(path, args.env, args.task, kwargs, args.trim_idle)
+        except NeverSetsOff as e:  # a log of someone waiting: with --trim-idle nothing of it is driving
+            print(f"{e}: skipped", file=sys.stderr)
+            continue
         print(f"{path}: {ep.steps} steps ({ep.kind}) on {ep.env_spec.id}", file=sys.stderr)
         episodes.append(ep)
+    if not episodes:
+        raise UserError("no drive gives gas: nothing to export with --trim-idle")
     ds = write_dataset(ident, episodes, author=args.author)
     print(f"wrote Minari dataset {ident}: {ds.total_episodes} episodes, {ds.total_steps} steps")
     return 0

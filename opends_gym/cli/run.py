@@ -130,6 +130,8 @@ def run_episodes(args: argparse.Namespace, progress: ProgressBar | None = None) 
         kwargs["max_episode_s"] = args.max_seconds
     kwargs.update(parse_env_args(args.env_arg, env_id))
     agent = make_cli_agent(args.agent)
+    for k, v in getattr(agent.agent, "env_kwargs", {}).items():  # a clone's observation options (e.g. road_preview_m)
+        kwargs.setdefault(k, v)
     env = make_cli_env(env_id, kwargs)
     if getattr(args, "record", None):
         from ..record import RecordDrive

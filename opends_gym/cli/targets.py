@@ -100,6 +100,11 @@ def _coerce(key: str, text: str, kind: str) -> Any:
             raise UserError(f"{where}: expected a number") from None
     if kind == "str":
         return text
+    if kind.startswith("tuple[float"):  # e.g. road_preview_m=10,25,50
+        try:
+            return tuple(float(v) for v in text.split(",") if v.strip())
+        except ValueError:
+            raise UserError(f"{where}: expected numbers separated by commas, such as 10,25,50") from None
     if kind.startswith("dict"):
         try:
             value = json.loads(text)

@@ -74,6 +74,16 @@ def split(n: int, share: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
     return np.sort(order[held:]), np.sort(order[:held])
 
 
+# The env options that shape the observation a clone was trained on: its `--agent bc:` run makes
+# the env with them (unless told otherwise), as `recover_environment()` does from the dataset.
+CLONE_ENV_OPTIONS = ("road_preview_m",)
+
+
+def clone_env_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
+    """The dataset env spec's observation-shaping options (JSON-able), those set only."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in kwargs.items() if k in CLONE_ENV_OPTIONS and v not in (None, (), [])}
+
+
 def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> dict[str, Any]:
     """Train a clone on Minari dataset `dataset`, save it in folder `out`; returns its summary."""
     minari = require("data", "minari", "behaviour cloning from a Minari dataset")
@@ -129,6 +139,7 @@ def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> di
     summary = {
         "dataset": ds.id,
         "env_id": ds.env_spec.id if ds.env_spec is not None else "",
+        "env_kwargs": clone_env_kwargs(ds.env_spec.kwargs if ds.env_spec is not None else {}),
         "episodes": int(ds.total_episodes),
         "steps": int(len(x)),
         "held_out_episodes": len(held_idx),

@@ -16,9 +16,10 @@ spec travels with the dataset):
   pressed, as a negative pedal). carData time is OpenDS's simulated time (`record.conform`'s
   `Recorded.sim_t`), its "accelerate back" key becomes braking (our continuous action has no
   reverse). A World-level recording starts at the task's start; a carData log starts in its own
-  first settled state (`Recorded.settled_row`: steering centred, so no yaw rate the log lacks
-  is under way; with `trim_idle` the first such row from the first gas on), through the env's
-  `start_pose` reset option (`envs.start_pose`): pose, speed and engine as logged. Either is
+  first settled state (`Recorded.settled_row`: steering centred or the car standing, so no yaw
+  rate the log lacks is under way; with `trim_idle` the first such row from the first gas with
+  the engine running), through the env's `start_pose` reset option (`envs.start_pose`): pose,
+  speed and engine as logged; where the log's engine state changes, the ignition key is turned. Either is
   an approximation of the person's drive: the actions are theirs, the states the env's.
 
 A drive that ends before the env ends the episode is marked truncated at its last step.
@@ -38,6 +39,11 @@ from ..envs.registration import register_envs, resolve_env_id
 from ..errors import UserError
 
 INPUT_ACTION = "continuous"  # the action type person drives and OpenDS logs are mapped onto
+
+
+class NeverSetsOff(UserError):
+    """A drive trimmed at its first gas (`trim_idle`) that never gives gas: nothing of it is
+    driving, and its standing would teach a clone to stand (`opends-gym export` skips it)."""
 
 
 @dataclass
@@ -155,14 +161,25 @@ def _policy_hz(env: gym.Env[Any, Any]) -> float:
     return float(base.config.policy_hz)
 
 
-def held_inputs(t_s: np.ndarray, steering: np.ndarray, pedal: np.ndarray, policy_hz: float) -> list[np.ndarray]:
-    """Continuous actions at the policy rate from inputs sampled at `t_s` (each held to the next
-    sample): one per policy step from t = 0 to the last sample."""
+def held_rows(t_s: np.ndarray, policy_hz: float) -> np.ndarray:
+    """The sample in force at each policy step's start (each held to the next sample): one per
+    policy step from t = 0 to the last sample."""
     t = np.asarray(t_s, dtype=float) - float(t_s[0])
     n = int(math.floor(t[-1] * policy_hz + 1e-9)) + 1
     rows = np.searchsorted(t, np.arange(n) / policy_hz + 1e-9, side="right") - 1
-    rows = np.clip(rows, 0, len(t) - 1)
-    return [np.asarray([np.clip(steering[i], -1, 1), np.clip(pedal[i], -1, 1)], dtype=np.float32) for i in rows]
+    return np.clip(rows, 0, len(t) - 1)
+
+
+def held_inputs(t_s: np.ndarray, steering: np.ndarray, pedal: np.ndarray, policy_hz: float) -> list[np.ndarray]:
+    """Continuous actions at the policy rate from inputs sampled at `t_s` (`held_rows`)."""
+    return [np.asarray([np.clip(steering[i], -1, 1), np.clip(pedal[i], -1, 1)], dtype=np.float32) for i in held_rows(t_s, policy_hz)]
+
+
+def engine_keys(engine_on: np.ndarray, rows: np.ndarray) -> list[dict[str, Any]]:
+    """`drive` hooks turning the ignition key at the policy steps where a log's engine state
+    changes (a person who starts the engine before setting off; OpenDS logs it per row)."""
+    on = np.asarray(engine_on, dtype=float)[rows] > 0.5
+    return [{"engine_key": bool(on[k])} if k and on[k] != on[k - 1] else {} for k in range(len(rows))]
 
 
 def _input_env(env_id: str | None, task: str | None, source: str, env_kwargs: dict[str, Any]) -> gym.Env[Any, Any]:
@@ -206,7 +223,7 @@ def from_recording(
     t = np.asarray([float(m["t_s"]) for m in controls])
     steer = np.asarray([float(m.get("steering", 0.0)) for m in controls])
     pedal = np.asarray([float(m.get("accelerator", 0.0)) - float(m.get("brake", 0.0)) for m in controls])
-    i0 = first_gas(pedal) if trim_idle else 0
+    i0 = _set_off(pedal, str(p)) if trim_idle else 0
     env = _input_env(env_id, meta.get("task_path") or None, str(p), env_kwargs or {})
     try:
         hz = _policy_hz(env)
@@ -221,6 +238,13 @@ def first_gas(pedal: np.ndarray) -> int:
     return int(gas[0]) if gas.size else 0
 
 
+def _set_off(pedal: np.ndarray, source: str) -> int:
+    """`first_gas` for `trim_idle`; NeverSetsOff when the driver never gives gas."""
+    if not np.any(pedal > 0.0):
+        raise NeverSetsOff(f"{source}: never gives gas, nothing is left after trimming the idle start")
+    return first_gas(pedal)
+
+
 def cardata_start_pose(rec: Any, i: int) -> dict[str, Any]:
     """The `start_pose` reset option for a carData log's row i (`record.conform.Recorded`)."""
     return {
@@ -233,23 +257,44 @@ def cardata_start_pose(rec: Any, i: int) -> dict[str, Any]:
     }
 
 
+def cardata_pedal(rec: Any) -> np.ndarray:
+    """A carData log's pedal per row as the continuous action's: gas, or minus the brake where it is pressed."""
+    return np.where(rec.brake > 0.0, -rec.brake, np.maximum(rec.gas, 0.0))
+
+
+def cardata_start_row(rec: Any, trim_idle: bool) -> int:
+    """The row a carData log's episode starts at: its first settled row (`Recorded.settled_row`;
+    the first row where it has none), with `trim_idle` from the first gas given with the engine
+    running (gas with the engine off moves nothing: OpenDS's `Car.setEngineOn`); NeverSetsOff
+    where there is none."""
+    first = 0
+    if trim_idle:
+        first = _set_off(np.where(np.asarray(rec.engine_on) > 0.5, cardata_pedal(rec), 0.0), str(rec.path))
+    row = rec.settled_row(first)
+    # a wheel (not keys) is seldom exactly centred: a log that is moving and steering all along has
+    # no settled row; it starts at its first (a yaw rate it lacks dies out within ~0.1 s) rather than its last
+    return first if row == rec.n - 1 and first < rec.n - 1 else row
+
+
 def from_cardata(
     path: str | Path, env_id: str | None, task: str | None, env_kwargs: dict[str, Any] | None = None, trim_idle: bool = False
 ) -> Episode:
     """An OpenDS carData.txt: its steering, gas and brake through `env_id` (or the task's generic env).
     The episode starts in the log's first settled state (module docstring); `trim_idle` starts
-    at the first gas (a log that waits at the start, steering or not, teaches a clone to wait)."""
+    at the first gas (a log that waits at the start, steering or not, teaches a clone to wait;
+    one that never gives gas raises NeverSetsOff)."""
     from ..record.conform import Recorded
 
     p = Path(path)
     rec = Recorded(p)
-    pedal = np.where(rec.brake > 0.0, -rec.brake, np.maximum(rec.gas, 0.0))
-    i0 = rec.settled_row(first_gas(pedal) if trim_idle else 0)
+    pedal = cardata_pedal(rec)
+    i0 = cardata_start_row(rec, trim_idle)
     env = _input_env(env_id, task, str(p), env_kwargs or {})
     try:
-        hz = _policy_hz(env)
-        actions = held_inputs(rec.sim_t[i0:], rec.steering[i0:], pedal[i0:], hz)
-        return drive(env, str(p), "cardata", None, {"start_pose": cardata_start_pose(rec, i0)}, actions)
+        rows = i0 + held_rows(rec.sim_t[i0:], _policy_hz(env))
+        actions = [np.asarray([np.clip(rec.steering[i], -1, 1), np.clip(pedal[i], -1, 1)], dtype=np.float32) for i in rows]
+        steps = list(zip(actions, engine_keys(rec.engine_on, rows), strict=True))
+        return drive(env, str(p), "cardata", None, {"start_pose": cardata_start_pose(rec, i0)}, steps)
     finally:
         env.close()
 

@@ -102,6 +102,8 @@ class BCDriver:
         self.with_actions = bool(s.get("actions", False))
         self.obs_size = (len(self.mean) - (self.history * len(self.low) if self.with_actions else 0)) // self.history
         self.squash = "target_std" not in s
+        # the observation options of the dataset it was cloned from (data.bc.clone_env_kwargs): the env to drive in
+        self.env_kwargs: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in s.get("env_kwargs", {}).items()}
         self.net = build_mlp(len(self.mean), len(self.low), tuple(s["hidden"]), self.squash)
         self._obs: list[np.ndarray] = []
         self._acts: list[np.ndarray] = []
@@ -113,6 +115,10 @@ class BCDriver:
         self._layers = [(m.weight.detach().numpy().astype(np.float64), m.bias.detach().numpy().astype(np.float64)) for m in linear]
 
     def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
+        config = getattr(env.unwrapped, "config", None)
+        for k, v in self.env_kwargs.items():
+            if config is not None and getattr(config, k, v) != v:
+                raise ValueError(f"clone {self.folder} was trained with {k}={v!r}, the env has {k}={getattr(config, k)!r}")
         shape = env.observation_space.shape
         if shape != (self.obs_size,):
             raise ValueError(f"clone {self.folder} expects observations of shape ({self.obs_size},), the env gives {shape}")

@@ -30,6 +30,7 @@ class EnvConfig:
     action: str = "continuous"  # continuous | continuous_buttons | discrete
     max_episode_s: float = 600.0
     nearby_vehicles: int = 4  # traffic objects in the kinematics observation
+    road_preview_m: tuple[float, ...] = ()  # vector observations: the road's heading and the point d m ahead (observations.py)
     rays: int = 24
     ray_range_m: float = 80.0
     image_width: int = 84
@@ -93,10 +94,34 @@ def _check_numbers(cfg: Any) -> None:
             raise ValueError(f"{name}.{f.name} must be at most {_UPPER[f.name]:g}, not {value!r}")
 
 
+# Farthest road preview: the far point of Salvucci & Gray (2004) lies 1-2 s ahead; 500 m is
+# a sanity bound (beyond the routes of most tasks), not a model value.
+PREVIEW_MAX_M = 500.0
+
+
+def check_preview(value: Any) -> tuple[float, ...]:
+    """`road_preview_m` as a tuple of distinct distances in (0, PREVIEW_MAX_M] m (a list from a
+    JSON env spec, e.g. a Minari dataset's, is accepted)."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list)):
+        raise ValueError(f"road_preview_m must be a list of distances in metres, e.g. (10.0, 25.0), not {value!r}")
+    out = []
+    for v in value:
+        if isinstance(v, bool) or not isinstance(v, numbers.Real) or not 0.0 < float(v) <= PREVIEW_MAX_M:
+            raise ValueError(f"road_preview_m: each distance must be a number in (0, {PREVIEW_MAX_M:g}] m, not {v!r}")
+        out.append(float(v))
+    if len(set(out)) != len(out):
+        raise ValueError(f"road_preview_m: distances must differ, not {value!r}")
+    return tuple(out)
+
+
 def _validate(cfg: Any) -> None:
     if getattr(cfg, "physics", "fast") not in ("fast", "bullet"):
         raise ValueError(f"physics must be 'fast' or 'bullet', not {cfg.physics!r}")
     _check_numbers(cfg)
+    if hasattr(cfg, "road_preview_m"):
+        object.__setattr__(cfg, "road_preview_m", check_preview(cfg.road_preview_m))  # frozen: normalise once here
+        if cfg.road_preview_m and getattr(cfg, "observation", "kinematics") not in ("kinematics", "rays"):
+            raise ValueError(f"road_preview_m adds to the vector observations (kinematics, rays), not to {cfg.observation!r}")
     if getattr(cfg, "reset_hold_s", 0.0) < 0.0:
         raise ValueError(f"reset_hold_s must not be negative, not {cfg.reset_hold_s!r}")
     if getattr(cfg, "policy_hz", 1.0) > getattr(cfg, "physics_hz", 60.0):

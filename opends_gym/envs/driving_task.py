@@ -32,6 +32,10 @@ class DrivingTaskEnv(OpenDSEnv):
     rad/s, then `nearby_vehicles` x [present, ahead m, left m, relative speed m/s, brake
     light, turn signal]; `rays`: speed, heading error, lane offset, then `rays` ranges in m;
     `topdown` / `driver_view`: uint8 RGB images (`image_height` x `image_width` x 3).
+    `road_preview_m=(10.0, 25.0, 50.0)` (none by default) appends to a vector observation, per
+    distance d, the road's heading d m ahead relative to the car's (rad, + left) and that
+    point's lateral position in the car's frame (m, + left): the far point of the two-point
+    model of steering (Salvucci & Gray 2004).
 
     ## Reward
     Metres of progress along the road per step, minus 0.1 x |lane offset| m, minus 10 per
@@ -51,8 +55,8 @@ class DrivingTaskEnv(OpenDSEnv):
     ## Arguments
     `task` plus every field of `EnvConfig`: physics ("fast" | "bullet"), physics_hz (60),
     policy_hz (10), observation, action, max_episode_s, nearby_vehicles, rays,
-    ray_range_m, image_width/height, render_width/height, terminate_on_collision,
-    on_collision, on_road_exit, reset_hold_s.
+    ray_range_m, road_preview_m, image_width/height, render_width/height,
+    terminate_on_collision, on_collision, on_road_exit, reset_hold_s.
 
     ## Version history
     v0: initial release.

@@ -30,6 +30,7 @@ EGO_NAMES = (
     "steering",
     "yaw_rate_radps",
 )
+PREVIEW_NAMES = ("road_heading_{d}m_rad", "road_left_{d}m_m")  # per distance of `road_preview_m`
 VEHICLE_NAMES = ("present", "ahead_m", "left_m", "rel_speed_mps", "brake_light", "turn_signal")
 
 
@@ -61,6 +62,25 @@ class ObservationType:
         )
         return [s.u, wrap_angle(s.yaw - p.heading_rad), offset, p.lateral_m, float(lane), w.ego.inputs.steering, s.r]
 
+    def preview_names(self) -> tuple[str, ...]:
+        """The road preview's slots: per distance d of `road_preview_m`, PREVIEW_NAMES."""
+        return tuple(n.format(d=f"{d:g}") for d in self.config.road_preview_m for n in PREVIEW_NAMES)
+
+    def preview_features(self) -> list[float]:
+        """The road d m ahead along the reference line (from the car's foot point): its heading
+        relative to the car's (rad, + the road turns left) and that point's position across the
+        car's frame (m, + left). The far point of the two-point model of steering (Salvucci &
+        Gray 2004, "A two-point visual control model of steering", Perception 33): drivers steer
+        into a bend by the road ahead before the heading error or lane offset builds up."""
+        s = self.world.ego.state
+        s_m = self.guide.locate(s.x, s.z).s_m
+        lx, lz = -math.cos(s.yaw), math.sin(s.yaw)  # the car's left (forward is (-sin, -cos))
+        out = []
+        for d in self.config.road_preview_m:
+            x, z, heading = self.guide.point_at(s_m + d)
+            out += [wrap_angle(heading - s.yaw), (x - s.x) * lx + (z - s.z) * lz]
+        return out
+
 
 class KinematicsObservation(ObservationType):
     """Ego state, the K nearest traffic objects (ego frame) and the task's stimuli.
@@ -68,7 +88,7 @@ class KinematicsObservation(ObservationType):
     Layout: EGO_NAMES, then K x VEHICLE_NAMES (nearest first, ties to the object listed
     first; `ahead_m`/`left_m` in the ego frame, `rel_speed_mps` along the ego's heading;
     turn_signal 0 off, 1 left, 2 right, 3 both; empty slots are zeros), then the env's
-    stimulus features.
+    stimulus features, then the road preview (`road_preview_m`, none by default).
     """
 
     name = "kinematics"
@@ -76,8 +96,10 @@ class KinematicsObservation(ObservationType):
     def __init__(self, *args: Any) -> None:
         super().__init__(*args)
         self.k = int(self.config.nearby_vehicles)
-        self.size = len(EGO_NAMES) + self.k * len(VEHICLE_NAMES) + len(self.stimulus_names)
-        self.names = EGO_NAMES + tuple(f"vehicle{i}_{n}" for i in range(self.k) for n in VEHICLE_NAMES) + self.stimulus_names
+        self._preview = self.preview_names()
+        self.size = len(EGO_NAMES) + self.k * len(VEHICLE_NAMES) + len(self.stimulus_names) + len(self._preview)
+        vehicles = tuple(f"vehicle{i}_{n}" for i in range(self.k) for n in VEHICLE_NAMES)
+        self.names = EGO_NAMES + vehicles + self.stimulus_names + self._preview
         self._ego = np.zeros((4, 1))  # (x, z, yaw, speed) for `nearest_slots`
 
     def space(self) -> gym.spaces.Box:
@@ -94,8 +116,11 @@ class KinematicsObservation(ObservationType):
             n = len(traffic.ids)
             nearest_slots(traffic.positions, traffic.yaw, traffic.speed, traffic.enabled, traffic.brake_light, traffic.turn_signal, n, ego,
                           self.k, out, len(EGO_NAMES))  # fmt: skip
+        at = len(EGO_NAMES) + self.k * len(VEHICLE_NAMES)
         if self.stimulus_names:
-            out[0, len(EGO_NAMES) + self.k * len(VEHICLE_NAMES) :] = self.stimulus()
+            out[0, at : at + len(self.stimulus_names)] = self.stimulus()
+        if self._preview:
+            out[0, at + len(self.stimulus_names) :] = self.preview_features()
         return out[0]
 
 
@@ -115,7 +140,8 @@ class RaysObservation(ObservationType):
         self.range = float(self.config.ray_range_m)
         angles = np.linspace(0.0, 2.0 * math.pi, self.n, endpoint=False)
         self._angles = angles
-        self.names = ("speed_mps", "heading_error_rad", "lane_offset_m") + tuple(f"ray{i}_m" for i in range(self.n)) + self.stimulus_names
+        rays = tuple(f"ray{i}_m" for i in range(self.n))
+        self.names = ("speed_mps", "heading_error_rad", "lane_offset_m") + rays + self.stimulus_names + self.preview_names()
 
     def space(self) -> gym.spaces.Box:
         return gym.spaces.Box(-np.inf, np.inf, shape=(len(self.names),), dtype=np.float32)
@@ -161,7 +187,8 @@ class RaysObservation(ObservationType):
                 for edge in (lanes[0].x_min, lanes[-1].x_max):
                     t = (edge - s.x) / ux
                     dist = np.where((t > 0) & np.isfinite(t), np.minimum(dist, t), dist)
-        out = np.asarray(ego[:3] + list(dist) + list(self.stimulus() if self.stimulus_names else ()), dtype=np.float32)
+        preview = self.preview_features() if self.config.road_preview_m else []
+        out = np.asarray(ego[:3] + list(dist) + list(self.stimulus() if self.stimulus_names else ()) + preview, dtype=np.float32)
         return out
 
 

@@ -46,6 +46,9 @@ from .messages import yaw_from_jme_quaternion
 PHYSICS_DT_S = 0.01  # OpenDS's Bullet step (Simulator: setAccuracy(0.01f))
 WINDOW_S = 5.0
 MIN_DURATION_S = 20.0  # the goals apply to drives at least this long
+# below this the car stands: even a full-lock wheel (1 rad, sim.ego.spec.MAX_WHEEL_ANGLE_RAD) gives
+# a lateral acceleration of v^2 tan(1) / 2.7 m wheelbase = 0.04 m/s^2 at 1 km/h, no tyre slip
+STANDING_KMH = 1.0
 GOALS = {"median_speed_err_kmh": 2.0, "median_heading_err_deg": 3.0, "median_pos_err_m": 1.5, "rms_speed_err_kmh": 5.0}
 TRACE_COLUMNS = ("t_s", "x_m", "z_m", "yaw_rad", "speed_kmh")
 GROUND_MODELS = {"fast": "height and path grade of the nearest recorded sample", "bullet": "plane at the first recorded height"}
@@ -120,11 +123,16 @@ class Recorded:
 
     def settled_row(self, i: int) -> int:
         """The first row from i on whose state the log holds completely: steering centred there
-        and on the row before, so that no yaw rate or sideways slip (which the log lacks, and
-        which die out within ~0.1 s in OpenDS's car) is under way."""
-        while i < self.n - 1 and (self.steering[i] != 0.0 or (i > 0 and self.steering[i - 1] != 0.0)):
+        and on the row before, or the car standing, so that no yaw rate or sideways slip (which
+        the log lacks, and which die out within ~0.1 s in OpenDS's car) is under way. A wheel
+        (not a keyboard) is seldom exactly centred, but a drive that sets off from rest is
+        settled at its first row whatever the wheel does there."""
+        while i < self.n - 1 and not (self.speed_kmh[i] < STANDING_KMH or self._centred(i)):
             i += 1
         return i
+
+    def _centred(self, i: int) -> bool:
+        return bool(self.steering[i] == 0.0 and (i == 0 or self.steering[i - 1] == 0.0))
 
     @property
     def duration_s(self) -> float:

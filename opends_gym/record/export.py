@@ -2,6 +2,12 @@
 
 Why: so our drives open in OpenDS's Drive Analyzer and in scripts written for OpenDS
 output folders (`analyzerData/<date>/`). Existing files are never overwritten.
+
+A carData row holds the car's state and the inputs set on it at that moment, which drive it
+from that row on (`DataWriter.saveAnalyzerData` reads `car.getSteeringWheelState()` beside the
+position; a log is replayed so, each row's inputs held to the next: `data.episodes`, `record.conform`).
+A recording's `/ego` sample holds the state after a physics step and the inputs of that step,
+the ones that led to it: each row is written with the inputs of the sample after it.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ def export_opends(drive: Drive, folder: str | Path) -> list[Path]:
     task = str(drive.meta.get("task_path") or drive.meta.get("driving_task") or drive.meta.get("task_name") or "")
     driver = str(drive.meta.get("driver") or drive.meta.get("env_id") or "opends_gym")
     quat = np.column_stack([c["qx"], c["qy"], c["qz"], c["qw"]])
+    steering, accelerator, brake = (inputs_from_here(c[k]) for k in ("steering", "accelerator", "brake"))
     written = [
         write_cardata(
             out / "carData.txt",
@@ -37,9 +44,9 @@ def export_opends(drive: Drive, folder: str | Path) -> list[Path]:
             c["z_m"],
             quat,
             c["speed_kmh"],
-            c["steering"],
-            c["accelerator"],
-            c["brake"],
+            steering,
+            accelerator,
+            brake,
             np.nan_to_num(c["engine_on"], nan=1.0) > 0.5,
             driving_task=task,
             driver=driver,
@@ -51,3 +58,10 @@ def export_opends(drive: Drive, folder: str | Path) -> list[Path]:
         ),
     ]
     return written
+
+
+def inputs_from_here(column: np.ndarray) -> np.ndarray:
+    """A recorded input column as carData rows hold it: at each sample, the input of the step
+    after it (the one it drives on from there), the last sample keeping its own."""
+    c = np.asarray(column, dtype=float)
+    return np.concatenate([c[1:], c[-1:]]) if len(c) else c

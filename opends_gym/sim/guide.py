@@ -180,6 +180,16 @@ class RoadGuide:
             return self.polyline.point_at(s_m)[2]
         return self.road_heading if self.kind == "lanes" else self.start_yaw
 
+    def point_at(self, s_m: float) -> tuple[float, float, float]:
+        """(x, z, heading) of the reference line (lateral 0) at arc length s: the road ahead for
+        a preview (a route clamps s to its ends; lanes and the start line run on straight)."""
+        if self.kind == "route" and self.polyline is not None:
+            return self.polyline.point_at(s_m)
+        if self.kind == "lanes":  # lateral = -sign * x, s = -sign * (z - start z)
+            return 0.0, self.start_xz[1] - self.sign * s_m, self.road_heading
+        fx, fz, _, _ = self._start_axes
+        return self.start_xz[0] + s_m * fx, self.start_xz[1] + s_m * fz, self.start_yaw
+
     def lanes_known_at(self, s_m: float) -> bool:
         """Whether the lanes at arc length s are the task's (not on the start connector)."""
         return self.lanes_known and s_m >= self.join_s_m

@@ -92,6 +92,10 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         template: Any = gym.make(env_id, disable_env_checker=True, **kwargs).unwrapped
         if template.config.observation != "kinematics":
             raise ValueError(f"the native batch supports the kinematics observation, not {template.config.observation!r}")
+        if template.config.road_preview_m:
+            raise ValueError(
+                f"the native batch has no road preview (road_preview_m); use gymnasium.make_vec({env_id!r}, vectorization_mode='sync')"
+            )
         self.env_id = env_id
         self.num_envs = num_envs
         if record_metrics:
