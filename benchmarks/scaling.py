@@ -11,7 +11,10 @@ programs had the cores or the threads waited) and the rate per CPU second (what 
 threads computed while they ran; the steadiest figure on a busy host). Thread counts above this host's cores are
 measured too (marked: they share the cores) unless `--threads` leaves them out.
 
-    python benchmarks/scaling.py [--threads 1 2 4 8 16] [--envs-per-thread 2048] [--seconds 3] [--rounds 3]
+    python benchmarks/scaling.py [--threads 1 2 4 8 16] [--envs-per-thread 2048] [--seconds 3] [--rounds 3] [--processes]
+
+`--processes` runs the same counts as the batch's `processes=k` worker processes of one
+thread each: the Python glue of each step then runs in k processes, not one.
 """
 
 from __future__ import annotations
@@ -30,8 +33,9 @@ import json, sys, time, logging
 import gymnasium as gym, numba
 import opends_gym
 logging.disable(logging.WARNING)
-n, seconds, metrics = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3] == "1"
-env = gym.make_vec("OpenDS/LaneChangeTest-v0", num_envs=n, vectorization_mode="vector_entry_point", record_metrics=metrics)
+n, seconds, metrics, procs = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3] == "1", int(sys.argv[4])
+shards = {"processes": procs} if procs > 1 else {}
+env = gym.make_vec("OpenDS/LaneChangeTest-v0", num_envs=n, vectorization_mode="vector_entry_point", record_metrics=metrics, **shards)
 env.reset(seed=0)
 env.action_space.seed(0)
 actions = [env.action_space.sample() for _ in range(16)]
@@ -46,11 +50,10 @@ print(json.dumps({"rate": steps * n / wall, "cpu": (time.process_time() - c0) / 
 """
 
 
-def probe(threads: int, envs: int, seconds: float, metrics: bool) -> dict[str, float]:
+def probe(threads: int, envs: int, seconds: float, metrics: bool, processes: bool = False) -> dict[str, float]:
     env = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
-    out = subprocess.run(
-        [sys.executable, "-c", PROBE, str(envs), str(seconds), "1" if metrics else "0"], env=env, capture_output=True, text=True, check=True
-    )
+    argv = [str(envs), str(seconds), "1" if metrics else "0", str(threads if processes else 1)]
+    out = subprocess.run([sys.executable, "-c", PROBE, *argv], env=env, capture_output=True, text=True, check=True)
     return dict(json.loads(out.stdout.strip().splitlines()[-1]))
 
 
@@ -60,15 +63,17 @@ def main() -> None:
     ap.add_argument("--envs-per-thread", type=int, default=2048)
     ap.add_argument("--seconds", type=float, default=3.0)
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--processes", action="store_true", help="k one-thread workers (processes=k), not k threads; cpu %% = the parent only")
     args = ap.parse_args()
     cores = os.cpu_count() or 1
-    print(f"native LaneChangeTest-v0, random actions with resets, {args.envs_per_thread} envs per thread, {cores} cores here, "
+    unit = "processes (one thread each)" if args.processes else "threads"
+    print(f"native LaneChangeTest-v0, {unit}, random actions with resets, {args.envs_per_thread} envs per thread, {cores} cores here, "
           f"{args.rounds} interleaved rounds of {args.seconds:.1f} s; {time.strftime('%Y-%m-%d %H:%M')}", flush=True)  # fmt: skip
     results: dict[tuple[int, bool], list[dict[str, float]]] = {}
     for r in range(args.rounds):
         for k in args.threads:
             for metrics in (False, True):
-                res = probe(k, k * args.envs_per_thread, args.seconds, metrics)
+                res = probe(k, k * args.envs_per_thread, args.seconds, metrics, args.processes)
                 results.setdefault((k, metrics), []).append(res)
                 print(f"round {r + 1}: {k} threads, metrics {metrics}: {res['rate']:,.0f} env-steps/s, cpu {100 * res['cpu']:.0f} %",
                       flush=True)  # fmt: skip
