@@ -115,9 +115,8 @@ def body_step(
 def side_share(dt: float) -> float:
     """The share of a wheel's sideways sliding its impulse removes in a step of dt: OpenDS's
     SIDE_DAMPING per 0.01 s tick, compounded (exactly SIDE_DAMPING at dt = 0.01 s)."""
-    if dt == OPENDS_TICK_S:
-        return SIDE_DAMPING
-    return 1.0 - (1.0 - SIDE_DAMPING) ** (dt / OPENDS_TICK_S)
+    compounded = 1.0 - (1.0 - SIDE_DAMPING) ** (dt / OPENDS_TICK_S)  # (unconditional: a loop's compiler hoists it)
+    return SIDE_DAMPING if dt == OPENDS_TICK_S else compounded
 
 
 @inline
