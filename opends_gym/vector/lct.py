@@ -20,8 +20,25 @@ from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
 from .kernels import CHUNK_ENVS
-from .lct_step import _observation_range, _outcomes_range, _substeps_range, lct_observation, lct_outcomes, lct_substeps
+from .lct_step import (
+    INFO_F,
+    INFO_I,
+    _finish_range,
+    _observation_range,
+    _outcomes_range,
+    _substeps_range,
+    lct_finish,
+    lct_observation,
+    lct_outcomes,
+    lct_substeps,
+)
 from .trace import TraceRing
+
+# the info keys of a step, in `BatchCore.info`'s order
+INFO_KEYS = ("sim_time_s", "speed_kmh", "lateral_offset_m", "lane_index", "fuel_used_l", "collisions", "reaction_result", "reaction_time_s",
+             "mean_deviation_m", "sdlp_m", "headway_s", "ttc_s", "lanes_known", "resets", "reset_time_s", "progress_m",
+             "new_collisions")  # fmt: skip
+StepArrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray], list[int]]
 
 
 class LctBatch(BatchCore):
@@ -106,6 +123,43 @@ class LctBatch(BatchCore):
             "new_collisions": new_collisions,
         }
         return reward, terminated, truncated, info
+
+    def step_and_reset(self, actions: np.ndarray, resetting: np.ndarray, size: int) -> StepArrays:
+        """`shards.step_shard`'s step with NEXT_STEP autoreset: the envs not `resetting` step,
+        the others reset, then one compiled pass (`lct_finish`) writes every env's reward,
+        flags, observation and info (a reset env's are those of its fresh state, as
+        `BatchCore.info` gives them after `reset_rows`). The info arrays are rows of two
+        blocks allocated per step (the caller may keep them). Returns (obs, reward, terminated,
+        truncated, info, envs whose episode ended)."""
+        stepping = ~resetting
+        c = self.actions.convert(actions, stepping)
+        self._physics_steps(stepping.copy(), c)
+        if resetting.any():
+            self.reset_rows(np.flatnonzero(resetting), None)
+        n, s, tm = self.n, self.s, self.timers
+        reward, terminated, truncated = np.empty(n), np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        out = np.empty((n, size), dtype=np.float32)
+        info_f, info_i, known = np.empty((len(INFO_F), n)), np.empty((len(INFO_I), n), dtype=np.int64), np.empty(n, dtype=bool)
+        if size != len(EGO_NAMES) + self.template.config.nearby_vehicles * len(VEHICLE_NAMES) + 3:
+            raise ValueError(f"the LCT observation has 7 ego features, vehicle slots and 3 stimulus values, not {size} values")
+        outcome = (stepping, self.guide.sign, self.guide.start_xz[1], s.z, s.u, self.last_s, self.progress, self.collisions,
+                   self.collisions_seen, self.new_collisions, tm.n_results, self.reaction_cursor, tm.last_result, tm.last_rt,
+                   self.rl["n"], self.rl["m2"], self.has_prev, self.prev_d, self.area, self.lat, self.off_road_limit, self.step_reward,
+                   self.reward_scale, self.off_road_penalty, self.trig.paused, bool(self.config.terminate_on_collision), self.t,
+                   float(self.config.max_episode_s), reward, terminated, truncated)  # fmt: skip
+        obs = (out, s.u, s.yaw, self.guide.road_heading, self.offset, self.lat, self.lane, s.steer_in, s.r, s.z, self.revealed,
+               self.sign_z, self.sign_lane, self.lane_lat)  # fmt: skip
+        copies = (self.t, self.offset, s.fuel_used, self.headway, self.ttc, self.lane, self.collisions)
+        args = (outcome, obs, copies, info_f, info_i, known, bool(self.guide.lanes_known))
+        if self.parallel:
+            with numba.parallel_chunksize(1):
+                lct_finish(*args)
+        else:
+            _finish_range(0, n, *args)
+        info = dict(zip(INFO_F, info_f)) | dict(zip(INFO_I, info_i))
+        info["lanes_known"] = known
+        info = {key: info[key] for key in INFO_KEYS}
+        return out, reward, terminated, truncated, info, np.flatnonzero(terminated | truncated).tolist()
 
     def observation(self, k: int, size: int) -> np.ndarray:
         """The ego features, empty vehicle slots and the sign stimulus (`lct_observation`)."""

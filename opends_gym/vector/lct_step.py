@@ -354,3 +354,44 @@ def _outcomes_range(lo: int, hi: int, rows: np.ndarray, sign: float, origin_z: f
         reward[e] = r if rows[e] else 0.0
         terminated[e] = ended and rows[e]
         truncated[e] = not ended and t[e] >= max_s - 1e-9 and rows[e]
+
+
+# rows of the float and int blocks `lct_finish` fills: the info arrays of one policy step, in `BatchCore.info`'s key order
+INFO_F = ("sim_time_s", "speed_kmh", "lateral_offset_m", "fuel_used_l", "reaction_result", "reaction_time_s", "mean_deviation_m",
+          "sdlp_m", "headway_s", "ttc_s", "reset_time_s", "progress_m")  # fmt: skip
+INFO_I = ("lane_index", "collisions", "resets", "new_collisions")
+
+
+@parallel_kernel
+def lct_finish(outcome: tuple, obs: tuple, copies: tuple, info_f: np.ndarray, info_i: np.ndarray, known: np.ndarray,
+               lanes_known: bool) -> None:  # fmt: skip
+    """The end of a policy step in one parallel pass: `lct_outcomes` (its arguments `outcome`,
+    less its info tuples: rows of `info_f` and `info_i` take them), `lct_observation` (its
+    arguments `obs`) and the info arrays that are copies of the state (`copies`: t, offset,
+    fuel_used, headway, ttc as floats; lane, collisions as ints), so a step's info is two
+    blocks filled in compiled code (rows named by INFO_F and INFO_I) and `known`."""
+    n = info_f.shape[1]
+    chunks = chunk_count(n)
+    for c in prange(chunks):
+        _finish_range(c * n // chunks, (c + 1) * n // chunks, outcome, obs, copies, info_f, info_i, known, lanes_known)
+
+
+@kernel
+def _finish_range(lo: int, hi: int, outcome: tuple, obs: tuple, copies: tuple, info_f: np.ndarray, info_i: np.ndarray, known: np.ndarray,
+                  lanes_known: bool) -> None:  # fmt: skip
+    """`lct_finish` for the envs lo..hi-1."""
+    rows, sign, origin_z, z, u, last_s, progress, collisions, collisions_seen, new_collisions, n_results, cursor, last_result, \
+        last_rt, sd_n, sd_m2, has_prev, prev_d, area, lat, off_road, step_reward, reward_scale, penalty, paused, \
+        terminate_on_collision, t, max_s, reward, terminated, truncated = outcome  # fmt: skip
+    floats = (info_f[1], info_f[4], info_f[5], info_f[6], info_f[7], info_f[11])
+    _outcomes_range(lo, hi, rows, sign, origin_z, z, u, last_s, progress, collisions, collisions_seen, new_collisions, n_results, cursor,
+                    last_result, last_rt, sd_n, sd_m2, has_prev, prev_d, area, lat, off_road, step_reward, reward_scale, penalty, paused,
+                    terminate_on_collision, t, max_s, floats, (info_i[3],), reward, terminated, truncated)  # fmt: skip
+    out, o_u, yaw, heading, offset, o_lat, lane, steer, r, o_z, revealed, sign_z, sign_lane, lane_lat = obs
+    _observation_range(lo, hi, out, o_u, yaw, heading, offset, o_lat, lane, steer, r, o_z, revealed, sign_z, sign_lane, lane_lat)
+    c_t, c_offset, c_fuel, c_headway, c_ttc, c_lane, c_collisions = copies
+    for e in range(lo, hi):
+        info_f[0, e], info_f[2, e], info_f[3, e], info_f[8, e], info_f[9, e], info_f[10, e] = c_t[e], c_offset[e], c_fuel[e], \
+            c_headway[e], c_ttc[e], 0.0  # fmt: skip
+        info_i[0, e], info_i[1, e], info_i[2, e] = c_lane[e], c_collisions[e], 0
+        known[e] = lanes_known
