@@ -18,8 +18,9 @@ import numpy as np
 from numba import prange
 
 from ..jit import inline, kernel, parallel_kernel
+from ..sim.ego.kernels import wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
-from .ego import ego_step
+from .ego import ego_step_wheels
 from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, timer_step, volume_fires
 
 
@@ -148,6 +149,7 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
         if not resume and k_from == 0:
             angle[e] = steer[e] * MAX_WHEEL_ANGLE_RAD
             cos_a[e], sin_a[e] = math.cos(angle[e]), math.sin(angle[e])
+        wc = wheel_constants(car, dt, cos_a[e], sin_a[e])  # (the steering is held: once per car and call)
         # the car's state, kept in locals until it stops, parks or ends the policy step
         xe, ze, yawe, ue, ve, re, geare, rpme, pv, fu, fl = x[e], z[e], yaw[e], u[e], v[e], r[e], gear[e], rpm[e], prev_v[e], \
             fuel_used[e], fuel_left[e]  # fmt: skip
@@ -159,9 +161,9 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
                 sc += 1
                 te = sc * dt
                 u0, si = ue, steer[e]
-                xe, ze, yawe, ue, ve, re, geare, rpme, fu, fl, con, cint, gi, bi, sy, cy = ego_step(
-                    car, engine_on, suppress_cruise_off, min_speed, dt, xe, ze, yawe, ue, ve, re, geare, rpme, pv, fu, fl, con,
-                    cruise_target[e], cint, angle[e], cos_a[e], sin_a[e], gas[e], brake[e],
+                xe, ze, yawe, ue, ve, re, geare, rpme, fu, fl, con, cint, gi, bi, sy, cy = ego_step_wheels(
+                    car, wc, engine_on, suppress_cruise_off, min_speed, dt, xe, ze, yawe, ue, ve, re, geare, rpme, pv, fu, fl, con,
+                    cruise_target[e], cint, cos_a[e], sin_a[e], gas[e], brake[e],
                 )  # fmt: skip
                 pv = u0
                 if not paused[e]:
