@@ -3,7 +3,10 @@
 Why: signs are revealed by their trigger boxes (`manipulateObject visible`), so each env
 keeps the highest sign index revealed; the normative-path deviation, the reward and the
 running MDEV accumulate per physics step, with the single env's formulas. The physics steps
-of a policy step, its outcomes and the observation run as compiled passes (`lct_step`).
+of a policy step run as one compiled pass (`lct_substeps`); then the autoresets (Python, for
+the ended envs only) and one more pass for every env's reward, flags, observation and info
+(`lct_finish`), so a step's Python does the same work whatever the batch size, apart from
+firing the trigger actions of the cars that touched a trigger box and the resets.
 """
 
 from __future__ import annotations

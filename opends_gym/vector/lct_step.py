@@ -4,7 +4,7 @@ Why: `BatchCore._physics_steps` runs each physics step as a handful of kernels w
 and Python between them (six times per policy step). That Python holds the GIL, so shards
 stepped in threads mostly waited for each other. Here one kernel runs the whole loop (ego
 car, trigger contacts, reaction timers, lane measures, trace rows, the LCT's path measures,
-early stop) with the same per-car functions as those kernels (`vector.ego.ego_step`,
+early stop) with the same per-car functions as those kernels (`vector.ego.ego_step_wheels`,
 `kernels.*`, `lct_measure` below), so the results are the same floats. It returns to Python
 only for the cars that touch a trigger box (its actions are Python), which it then finishes
 in a second call; reaction timers that end are scored by Python afterwards.

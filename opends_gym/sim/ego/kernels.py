@@ -265,16 +265,38 @@ def power_percentage(gear: int, speed_share: float) -> float:
     return 0.0 if pp < 0.0 else 1.0 if pp > 1.0 else pp
 
 
+# the speed share from which each forward gear's `power_percentage` polynomial stays below 0 (gears 1..6; index 0 unused): just
+# above its largest real root (numpy.roots of its coefficients; tests/test_powertrain.py checks the polynomials stay below -1e-4
+# beyond), so its clamped share is exactly 0 there and the polynomial need not be evaluated
+GEAR_ZERO_FROM = (math.inf, 0.2858, 0.4380, 0.6898, 0.9060, 1.1142, 1.3893)
+
+
+@inline
+def forward_gear_power(g: int, speed_share: float) -> float:
+    """`power_percentage` of forward gear g (1..6), skipping the polynomial where it is 0."""
+    return 0.0 if speed_share >= GEAR_ZERO_FROM[g] else power_percentage(g, speed_share)
+
+
 @inline
 def best_power_gear(n_gears: int, speed_share: float) -> int:
     """`Transmission.findBestPowerGear`: the forward gear of highest power percentage (the
     first on a tie; 1 when all are 0)."""
-    best, best_gear = 0.0, 1
-    for g in range(1, n_gears + 1):
-        pp = power_percentage(g, speed_share)
-        if pp > best:
-            best, best_gear = pp, g
-    return best_gear
+    return best_gear_and_share(n_gears, speed_share, 0)[0]
+
+
+@inline
+def best_gear_and_share(n_gears: int, speed_share: float, share_gear: int) -> tuple[int, float]:
+    """(`best_power_gear` of at most 6 gears, `power_percentage` of `share_gear`), each gear's
+    polynomial evaluated once."""
+    best, best_gear, share = 0.0, 1, -1.0
+    for g in range(1, 7):
+        if g <= n_gears:
+            pp = forward_gear_power(g, speed_share)
+            if pp > best:
+                best, best_gear = pp, g
+            if g == share_gear:
+                share = pp
+    return best_gear, (share if share >= 0.0 else power_percentage(share_gear, speed_share))
 
 
 @inline
@@ -338,9 +360,11 @@ def powertrain_core(car: np.ndarray, gear: int, automatic: bool, engine_on: bool
     # Transmission.performAcceleration: the automatic picks this step's best gear, the power
     # share is the previous gear's; near maxSpeed the share shrinks by (maxSpeed - v)
     share_gear = gear
+    speed_share = speed_kmh / SPEED_AT_FULL_SHARE_KMH
     if automatic and gear > 0:
-        gear = best_power_gear(n_ratios if n_ratios < 6 else 6, speed_kmh / SPEED_AT_FULL_SHARE_KMH)
-    pp = power_percentage(share_gear, speed_kmh / SPEED_AT_FULL_SHARE_KMH)
+        gear, pp = best_gear_and_share(n_ratios if n_ratios < 6 else 6, speed_share, share_gear)
+    else:
+        pp = power_percentage(share_gear, speed_share)
     max_kmh = car[C_PT + P_MAX_SPEED_KMH]
     if speed_kmh >= max_kmh - 1.0:
         pp *= max_kmh - speed_kmh
