@@ -10,8 +10,8 @@ unless set) and splits it:
   the floor for any batch that computes the single env's floats;
 * the whole step without and with the per-step traces (`record_metrics`), and from a
   profile of the latter the share of the compiled step kernels (`lct_substeps`,
-  `lct_outcomes`, `lct_observation`) and of the rest (Python glue, trigger firing, resets,
-  episode scoring).
+  `lct_finish`; before it `lct_outcomes` and `lct_observation`) and of the rest (Python
+  glue, trigger firing, resets, episode scoring).
 
     python benchmarks/native_profile.py [--envs 4096] [--steps 200]
 """
@@ -105,7 +105,8 @@ def main() -> None:
             prof.runcall(lambda: [step() for _ in range(args.steps)])
             stats = pstats.Stats(prof).stats  # type: ignore[attr-defined]
             total = sum(v[2] for v in stats.values())
-            kernels = sum(v[2] for (_, _, name), v in stats.items() if name in ("lct_substeps", "lct_outcomes", "lct_observation"))
+            names = ("lct_substeps", "lct_outcomes", "lct_observation", "lct_finish")
+            kernels = sum(v[2] for (_, _, name), v in stats.items() if name in names)
             share = 100 * kernels / total
             print(f"    compiled step kernels {share:.0f} % of the wall time (cProfile), the rest (Python) {100 - share:.0f} %")
         env.close()
