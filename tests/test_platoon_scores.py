@@ -50,7 +50,8 @@ def _episode(rng: np.random.Generator, n: int, n_stimuli: int) -> tuple[np.ndarr
 def test_platoon_scores_equal_the_single_envs_metrics() -> None:
     """Episodes of 0 to 300 steps (numpy's pairwise blocks and their remainders), with and
     without stimuli of every kind and result, scored together, equal `PlatoonCore.metrics`
-    of each (the lateral deviations taken from the lane offsets as the native batch does)."""
+    of each (the lateral deviations taken from the lane offsets as the native batch does;
+    unscored stimuli whose reaction window is over at the episode's end count as misses)."""
     env = gym.make("OpenDS/ThreeVehiclePlatoon-v0")
     core = env.unwrapped.platoon  # type: ignore[attr-defined]
     band = core.spec.lateral_tolerance
@@ -59,6 +60,7 @@ def test_platoon_scores_equal_the_single_envs_metrics() -> None:
     starts = np.cumsum([0] + [len(ep[0]) for ep in episodes])
     stim_starts = np.cumsum([0] + [len(ep[2]) for ep in episodes])
     stims = [s for ep in episodes for s in ep[2]]
+    t_end = rng.uniform(0.0, 70.0, len(episodes))  # (the onsets lie in 0-60 s: some windows over, some not)
     args = (
         np.concatenate([ep[0] for ep in episodes]),
         np.concatenate([ep[1] for ep in episodes]),
@@ -69,14 +71,20 @@ def test_platoon_scores_equal_the_single_envs_metrics() -> None:
         np.array([scores.KINDS.index(s.kind) for s in stims], dtype=np.int64),
         np.array([s.result for s in stims], dtype=np.int64),
         np.array([s.reaction_time_s for s in stims]),
+        np.array([s.onset_s for s in stims]),
         stim_starts,
+        t_end,
+        core.spec.max_reaction_time_s,
     )
     expected = []
-    for lon, off, stimuli in episodes:
+    for (lon, off, stimuli), end in zip(episodes, t_end, strict=True):
+        core.world.t_s = float(end)
         lat = np.maximum(np.maximum(0.0, band.lower_bound_m - off), off - band.upper_bound_m)
         core.state = PlatoonState(stimuli=stimuli, lon_dev=list(lon), lat_dev=list(lat))
         expected.append(core.metrics())
     assert any(np.isfinite(m["stimulus_mean_rt_s"]) for m in expected) and any(m["lateral_outside_fraction"] > 0 for m in expected)
+    window = core.spec.max_reaction_time_s
+    assert any(s.result == 0 and end - s.onset_s > window for ep, end in zip(episodes, t_end, strict=True) for s in ep[2])
     for run in (scores.platoon_scores.py_func, None):  # as Python, then compiled
         if run is None:
             scores.platoon_scores(*args, np.empty((len(episodes), len(scores.KEYS))))

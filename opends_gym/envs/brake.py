@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from ..metrics.reaction import brake_reaction_time, score_brake_trials
+from ..sim.triggers.reactions import ReactionResult
 from ..task import DrivingTask
 from .platoon import PlatoonConfig, ThreeVehiclePlatoonEnv
+from .platoon_core import Stimulus
 from .platoon_task import BRAKE_STIMULI, build_platoon_task
 
 
@@ -115,42 +118,55 @@ class BrakeReactionEnv(ThreeVehiclePlatoonEnv):
 
     def _episode_metrics(self) -> dict[str, float]:
         out = super()._episode_metrics()
-        reactions = [r for r in getattr(self.world.triggers, "reactions", ()) if r.group == "BrakeSign"]
-        # a sign "obeyed" because a reset put the car at rest is no reaction of the driver
-        reset_t = [e.t_s for e in self.world.events.since(0) if e.kind == "reset"]
-        by_reset = [r for r in reactions if r.result == 1 and any(r.start_t_s <= t <= r.t_s for t in reset_t)]
-        correct = [r for r in reactions if r.result == 1 and r not in by_reset]
-        rts = [r.reaction_time_s for r in correct]
-        out["BrakeSign_n"] = float(len(reactions))
-        out["BrakeSign_correct"] = float(len(correct))
-        out["BrakeSign_reset"] = float(len(by_reset))
-        out["BrakeSign_unscored"] = float(max(0, len(self._shown) - len(reactions)))
-        out["BrakeSign_misses"] = float(sum(1 for r in reactions if r.result == -2))
-        out["BrakeSign_mean_rt_s"] = float(np.mean(rts)) if rts else math.nan
         tr = self.trace
-        releases, onsets = [], []
-        for st in self.platoon.state.stimuli:
-            if st.kind in ("brakeLight", "emergencyBrake"):
-                b = brake_reaction_time(tr.col("t_s"), tr.col("accelerator"), tr.col("brake"), st.onset_s)
-                releases.append(b.accelerator_release_s)
-                onsets.append(b.brake_onset_s)
-        finite = [v for v in onsets if math.isfinite(v)]
-        out["accelerator_release_s"] = float(np.nanmean(releases)) if any(math.isfinite(v) for v in releases) else math.nan
-        out["brake_onset_s"] = float(np.mean(finite)) if finite else math.nan
-        onsets = [st.onset_s for st in self.platoon.state.stimuli if st.kind in ("brakeLight", "emergencyBrake")]
-        _, summary = score_brake_trials(tr.col("t_s"), tr.col("accelerator"), tr.col("brake"), onsets)
-        rt = summary.rt
-        out.update({
-            "brake_trials": float(summary.trials),
-            "brake_trials_invalid": float(summary.invalid),
-            "brake_responses": float(summary.responses),
-            "brake_misses": float(summary.misses),
-            "brake_miss_rate": summary.miss_rate,
-            "brake_rt_mean_s": rt.mean_s,
-            "brake_rt_median_s": rt.median_s,
-            "brake_rt_sd_s": rt.sd_s,
-            "brake_rt_p15_s": rt.p15_s,
-            "brake_rt_p85_s": rt.p85_s,
-            "brake_release_mean_s": summary.release.mean_s,
-        })  # fmt: skip
+        reset_t = [e.t_s for e in self.world.events.since(0) if e.kind == "reset"]
+        reactions = getattr(self.world.triggers, "reactions", ())
+        out.update(brake_metrics(tr.col("t_s"), tr.col("accelerator"), tr.col("brake"), self.platoon.state.stimuli, reactions, reset_t,
+                                 len(self._shown)))  # fmt: skip
         return out
+
+
+def brake_metrics(t_s: np.ndarray, accelerator: np.ndarray, brake: np.ndarray, stimuli: Sequence[Stimulus],
+                  all_reactions: Iterable[ReactionResult], reset_t: Sequence[float], shown: int) -> dict[str, float]:  # fmt: skip
+    """`BrakeReactionEnv`'s own episode metrics (the brake sign timers' results and the brake
+    trials of the lead car's brake stimuli) from an episode's trace columns, its stimuli, its
+    reaction results, the times of its resets and the number of brake signs revealed (a
+    function: the native batch scores its episodes with it too)."""
+    out: dict[str, float] = {}
+    reactions = [r for r in all_reactions if r.group == "BrakeSign"]
+    # a sign "obeyed" because a reset put the car at rest is no reaction of the driver
+    by_reset = [r for r in reactions if r.result == 1 and any(r.start_t_s <= t <= r.t_s for t in reset_t)]
+    correct = [r for r in reactions if r.result == 1 and r not in by_reset]
+    rts = [r.reaction_time_s for r in correct]
+    out["BrakeSign_n"] = float(len(reactions))
+    out["BrakeSign_correct"] = float(len(correct))
+    out["BrakeSign_reset"] = float(len(by_reset))
+    out["BrakeSign_unscored"] = float(max(0, shown - len(reactions)))
+    out["BrakeSign_misses"] = float(sum(1 for r in reactions if r.result == -2))
+    out["BrakeSign_mean_rt_s"] = float(np.mean(rts)) if rts else math.nan
+    releases, onsets = [], []
+    for st in stimuli:
+        if st.kind in ("brakeLight", "emergencyBrake"):
+            b = brake_reaction_time(t_s, accelerator, brake, st.onset_s)
+            releases.append(b.accelerator_release_s)
+            onsets.append(b.brake_onset_s)
+    finite = [v for v in onsets if math.isfinite(v)]
+    out["accelerator_release_s"] = float(np.nanmean(releases)) if any(math.isfinite(v) for v in releases) else math.nan
+    out["brake_onset_s"] = float(np.mean(finite)) if finite else math.nan
+    onsets = [st.onset_s for st in stimuli if st.kind in ("brakeLight", "emergencyBrake")]
+    _, summary = score_brake_trials(t_s, accelerator, brake, onsets)
+    rt = summary.rt
+    out.update({
+        "brake_trials": float(summary.trials),
+        "brake_trials_invalid": float(summary.invalid),
+        "brake_responses": float(summary.responses),
+        "brake_misses": float(summary.misses),
+        "brake_miss_rate": summary.miss_rate,
+        "brake_rt_mean_s": rt.mean_s,
+        "brake_rt_median_s": rt.median_s,
+        "brake_rt_sd_s": rt.sd_s,
+        "brake_rt_p15_s": rt.p15_s,
+        "brake_rt_p85_s": rt.p85_s,
+        "brake_release_mean_s": summary.release.mean_s,
+    })  # fmt: skip
+    return out

@@ -33,14 +33,17 @@ KEYS: tuple[str, ...] = (
 
 @kernel
 def platoon_scores(lon: np.ndarray, off: np.ndarray, starts: np.ndarray, lat_lo: float, lat_hi: float, has_lat: bool, kind: np.ndarray,
-                   result: np.ndarray, rt: np.ndarray, stim_starts: np.ndarray, out: np.ndarray) -> None:  # fmt: skip
+                   result: np.ndarray, rt: np.ndarray, onset: np.ndarray, stim_starts: np.ndarray, t_end: np.ndarray, max_rt: float,
+                   out: np.ndarray) -> None:  # fmt: skip
     """`PlatoonCore.metrics` of episodes j = 0..m-1 into out[j] (in `KEYS` order).
 
     lon[starts[j]:starts[j+1]]: episode j's longitudinal band deviations, one per step;
     off[...]: its lane offsets (the lateral deviation is taken from them as
     `PlatoonBatch._load_episode` does; `has_lat` False: no lateral band, no samples);
-    kind/result/rt[stim_starts[j]:stim_starts[j+1]]: its stimuli in order of onset (kind:
-    an index into `KINDS`; result 1 correct, -2 missed, 0 running; rt: reaction time)."""
+    kind/result/rt/onset[stim_starts[j]:stim_starts[j+1]]: its stimuli in order of onset (kind:
+    an index into `KINDS`; result 1 correct, -2 missed, 0 unscored; rt: reaction time; onset
+    time); t_end[j]: the episode's clock at its end. A stimulus counts as missed when its
+    result is -2 or it is unscored and its reaction window (`max_rt`) is over by t_end."""
     m = len(starts) - 1
     lat = np.empty(len(off))
     picked = np.empty(len(rt))
@@ -80,7 +83,7 @@ def platoon_scores(lon: np.ndarray, off: np.ndarray, starts: np.ndarray, lat_lo:
             for i in range(s0, s1):
                 if kind[i] == k:
                     count += 1
-                    if result[i] == -2:
+                    if result[i] == -2 or (result[i] == 0 and t_end[j] - onset[i] > max_rt):
                         misses += 1
                     elif result[i] == 1:
                         picked[s0 + hits] = rt[i]
@@ -90,7 +93,7 @@ def platoon_scores(lon: np.ndarray, off: np.ndarray, starts: np.ndarray, lat_lo:
             row[7 + 3 * k] = np_sum(picked, s0, hits) / hits if hits else math.nan
         misses, hits = 0, 0
         for i in range(s0, s1):
-            if result[i] == -2:
+            if result[i] == -2 or (result[i] == 0 and t_end[j] - onset[i] > max_rt):
                 misses += 1
             elif result[i] == 1:
                 picked[s0 + hits] = rt[i]

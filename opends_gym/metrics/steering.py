@@ -72,15 +72,34 @@ def _steady_state_of(b: tuple[float, ...], a: tuple[float, ...]) -> np.ndarray:
 
 def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Zero-phase filtering with odd-extension padding (like scipy.signal.filtfilt)."""
-    x = np.asarray(x, dtype=float)
-    pad = min(3 * max(len(a), len(b)), len(x) - 1)
+    x = np.ascontiguousarray(x, dtype=float)
+    return _zero_phase(b, a, _steady_state(b, a), x)
+
+
+@kernel
+def _zero_phase(b: np.ndarray, a: np.ndarray, zi: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """`filtfilt` of a 2nd-order filter with steady state zi: x padded by its odd extension
+    (9 samples, fewer for short x) at both ends, filtered forwards from zi * the first
+    padded sample, backwards from zi * the last output, unpadded. (A kernel: native batch
+    scoring calls it from compiled code.)"""
+    n = len(x)
+    pad = min(3 * max(len(a), len(b)), n - 1)
     if pad < 1:
         return x.copy()
-    ext = np.concatenate([2 * x[0] - x[pad:0:-1], x, 2 * x[-1] - x[-2 : -pad - 2 : -1]])
-    zi = _steady_state(b, a)
-    y = _lfilter(b, a, ext, zi * ext[0])
-    y = _lfilter(b, a, np.ascontiguousarray(y[::-1]), zi * y[-1])[::-1]
-    return y[pad : pad + len(x)]
+    ext = np.empty(n + 2 * pad)
+    for k in range(pad):
+        ext[k] = 2.0 * x[0] - x[pad - k]
+        ext[pad + n + k] = 2.0 * x[n - 1] - x[n - 2 - k]
+    ext[pad : pad + n] = x
+    z = np.empty(2)
+    z[0], z[1] = zi[0] * ext[0], zi[1] * ext[0]
+    y = _lfilter(b, a, ext, z)
+    z[0], z[1] = zi[0] * y[len(y) - 1], zi[1] * y[len(y) - 1]
+    back = _lfilter(b, a, np.ascontiguousarray(y[::-1]), z)
+    out = np.empty(n)
+    for i in range(n):
+        out[i] = back[len(back) - 1 - pad - i]
+    return out
 
 
 def reversal_count(angle_deg: np.ndarray, gap_deg: float) -> int:

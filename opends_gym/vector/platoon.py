@@ -1,10 +1,12 @@
 """The platoon and brake-reaction tests for a native batch (`envs.platoon_core` over N envs).
 
 Why: the lead/follower band control, the stimuli (`setTVPTStimulus`) and their reaction
-rules run every physics step, so they are array operations here: each env has a few
-stimulus slots (onset, end, target, result, hold time); starting, scoring and ending a
-stimulus is rare and keeps the single env's `Stimulus` records per env, which its own
-`PlatoonCore.metrics()` scores at the end of the episode.
+rules run every physics step, so they run in the compiled pass that follows each physics
+step (`platoon_step.platoon_after`): each env has a few stimulus slots (onset, end, target,
+result, hold time); starting a stimulus (a trigger's action) and recording a result are
+rare and keep the single env's `Stimulus` records per env. Ended episodes are scored in
+two compiled passes over all of them (`metrics.episode_scores`, `metrics.platoon_scores`),
+with the single env's floats.
 """
 
 from __future__ import annotations
@@ -14,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from ..envs.base import LANE_KEEPING_OFFSET_M, OpenDSEnv
+from ..envs.brake import brake_metrics
 from ..envs.platoon import ThreeVehiclePlatoonEnv
 from ..envs.platoon_core import (
     BAND_GAIN,
@@ -24,17 +28,39 @@ from ..envs.platoon_core import (
     PlatoonState,
     Stimulus,
 )
+from ..metrics import episode_scores
 from ..metrics import platoon_scores as scores
+from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..sim.traffic.routes import TURN_CODES
 from ..sim.triggers.core import CompiledAction
 from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore
 from .kernels import CHUNK_ENVS
-from .platoon_step import _hook_range, _lead_range, lead_measures, platoon_hook
+from .platoon_step import _after_range, _lead_range, lead_measures, platoon_after
 from .trace import lane_columns
 from .traffic import FlatTraffic
 
 KINDS = scores.KINDS
+_BASE_KEYS = (
+    "duration_s",
+    *episode_scores.KEYS[:2],
+    "fuel_used_l",
+    "collisions",
+    *episode_scores.KEYS[2:6],
+    "reactions",
+    "reactions_correct",
+    "reactions_failed",
+    "reactions_missed",
+    "mean_reaction_time_s",
+    "lanes_known",
+    *episode_scores.KEYS[6:8],
+    "stimuli_presented",
+    "road_exits",
+    "resets",
+    "collision_resets",
+    "reset_time_s",
+    *episode_scores.KEYS[9:],
+)  # (`OpenDSEnv.episode_metrics`' keys in its order, before the task's own)
 BL, LT, FT, SR, EB = range(5)
 SLOTS = 4  # simultaneous stimuli per env (a stimulus lasts <= 5 s; triggers lie >= 250 m apart)
 
@@ -107,7 +133,21 @@ class PlatoonBatch(BatchCore):
         )  # fmt: skip
         # chunks on numba's threads (False: the serial twins, for thread shards and batches of one chunk)
         self.parallel = n > CHUNK_ENVS
-        self._scored: dict[int, dict[str, float]] = {}  # `PlatoonCore.metrics` of envs being scored (`episodes_metrics`)
+        self._changed = np.zeros(shape, dtype=np.int64)  # platoon_after's stimuli that changed result (1 missed, 2 reacted)
+        self._react = np.zeros(shape)  # and their reaction times
+        sr_spec = self.spec.speed_reduction
+        self._stim_consts = np.array([BRAKE_THRESHOLD, REGULAR_SPEED_TOLERANCE_MPS, sr_spec.min_time_all_conditions_met_s if sr_spec else
+                                      math.inf, self.spec.max_reaction_time_s, SR])  # fmt: skip
+        self._pedals = self.trace_columns[9:] == ("accelerator", "brake")
+        if self.trace_columns[:9] != PlatoonBatch.trace_columns or len(self.trace_columns) not in (9, 11) or SIGNAL_OFF != 0:
+            raise TypeError("platoon_after writes these trace columns; change it with them")
+        self._no_block = np.empty((1, 1, len(self.trace_columns)))
+        self._no_steps = np.zeros(n, dtype=np.int64)
+        self._no_hits = np.zeros(n, dtype=np.int64)
+        self._scored: dict[int, dict[str, float]] = {}  # `PlatoonCore.metrics` of envs to score by the template (`episode_metrics`)
+        if type(template)._instructed_lane_keeping is not OpenDSEnv._instructed_lane_keeping or template.on_road_exit != "terminate":
+            raise TypeError("episode_scores scores tasks without instructed lane changes or resets; change it with them")
+        self._score_params = episode_scores.scoring_params(cfg.physics_hz, self.off_road_limit, self.guide.road_edges_m)
 
     # ------------------------------------------------------------------ reset
     def _reset_task(self, idx: np.ndarray) -> None:
@@ -131,7 +171,7 @@ class PlatoonBatch(BatchCore):
         self.traffic.step(rows, self.dt, self.t, self.s.x, self.s.z)
 
     def _traffic_hits(self, box: tuple[np.ndarray, ...], rows: np.ndarray) -> np.ndarray:
-        return self.traffic.new_hits(rows, box[0], box[1], box[2], self.car_half)
+        return self._no_hits  # (`platoon_after` counts them)
 
     def _lead_measures(self) -> None:
         s, st = self.s, self.traffic.st
@@ -206,72 +246,52 @@ class PlatoonBatch(BatchCore):
         self.onset[e, slot], self.end[e, slot], self.target[e, slot] = obj.onset_s, obj.end_s, target
         self.result[e, slot], self.hold[e, slot] = 0, np.nan
 
-    def _end_slots(self, es: np.ndarray, slots: np.ndarray) -> None:
-        st, c = self.traffic.st, self.traffic.c
-        rows = es * c + self.car[es, slots]
-        k = self.kind[es, slots]
-        st.ov_brake[rows] = np.where(k == BL, -1, st.ov_brake[rows])
-        st.ov_turn[rows] = np.where((k == LT) | (k == FT), -1, st.ov_turn[rows])
-        speed = k >= SR
-        st.ov_speed[rows[speed]] = np.nan
-        st.ov_decel[rows[speed]] = np.nan
-        self.on[es, slots] = False
+    def _physics_steps(self, live: np.ndarray, c: BatchControls) -> None:
+        """`BatchCore._physics_steps` with what follows each physics step's ego, traffic,
+        trigger and timer part (trace row, band control, stimuli, early stop) in one compiled
+        pass over the envs (`platoon_after`)."""
+        for k in range(self.repeat):
+            self._physics_step(live, c)
+            self._after_step(live, k, c)
+            if not live.any():
+                break
 
-    def _on_physics_step(self, rows: np.ndarray, k: int, c: BatchControls) -> None:
-        """The band control, deviations and reward shares in one compiled pass (`platoon_hook`),
-        then the stimuli (their reactions, results and ends)."""
-        s, st = self.s, self.traffic.st
-        args = (rows, s.x, s.z, s.yaw, s.u, st.pos, st.ov_speed, st.ov_decel, self.traffic.c, self.on, self.kind, self.car, self.lead_i,
-                self.follow_i, bool(self.with_follower), self._band, self.offset, self.ttc, self.lon_dev, self.reward_acc)  # fmt: skip
-        if self.parallel:
-            platoon_hook(*args)
+    def _after_step(self, live: np.ndarray, k: int, c: BatchControls) -> None:
+        s, st, tr, ring, g = self.s, self.traffic.st, self.traffic, self.ring, self.guide
+        rl = self.rl
+        if ring is not None:
+            block, row, steps = ring.reserve(1)[0], ring.g % ring.BLOCK, ring.steps
         else:
-            _hook_range(0, self.n, *args)
-        self._stimuli_step(rows, c, first=k == 0)
-        if self.ring is not None:  # the lon_dev row of this step (written with the trace row just before)
-            self.ring.set_last("lon_dev", self.lon_dev)
-
-    def _stimuli_step(self, rows: np.ndarray, c: BatchControls, first: bool) -> None:
-        act = self.on & rows[:, None]
-        if not act.any():
-            return
-        t = self.t[:, None]
-        s = self.s
-        pressed = c.pressed if first else np.zeros(self.n, dtype=bool)  # a press is an edge: the first substep only
-        signal = c.signal
-        kind = self.kind
-        brake_hit = (s.brake_in >= BRAKE_THRESHOLD)[:, None]
-        turn_hit = (pressed | (signal != SIGNAL_OFF))[:, None]
-        sr = self.spec.speed_reduction
-        ok = (s.u[:, None] <= self.target + REGULAR_SPEED_TOLERANCE_MPS) & act & (kind == SR)
-        self.hold = np.where(act & (kind == SR) & ~ok, np.nan, self.hold)
-        self.hold = np.where(ok & np.isnan(self.hold), t, self.hold)
-        sr_done = ok & (t - self.hold >= (sr.min_time_all_conditions_met_s if sr else math.inf) - 1e-9)
-        reacted = np.where((kind == BL) | (kind == EB), brake_hit, np.where(kind == SR, sr_done, turn_hit)) & act
-        new = reacted & (self.result == 0)
-        react_s = np.where(kind == SR, self.hold, t)
-        max_rt = self.spec.max_reaction_time_s
-        verdict = np.where(react_s - self.onset <= max_rt + 1e-9, 1, -2)
-        self.result = np.where(new, verdict, self.result)
-        ends_now = new & self.reset_on[kind]
-        missed = act & ~ends_now & (self.result == 0) & (t - self.onset > max_rt)
-        self.result = np.where(missed, -2, self.result)
-        timeout = act & ~ends_now & (t >= self.end)
-        changed = new | missed
-        if changed.any():
-            for e, slot in zip(*np.nonzero(changed)):
+            block, row, steps = self._no_block, 0, self._no_steps
+        args = (
+            live, k, (s.x, s.z, s.yaw, s.u, s.steer_in, s.gas_in, s.brake_in, self.t),
+            (st.pos, st.yaw, st.speed, st.enabled, self._half_len, tr.c, tr.ego_length, self.lead_j, self.lead_gap, self.lead_v,
+             self.headway, self.ttc, self.gap_m, self.lead_speed_mps),
+            (g.sign, self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, rl["n"], rl["mean"],
+             rl["m2"], self.prev_x, self.prev_z, rl["dist"], rl["area"]),
+            (block, row, steps, self._pedals, ring is not None),
+            (st.ov_speed, st.ov_decel, self.on, self.kind, self.car, self.lead_i, self.follow_i, bool(self.with_follower), self.lon_dev,
+             self.reward_acc),
+            self._band,
+            (self.kind, self.onset, self.end, self.target, self.result, self.hold, self.reset_on, c.pressed, c.signal, st.ov_brake,
+             st.ov_turn, self._changed, self._react, self._stim_consts),
+            (self.car_shift, self.car_half[0], self.car_half[1], tr.reach, tr.half, tr.hitting),
+            (self.off_road_limit, self.end_past_lead, bool(self.config.terminate_on_collision), self.trig.paused, self.collisions,
+             self.collisions_seen),
+        )  # fmt: skip
+        changed = platoon_after(*args) if self.parallel else _after_range(0, self.n, *args)
+        if ring is not None:
+            ring.g += 1
+        if changed:
+            for e, slot in zip(*np.nonzero(self._changed), strict=True):
                 obj = self.objs[e][slot]
                 assert obj is not None
-                if new[e, slot]:
-                    obj.reaction_s = float(react_s[e, slot])
+                if self._changed[e, slot] == 2:
+                    obj.reaction_s = float(self._react[e, slot])
                 obj.result = int(self.result[e, slot])
-                if kind[e, slot] == SR:
+                if self.kind[e, slot] == SR:
                     obj.hold_since_s = float(self.hold[e, slot])
                 self.dirty[e] = True
-        done = ends_now | timeout
-        if done.any():
-            es, slots = np.nonzero(done)
-            self._end_slots(es, slots)
 
     # ------------------------------------------------------------------ outputs
     def _stimulus(self) -> np.ndarray:
@@ -309,37 +329,80 @@ class PlatoonBatch(BatchCore):
         return r - self.collision_penalty * info["new_collisions"].astype(np.float64)
 
     def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
-        """`episode_metrics` of the envs `es`, their platoon metrics (`PlatoonCore.metrics`, the
-        same floats) computed for all of them in one compiled pass (`metrics.platoon_scores`)."""
+        """`episode_metrics` of the envs `es`, the same floats, in two compiled passes over all
+        of them: the generic trace metrics (`metrics.episode_scores`) and the platoon metrics
+        (`PlatoonCore.metrics`, `metrics.platoon_scores`); the reaction counts and the task's
+        own extras (`_extra_metrics`) are Python."""
         if self.ring is None:
             raise RuntimeError("episode metrics were switched off (record_metrics=False)")
-        columns = self.ring.columns_of(es)
-        self._scored = self._platoon_scores(es, columns)
-        try:
-            return [(e, self.episode_metrics(e, columns[e])) for e in es]
-        finally:
-            self._scored = {}
-
-    def _platoon_scores(self, es: list[int], columns: dict[int, np.ndarray]) -> dict[int, dict[str, float]]:
         if not es:
-            return {}
-        col = self.trace_columns.index
-        traces = [columns[e][:, 1:] for e in es]  # (the reset row is no step)
+            return []
+        columns = self.ring.columns_of(es)
+        counts = np.array([columns[e].shape[1] for e in es], dtype=np.int64)
         starts = np.zeros(len(es) + 1, dtype=np.int64)
-        np.cumsum([t.shape[1] for t in traces], out=starts[1:])
-        lon = np.concatenate([t[col("lon_dev")] for t in traces])
-        x, z = (np.concatenate([t[col(c)] for t in traces]) for c in ("x_m", "z_m"))
-        _, _, off = lane_columns(self.guide, x, z)
+        np.cumsum(counts, out=starts[1:])
+        data = np.concatenate([columns[e] for e in es], axis=1)  # (column, row): the episodes one after another, reset rows first
+        col = self.trace_columns.index
+        x, z = data[col("x_m")], data[col("z_m")]
+        lat, lane, off = lane_columns(self.guide, x, z)
+        steps = np.ones(len(x), dtype=bool)
+        steps[starts[:-1]] = False  # (the reset row is no step of the platoon metrics)
+        platoon = self._platoon_scores(es, data[col("lon_dev")][steps], off[steps], starts - np.arange(len(es) + 1))
+        t = (np.arange(len(x)) - np.repeat(starts[:-1], counts)) * self.dt  # (`TraceRing.to_trace`'s clock)
+        base = np.empty((len(es), len(episode_scores.KEYS)))
+        episode_scores.episode_scores(starts, t, np.hypot(np.diff(x), np.diff(z)), data[col("speed_mps")],
+                                      data[col("steering")] * STEERING_WHEEL_MAX_DEG, data[col("gap_m")], data[col("lead_speed_mps")],
+                                      data[col("headway_s")], data[col("ttc_s")], lat, lane.astype(np.float64), off, *self._score_params,
+                                      base)  # fmt: skip
+        rows = [[math.nan if v != v else v for v in row] for row in base.tolist()]  # (NaNs as math.nan)
+        return [(e, self._assemble(e, row, platoon[e], columns[e])) for e, row in zip(es, rows, strict=True)]
+
+    def _assemble(self, e: int, row: list[float], platoon: dict[str, float], columns: np.ndarray) -> dict[str, float]:
+        """Env e's `OpenDSEnv.episode_metrics` dict (its keys in order) from its scores."""
+        reactions = self.timers.results_of(e) if self.timers.results[e] else []
+        n_correct = n_failed = n_missed = 0
+        mean_rt = math.nan
+        if reactions:
+            correct = [r for r in reactions if r.result == 1]
+            n_correct, n_failed = len(correct), sum(1 for r in reactions if r.result == -1)
+            n_missed = sum(1 for r in reactions if r.result == -2)
+            mean_rt = float(np.mean([r.reaction_time_s for r in correct])) if correct else math.nan
+        tpl = self.template
+        values = [
+            float(self.t[e]), row[0], row[1], float(self.s.fuel_used[e]), float(self.collisions[e]), *row[2:6], float(len(reactions)),
+            float(n_correct), float(n_failed), float(n_missed), mean_rt, float(self.guide.lanes_known), row[6], row[7],
+            float(self._presented(e)), row[8], float(tpl.resets), float(tpl.collision_resets), tpl.reset_time_s, *row[9:],
+        ]  # fmt: skip
+        out = dict(zip(_BASE_KEYS, values, strict=True))
+        out.update(platoon)
+        extra = self._extra_metrics(e, reactions, columns)
+        if extra:
+            out.update(extra)
+        return out
+
+    def _presented(self, e: int) -> int:
+        """`_stimuli_presented` of env e's episode."""
+        return len(self.stimuli[e])
+
+    def _extra_metrics(self, e: int, reactions: list[Any], columns: np.ndarray) -> dict[str, float]:
+        """The task's own metrics after `PlatoonCore.metrics` (none for the platoon test)."""
+        return {}
+
+    def _platoon_scores(self, es: list[int], lon: np.ndarray, off: np.ndarray, starts: np.ndarray) -> dict[int, dict[str, float]]:
+        """`PlatoonCore.metrics` of the envs `es`: lon[starts[j]:starts[j+1]] and off[...] are
+        the longitudinal band deviations and lane offsets of env es[j]'s steps."""
         stims = [s for e in es for s in self.stimuli[e]]
         stim_starts = np.zeros(len(es) + 1, dtype=np.int64)
         np.cumsum([len(self.stimuli[e]) for e in es], out=stim_starts[1:])
         kind = np.array([scores.KINDS.index(s.kind) for s in stims], dtype=np.int64)
         result = np.array([s.result for s in stims], dtype=np.int64)
         rt = np.array([s.reaction_time_s for s in stims], dtype=np.float64)
+        onset = np.array([s.onset_s for s in stims], dtype=np.float64)
         lb = self.spec.lateral_tolerance
         lat_lo, lat_hi = (lb.lower_bound_m, lb.upper_bound_m) if lb is not None else (0.0, 0.0)
         out = np.empty((len(es), len(scores.KEYS)))
-        scores.platoon_scores(lon, off, starts, float(lat_lo), float(lat_hi), lb is not None, kind, result, rt, stim_starts, out)
+        scores.platoon_scores(lon, off, starts, float(lat_lo), float(lat_hi), lb is not None, kind, result, rt, onset, stim_starts,
+                              self.t[es], float(self.spec.max_reaction_time_s), out)  # fmt: skip
         return {e: {k: math.nan if v != v else v for k, v in zip(scores.KEYS, row)} for e, row in zip(es, out.tolist())}  # (as math.nan)
 
     def _load_episode(self, e: int, columns: np.ndarray | None) -> None:
@@ -358,6 +421,9 @@ class PlatoonBatch(BatchCore):
         platoon.state = PlatoonState(stimuli=list(self.stimuli[e]), lon_dev=list(lon), lat_dev=list(lat))
 
 
+BRAKE_KINDS = ("brakeLight", "emergencyBrake")  # the stimuli `brake_metrics` scores
+
+
 class BrakeBatch(PlatoonBatch):
     handled_actions = frozenset({"setTVPTStimulus", "manipulateObject", "setupBrakeReactionTimer"})
     trace_columns = PlatoonBatch.trace_columns + ("accelerator", "brake")
@@ -367,6 +433,7 @@ class BrakeBatch(PlatoonBatch):
         self.sign_ids = [oid for oid, objs in self.world.objects.by_id.items() if oid.endswith("_Sign")]
         self.sign_z = np.array([self.world.objects.by_id[oid][0].position[2] for oid in self.sign_ids])
         self.revealed = np.zeros((n, len(self.sign_ids)), dtype=bool)
+        self._no_trials = brake_metrics(np.zeros(1), np.zeros(1), np.zeros(1), [], [], [], 0)  # (`brake_metrics` of an episode without any)
 
     def _reset_task(self, idx: np.ndarray) -> None:
         super()._reset_task(idx)
@@ -383,6 +450,19 @@ class BrakeBatch(PlatoonBatch):
                 self.revealed[e, self.sign_ids.index(oid)] = True
             return
         super()._on_action(e, act, trigger)
+
+    def _presented(self, e: int) -> int:
+        return super()._presented(e) + int(np.count_nonzero(self.revealed[e]))
+
+    def _extra_metrics(self, e: int, reactions: list[Any], columns: np.ndarray) -> dict[str, float]:
+        """`BrakeReactionEnv`'s own metrics (`envs.brake.brake_metrics`, Python)."""
+        col = self.trace_columns.index
+        t = np.arange(columns.shape[1]) * self.dt
+        reset_t = [ev.t_s for ev in self.world.events.since(0) if ev.kind == "reset"]
+        shown = int(np.count_nonzero(self.revealed[e]))
+        if not reactions and not any(st.kind in BRAKE_KINDS for st in self.stimuli[e]):  # (most episodes: no trial, no timer)
+            return self._no_trials | {"BrakeSign_unscored": float(shown)}
+        return brake_metrics(t, columns[col("accelerator")], columns[col("brake")], self.stimuli[e], reactions, reset_t, shown)
 
     def _stimulus(self) -> np.ndarray:
         visible = np.any(self.revealed & (self.sign_z[None, :] < self.s.z[:, None]), axis=1)
