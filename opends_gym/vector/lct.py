@@ -11,6 +11,7 @@ firing the trigger actions of the cars that touched a trigger box and the resets
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numba
@@ -19,6 +20,9 @@ import numpy as np
 from ..envs.base import LANE_KEEPING_OFFSET_M
 from ..envs.lct import LaneChangeTestEnv
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
+from ..metrics import episode_scores
+from ..metrics.lct_scores import J2944, lct_scores
+from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
@@ -35,7 +39,8 @@ from .lct_step import (
     lct_outcomes,
     lct_substeps,
 )
-from .trace import TraceRing
+from .platoon import _BASE_KEYS
+from .trace import TraceRing, lane_columns
 
 # the info keys of a step, in `BatchCore.info`'s order
 INFO_KEYS = ("sim_time_s", "speed_kmh", "lateral_offset_m", "lane_index", "fuel_used_l", "collisions", "reaction_result", "reaction_time_s",
@@ -80,6 +85,11 @@ class LctBatch(BatchCore):
         # a batch of one chunk, which a parallel launch would only delay: waking the pool costs more than stepping it)
         self.parallel = n > CHUNK_ENVS
         self._park = np.full(n, -1, dtype=np.int64)  # the physics step where a car waits for its triggers to fire (-1: none)
+        self._score_params = episode_scores.scoring_params(cfg.physics_hz, self.off_road_limit, self.guide.road_edges_m)
+        signs = env.metric_signs
+        self._signs = (np.array([s.d_m for s in signs]), np.array([s.from_lane for s in signs], dtype=np.int64),
+                       np.array([s.to_lane for s in signs], dtype=np.int64))  # fmt: skip
+        self._iso = cfg.scoring == "iso26022"  # (ISO 26022's segment scores: the template's code)
 
     def _reset_task(self, idx: np.ndarray) -> None:
         self.revealed[idx] = -1
@@ -222,6 +232,67 @@ class LctBatch(BatchCore):
             if steps < k_to:  # every car stopped early
                 break
             k_from = k_to
+
+    def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
+        """`episode_metrics` of the envs `es`, the same floats, in two compiled passes over all
+        of them: the generic trace metrics (`metrics.episode_scores`) and the LCT's scoring of
+        instructed lane changes (`metrics.lct_scores`). An episode that passed a sign (its
+        lane-change fits and MDEV) or one scored by ISO 26022 is scored by the template env's
+        own code."""
+        if self.ring is None:
+            raise RuntimeError("episode metrics were switched off (record_metrics=False)")
+        if not es:
+            return []
+        columns = self.ring.columns_of(es)
+        if self._iso:
+            return [(e, self.episode_metrics(e, columns[e])) for e in es]
+        counts = np.array([columns[e].shape[1] for e in es], dtype=np.int64)
+        starts = np.zeros(len(es) + 1, dtype=np.int64)
+        np.cumsum(counts, out=starts[1:])
+        data = np.concatenate([columns[e] for e in es], axis=1)  # (column, row): the episodes one after another, reset rows first
+        x, z, speed, steer = data
+        lat, lane, off = lane_columns(self.guide, x, z)
+        t = (np.arange(len(x)) - np.repeat(starts[:-1], counts)) * self.dt  # (`TraceRing.to_trace`'s clock)
+        steer_deg = steer * STEERING_WHEEL_MAX_DEG
+        m = len(es)
+        inf, nan = np.full(len(x), math.inf), np.full(len(x), math.nan)  # headway, TTC, gap; the lead's speed: no traffic
+        base = np.empty((m, len(episode_scores.KEYS)))
+        b, a, zi, p, gaps, thw, ttc = self._score_params
+        episode_scores.episode_scores(starts, t, np.hypot(np.diff(x), np.diff(z)), speed, steer_deg, inf, nan, inf, inf, lat,
+                                      lane.astype(np.float64), off, b, a, zi, p, gaps, thw, ttc, base)  # fmt: skip
+        lct = np.empty((m, J2944 + len(gaps) + 3))
+        tpl = self.template
+        g = tpl.geometry
+        lct_scores(starts, t, z, lat, steer_deg, self.start_z, *self._signs, g.visibility_m, tpl.basic.start_before_sign_m,
+                   tpl.basic.length_per_lane_m, self.lane_lat, int(tpl.initial_lane), b, a, zi, p, gaps, lct)  # fmt: skip
+        base[:, 9 : 14 + len(gaps)] = lct[:, : J2944 + len(gaps)]
+        out = []
+        for j, e in enumerate(es):
+            reached, presented, passed = lct[j, J2944 + len(gaps) :].tolist()
+            if passed:  # lane-change fits and MDEV: the template's code
+                out.append((e, self.episode_metrics(e, columns[e])))
+                continue
+            row = [math.nan if v != v else v for v in base[j].tolist()]  # (NaNs as math.nan)
+            out.append((e, self._assemble(e, row, reached, presented)))
+        return out
+
+    def _assemble(self, e: int, row: list[float], reached: float, presented: float) -> dict[str, float]:
+        """Env e's `LaneChangeTestEnv.episode_metrics` dict (its keys in order) for an episode
+        that passed no sign."""
+        reactions = self.timers.results_of(e) if self.timers.results[e] else []
+        correct = [r.reaction_time_s for r in reactions if r.result == 1]
+        tpl = self.template
+        values = [
+            float(self.t[e]), row[0], row[1], float(self.s.fuel_used[e]), float(self.collisions[e]), *row[2:6], float(len(reactions)),
+            float(len(correct)), float(sum(1 for r in reactions if r.result == -1)), float(sum(1 for r in reactions if r.result == -2)),
+            float(np.mean(correct)) if correct else math.nan, float(self.guide.lanes_known), row[6], row[7], presented, row[8],
+            float(tpl.resets), float(tpl.collision_resets), tpl.reset_time_s, *row[9:],
+        ]  # fmt: skip
+        out = dict(zip(_BASE_KEYS, values, strict=True))
+        out["signs_reached"] = reached
+        out.update({"mdev_basic_m": math.nan, "mdev_adapted_m": math.nan, "lane_changes": 0.0, "lane_changes_correct": 0.0,
+                    "lane_change_errors": 0.0, "mean_lane_change_latency_s": math.nan})  # fmt: skip
+        return out
 
     def _on_action_rows(self, es: np.ndarray, act: CompiledAction, trigger: int) -> None:
         if act.name == "manipulateObject":
