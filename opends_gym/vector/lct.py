@@ -243,13 +243,11 @@ class LctBatch(BatchCore):
             raise RuntimeError("episode metrics were switched off (record_metrics=False)")
         if not es:
             return []
-        columns = self.ring.columns_of(es)
         if self._iso:
+            columns = self.ring.columns_of(es)
             return [(e, self.episode_metrics(e, columns[e])) for e in es]
-        counts = np.array([columns[e].shape[1] for e in es], dtype=np.int64)
-        starts = np.zeros(len(es) + 1, dtype=np.int64)
-        np.cumsum(counts, out=starts[1:])
-        data = np.concatenate([columns[e] for e in es], axis=1)  # (column, row): the episodes one after another, reset rows first
+        starts, data = self.ring.gather(es)  # (column, row): the episodes one after another, reset rows first
+        counts = np.diff(starts)
         x, z, speed, steer = data
         lat, lane, off = lane_columns(self.guide, x, z)
         t = (np.arange(len(x)) - np.repeat(starts[:-1], counts)) * self.dt  # (`TraceRing.to_trace`'s clock)
@@ -270,7 +268,7 @@ class LctBatch(BatchCore):
         for j, e in enumerate(es):
             reached, presented, passed = lct[j, J2944 + len(gaps) :].tolist()
             if passed:  # lane-change fits and MDEV: the template's code
-                out.append((e, self.episode_metrics(e, columns[e])))
+                out.append((e, self.episode_metrics(e, data[:, starts[j] : starts[j + 1]])))
                 continue
             row = [math.nan if v != v else v for v in base[j].tolist()]  # (NaNs as math.nan)
             out.append((e, self._assemble(e, row, reached, presented)))
