@@ -6,7 +6,7 @@ running MDEV accumulate per physics step, with the single env's formulas. The ph
 of a policy step run as one compiled pass (`lct_substeps`); then the autoresets (Python, for
 the ended envs only) and one more pass for every env's reward, flags, observation and info
 (`lct_finish`), so a step's Python does the same work whatever the batch size, apart from
-firing the trigger actions of the cars that touched a trigger box and the resets.
+the resets and the rare trigger firings that log a reaction result (`lct_fire`).
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
 from .kernels import CHUNK_ENVS
+from .lct_fire import fire_tables
 from .lct_step import (
     INFO_F,
     INFO_I,
@@ -90,6 +91,7 @@ class LctBatch(BatchCore):
         self._signs = (np.array([s.d_m for s in signs]), np.array([s.from_lane for s in signs], dtype=np.int64),
                        np.array([s.to_lane for s in signs], dtype=np.int64))  # fmt: skip
         self._iso = cfg.scoring == "iso26022"  # (ISO 26022's segment scores: the template's code)
+        self._fire_tables = fire_tables(self.trig, self.timers, self.sign_of_model)
 
     def _reset_task(self, idx: np.ndarray) -> None:
         self.revealed[idx] = -1
@@ -189,8 +191,9 @@ class LctBatch(BatchCore):
         return out
 
     def _physics_steps(self, live: np.ndarray, c: BatchControls) -> None:
-        """`BatchCore._physics_steps` as one compiled loop (`lct_step`), back in Python only to
-        fire the triggers of the cars that touched their boxes and to score ended timers. A
+        """`BatchCore._physics_steps` as one compiled loop (`lct_step`, trigger actions
+        included), back in Python to score ended timers and to fire the few triggers that log
+        a reaction result (`lct_fire`). A
         policy step of more physics steps than a ring block holds runs a block at a time."""
         with numba.parallel_chunksize(1):  # threads take the chunks one at a time: a busy core holds up one chunk, not half
             self._substeps(live, c)
@@ -200,6 +203,7 @@ class LctBatch(BatchCore):
         ego_f = (s.x, s.z, s.yaw, s.u, s.v, s.r, s.rpm, s.prev_v, s.fuel_used, s.fuel_left, s.steer_in, s.gas_in, s.brake_in,
                  s.cruise_target, s.cruise_int)  # fmt: skip
         timer_f = (timers.start_t, timers.start_x, timers.start_z, timers.peak, timers.hold_since, timers.tlim, timers.dlim)
+        fire = (*self._fire_tables, trig.counts, trig.started, trig.started_at, self.revealed, timers.kind, timers.armed_t)
         k_from = 0
         while k_from < self.repeat:
             k_to = min(self.repeat, k_from + TraceRing.BLOCK)
@@ -216,7 +220,7 @@ class LctBatch(BatchCore):
                     LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, (self.rl["n"], self.rl["mean"], self.rl["m2"]),
                     ring is not None, block_a, block_b, row0, ring.steps if ring is not None else self._no_steps, self.start_z,
                     self.norm, self.norm_d0, self.norm_step, self.scale, self.has_prev,
-                    (self.prev_d, self.prev_dev, self.area, self.step_reward), self.off_road_limit, self._steering,
+                    (self.prev_d, self.prev_dev, self.area, self.step_reward), self.off_road_limit, self._steering, fire,
                 )  # fmt: skip
                 parked, ran = lct_substeps(*args) if self.parallel else _substeps_range(0, self.n, *args)
                 steps = max(steps, ran)

@@ -5,9 +5,10 @@ and Python between them (six times per policy step). That Python holds the GIL, 
 stepped in threads mostly waited for each other. Here one kernel runs the whole loop (ego
 car, trigger contacts, reaction timers, lane measures, trace rows, the LCT's path measures,
 early stop) with the same per-car functions as those kernels (`vector.ego.ego_step_wheels`,
-`kernels.*`, `lct_measure` below), so the results are the same floats. It returns to Python
-only for the cars that touch a trigger box (its actions are Python), which it then finishes
-in a second call; reaction timers that end are scored by Python afterwards.
+`kernels.*`, `lct_measure` below), so the results are the same floats. A car that touches a
+trigger box fires the trigger's actions in the pass (`lct_fire.fire_inline`); only where that
+would log a reaction result does it return to Python, which fires them and finishes the car in
+a second call; reaction timers that end are scored by Python afterwards.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from ..sim.ego.kernels import wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from .ego import ego_step_wheels
 from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, timer_step, volume_fires
+from .lct_fire import fire_inline
 
 
 @parallel_kernel
@@ -34,12 +36,14 @@ def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarr
                  centres: np.ndarray, half_width: float, keep_m: float, lat: np.ndarray, lane: np.ndarray, offset: np.ndarray,
                  sdlp: tuple, ring: bool, block_a: np.ndarray, block_b: np.ndarray, row0: int, ring_steps: np.ndarray, start_z: float,
                  norm: np.ndarray, d0: float, norm_step: float, scale: float, has_prev: np.ndarray, path: tuple, off_road: float,
-                 steering: tuple) -> tuple[int, int]:  # fmt: skip
+                 steering: tuple, fire: tuple) -> tuple[int, int]:  # fmt: skip
     """Physics steps k_from..k_to-1 of the policy step for the envs `live` (cleared for those
     that stop early), car by car: each car's state stays in registers for its steps.
 
-    A car that touches a trigger box in its physics step k is parked there (`park[e] = k`,
-    `contact[e]` the volume; -1 otherwise) for Python to fire the triggers; a call with
+    A car that touches a trigger box in its physics step k fires its triggers there
+    (`fire_inline`, `fire`: `lct_fire.fire_tables` and the trigger state) or, where Python
+    must, is parked there (`park[e] = k`, `contact[e]` the volume; -1 otherwise) for Python
+    to fire them; a call with
     `resume` then goes on with the parked cars only, after their contact test. Returns (cars
     parked, the most physics steps a finished car ran, counted from the policy step's first;
     trace row k goes to row `row0 + k` of the two blocks). The tuples hold float arrays: `ego`
@@ -115,6 +119,7 @@ def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarr
             path,
             off_road,
             steering,
+            fire,
         )
     return parked.sum(), ran.max()
 
@@ -130,7 +135,7 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
                  centres: np.ndarray, half_width: float, keep_m: float, lat: np.ndarray, lane: np.ndarray, offset: np.ndarray,
                  sdlp: tuple, ring: bool, block_a: np.ndarray, block_b: np.ndarray, row0: int, ring_steps: np.ndarray, start_z: float,
                  norm: np.ndarray, d0: float, norm_step: float, scale: float, has_prev: np.ndarray, path: tuple, off_road: float,
-                 steering: tuple) -> tuple[int, int]:  # fmt: skip
+                 steering: tuple, fire: tuple) -> tuple[int, int]:  # fmt: skip
     """`lct_substeps` for the envs lo..hi-1 (a chunk): (cars parked, most steps run)."""
     x, z, yaw, u, v, r, rpm, prev_v, fuel_used, fuel_left, steer_in, gas_in, brake_in, cruise_target, cruise_int = ego
     timer_t, timer_x, timer_z, peak, hold_since, tlim, dlim = timer_f  # (not start_z: the LCT's start)
@@ -169,8 +174,10 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
                 if not paused[e]:
                     bx, bz = xe - shift * sy, ze - shift * cy  # (`kernels.box_centre`)
                     j, nr = nearest_volume(bx, bz, vols, nr)
-                    if j >= 0 and volume_fires(e, j, bx, bz, yawe, hx, hz, vols, vol_triggers, te, locks):
-                        park[e], contact[e] = k, j
+                    if (j >= 0 and volume_fires(e, j, bx, bz, yawe, hx, hz, vols, vol_triggers, te, locks)
+                            and not fire_inline(e, j, te, xe, ze, ue, fire, locks, paused, active, done, spec, timer_f, braked,
+                                                start_lane, timer_table, bands)):  # fmt: skip
+                        park[e], contact[e] = k, j  # (Python fires them)
                         break
             moved = False
             if timers and active[e] and not paused[e]:
