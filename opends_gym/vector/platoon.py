@@ -122,6 +122,7 @@ class PlatoonBatch(BatchCore):
         self.gap_m = np.full(n, np.inf)
         self.lead_speed_mps = np.full(n, np.nan)
         self._half_len = np.ascontiguousarray(self.traffic.half[:, 1])
+        self._sin, self._cos = np.zeros(n), np.zeros(n)  # the kernels' scratch: sine and cosine of each yaw
         lb, fb = self.spec.leading_car, self.spec.follower_car
         band, lat_band = self.spec.longitudinal_tolerance, self.spec.lateral_tolerance
         assert band is not None and lat_band is not None, "the native batch needs both tolerance bands"
@@ -264,7 +265,7 @@ class PlatoonBatch(BatchCore):
         else:
             block, row, steps = self._no_block, 0, self._no_steps
         args = (
-            live, k, (s.x, s.z, s.yaw, s.u, s.steer_in, s.gas_in, s.brake_in, self.t),
+            live, k, (s.x, s.z, s.yaw, s.u, s.steer_in, s.gas_in, s.brake_in, self.t, self._sin, self._cos),
             (st.pos, st.yaw, st.speed, st.enabled, self._half_len, tr.c, tr.ego_length, self.lead_j, self.lead_gap, self.lead_v,
              self.headway, self.ttc, self.gap_m, self.lead_speed_mps),
             (g.sign, self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, rl["n"], rl["mean"],

@@ -48,6 +48,13 @@ def lead_measures(x: np.ndarray, z: np.ndarray, yaw: np.ndarray, u: np.ndarray, 
 
 
 @kernel
+def _sin_cos(lo: int, hi: int, yaw: np.ndarray, sin_y: np.ndarray, cos_y: np.ndarray) -> None:
+    """The sine and cosine of the yaws of the envs lo..hi-1 (`math`'s: numpy's may differ in the last bit)."""
+    for e in range(lo, hi):
+        sin_y[e], cos_y[e] = math.sin(yaw[e]), math.cos(yaw[e])
+
+
+@kernel
 def _lead_range(lo: int, hi: int, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, u: np.ndarray, pos: np.ndarray, car_yaw: np.ndarray,
                 speed: np.ndarray, enabled: np.ndarray, half_len: np.ndarray, c: int, ego_length: float, lead_j: np.ndarray,
                 lead_gap: np.ndarray, lead_v: np.ndarray, headway: np.ndarray, ttc: np.ndarray) -> None:  # fmt: skip
@@ -57,36 +64,46 @@ def _lead_range(lo: int, hi: int, x: np.ndarray, z: np.ndarray, yaw: np.ndarray,
     heading, the time headway (gap + its length over the ego's speed) and the TTC (inf where
     not defined)."""
     for e in range(lo, hi):
-        fx, fz = -math.sin(yaw[e]), -math.cos(yaw[e])
-        lx, lz = -math.cos(yaw[e]), math.sin(yaw[e])
-        best, j, found = math.inf, 0, False
-        best_ahead = 0.0
-        for i in range(c):
-            r = e * c + i
-            dx, dz = pos[r, 0] - x[e], pos[r, 2] - z[e]
-            ahead = dx * fx + dz * fz
-            side = dx * lx + dz * lz
-            if enabled[r] and ahead > 0.0 and abs(side) <= 1.5 and ahead < 200.0:
-                found = True
-                if ahead < best:
-                    best, j = ahead, i
-            if i == 0:
-                best_ahead = ahead
-        r = e * c + j
-        ahead_j = best if found else best_ahead
-        hl = half_len[r]
-        gap = ahead_j - hl - 0.5 * ego_length
-        vyaw = car_yaw[r]
-        v = speed[r] * (-math.sin(vyaw) * fx - math.cos(vyaw) * fz)
-        lead_j[e], lead_gap[e], lead_v[e] = j if found else -1, gap, v
-        ok = found and math.isfinite(gap)
-        headway[e] = (gap + 2.0 * hl) / u[e] if ok and u[e] > 0.0 else math.inf
-        closing = u[e] - v
-        ttc[e] = _max(gap, 0.0) / closing if ok and closing > 0.0 else math.inf
+        _lead_one(e, x, z, math.sin(yaw[e]), math.cos(yaw[e]), u, pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap,
+                  lead_v, headway, ttc)  # fmt: skip
+
+
+@inline
+def _lead_one(e: int, x: np.ndarray, z: np.ndarray, sy: float, cy: float, u: np.ndarray, pos: np.ndarray, car_yaw: np.ndarray,
+              speed: np.ndarray, enabled: np.ndarray, half_len: np.ndarray, c: int, ego_length: float, lead_j: np.ndarray,
+              lead_gap: np.ndarray, lead_v: np.ndarray, headway: np.ndarray, ttc: np.ndarray) -> None:  # fmt: skip
+    """`_lead_range` of env e, whose yaw has sine sy and cosine cy."""
+    fx, fz = -sy, -cy
+    lx, lz = -cy, sy
+    best, j, found = math.inf, 0, False
+    best_ahead = 0.0
+    for i in range(c):
+        r = e * c + i
+        dx, dz = pos[r, 0] - x[e], pos[r, 2] - z[e]
+        ahead = dx * fx + dz * fz
+        side = dx * lx + dz * lz
+        if enabled[r] and ahead > 0.0 and abs(side) <= 1.5 and ahead < 200.0:
+            found = True
+            if ahead < best:
+                best, j = ahead, i
+        if i == 0:
+            best_ahead = ahead
+    r = e * c + j
+    ahead_j = best if found else best_ahead
+    hl = half_len[r]
+    gap = ahead_j - hl - 0.5 * ego_length
+    vyaw = car_yaw[r]
+    v = speed[r] * (-math.sin(vyaw) * fx - math.cos(vyaw) * fz)
+    lead_j[e], lead_gap[e], lead_v[e] = j if found else -1, gap, v
+    ok = found and math.isfinite(gap)
+    headway[e] = (gap + 2.0 * hl) / u[e] if ok and u[e] > 0.0 else math.inf
+    closing = u[e] - v
+    ttc[e] = _max(gap, 0.0) / closing if ok and closing > 0.0 else math.inf
 
 
 @kernel
-def _hook_range(lo: int, hi: int, rows: np.ndarray, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, u: np.ndarray, pos: np.ndarray,
+def _hook_range(lo: int, hi: int, rows: np.ndarray, x: np.ndarray, z: np.ndarray, sin_y: np.ndarray, cos_y: np.ndarray, u: np.ndarray,
+                pos: np.ndarray,
                 ov_speed: np.ndarray, ov_decel: np.ndarray, c: int, on: np.ndarray, kind: np.ndarray, car: np.ndarray, lead_i: int,
                 follow_i: int, with_follower: bool, band: tuple, offset: np.ndarray, ttc: np.ndarray, lon_dev: np.ndarray,
                 reward_acc: np.ndarray) -> None:  # fmt: skip
@@ -109,7 +126,7 @@ def _hook_range(lo: int, hi: int, rows: np.ndarray, x: np.ndarray, z: np.ndarray
             if on[e, s] and kind[e, s] >= speed_kind:
                 busy = busy or car[e, s] == lead_i
                 busy_f = busy_f or car[e, s] == follow_i
-        sy, cy = math.sin(yaw[e]), math.cos(yaw[e])
+        sy, cy = sin_y[e], cos_y[e]
         r = e * c + lead_i
         gap = (pos[r, 0] - x[e]) * -sy + (pos[r, 2] - z[e]) * -cy  # (`PlatoonBatch._distance_to`)
         if not busy:
@@ -162,7 +179,8 @@ def _after_range(lo: int, hi: int, live: np.ndarray, k: int, a: tuple, lead: tup
     counted here: no trigger action or timer reads them) and `_stop_early` (`_terminated`:
     live envs that end stop).
 
-    The tuples: `a` the ego arrays (x, z, yaw, u, steer_in, gas_in, brake_in, t); `lead`
+    The tuples: `a` the ego arrays (x, z, yaw, u, steer_in, gas_in, brake_in, t) and two
+    scratch arrays (the sine and cosine of each yaw); `lead`
     `_lead_range`'s arguments after the ego's and `gap_m`, `lead_speed_mps`; `lanes`
     `lane_measures`' constants and arrays; `ring` (block, row, ring steps, with pedals, recording);
     `hook` `_hook_range`'s arguments after the ego's but `band` (a separate argument: numba's
@@ -170,7 +188,7 @@ def _after_range(lo: int, hi: int, live: np.ndarray, k: int, a: tuple, lead: tup
     constants, `changed` (1 missed, 2 reacted) and `react` out; `hits` the ego box (shift of
     its centre, half width, half length), each car's reach and half extents and the cars
     touching the ego; `stop` the early-stop arguments."""
-    x, z, yaw, u, steer_in, gas_in, brake_in, t = a
+    x, z, yaw, u, steer_in, gas_in, brake_in, t, sin_y, cos_y = a
     pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap, lead_v, headway, ttc, gap_m, lead_speed = lead
     sign, centres, half_width, keep_m, lat, lane, offset, sd_n, sd_mean, sd_m2, prev_x, prev_z, dist, area = lanes
     block, row, steps, pedals, rec = ring
@@ -179,7 +197,10 @@ def _after_range(lo: int, hi: int, live: np.ndarray, k: int, a: tuple, lead: tup
     brake_threshold, tolerance, sr_hold, max_rt, speed_kind = consts[0], consts[1], consts[2], consts[3], int(consts[4])
     car_shift, ehx, ehz, reach, half, hitting = hits
     off_road, past_lead, terminate_on_collision, paused, collisions, collisions_seen = stop
-    _lead_range(lo, hi, x, z, yaw, u, pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap, lead_v, headway, ttc)
+    _sin_cos(lo, hi, yaw, sin_y, cos_y)  # (each once per env: they cost more than the rest of the pass)
+    for e in range(lo, hi):
+        _lead_one(e, x, z, sin_y[e], cos_y[e], u, pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap, lead_v, headway,
+                  ttc)  # fmt: skip
     for e in range(lo, hi):
         fin = lead_j[e] >= 0 and math.isfinite(lead_gap[e])
         gap_m[e] = lead_gap[e] if fin else math.inf
@@ -198,8 +219,8 @@ def _after_range(lo: int, hi: int, live: np.ndarray, k: int, a: tuple, lead: tup
         if pedals:
             block[row, e, 9], block[row, e, 10] = gas_in[e], brake_in[e]
         steps[e] += 1
-    _hook_range(lo, hi, live, x, z, yaw, u, pos, ov_speed, ov_decel, c, on, kind, car, lead_i, follow_i, with_follower, band, offset, ttc,
-                lon_dev, reward_acc)  # fmt: skip
+    _hook_range(lo, hi, live, x, z, sin_y, cos_y, u, pos, ov_speed, ov_decel, c, on, kind, car, lead_i, follow_i, with_follower, band,
+                offset, ttc, lon_dev, reward_acc)  # fmt: skip
     count = 0
     slots = on.shape[1]
     for e in range(lo, hi):
@@ -250,12 +271,14 @@ def _after_range(lo: int, hi: int, live: np.ndarray, k: int, a: tuple, lead: tup
                     ov_speed[r] = math.nan
                     ov_decel[r] = math.nan
                 on[e, s] = False
-        sy, cy = math.sin(yaw[e]), math.cos(yaw[e])
+        sy, cy = sin_y[e], cos_y[e]
         bx, bz = x[e] - car_shift * sy, z[e] - car_shift * cy  # (the box is centred half a wheelbase ahead)
         for i in range(c):
             r = e * c + i
             hit = False
-            if enabled[r] and np.hypot(pos[r, 0] - bx, pos[r, 2] - bz) < reach[r]:
+            dx, dz, far = pos[r, 0] - bx, pos[r, 2] - bz, 1.000001 * reach[r]
+            # (a car beyond 1.000001 x its reach by the squared distance is beyond it by `np.hypot` too: no hypot for it)
+            if enabled[r] and dx * dx + dz * dz < far * far and np.hypot(dx, dz) < reach[r]:
                 hit = boxes_overlap(bx, bz, yaw[e], ehx, ehz, pos[r, 0], pos[r, 2], car_yaw[r], half[r, 0], half[r, 1])
             if hit and not hitting[r]:
                 collisions[e] += 1
