@@ -5,7 +5,8 @@ the single env keeps one `envs.trace.Trace` each. Here every physics step writes
 contiguous row (all envs) of each recorded column into a time-major ring; an env's
 episode is its reset row (kept aside) plus the ring rows from its first step on, which
 stay contiguous because every live env is stepped in every substep. When an episode ends
-its rows are copied into a `Trace`, and the single env's own metric code scores it.
+its rows are copied into a `Trace`, and the single env's own metric code scores it, or (the
+batches with compiled scoring) `gather` copies the ended episodes' rows into one array.
 Derived columns (time, lateral position, lane, lane offset) are not stored; `to_trace`
 computes them with the guide's formulas.
 """
