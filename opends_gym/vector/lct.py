@@ -12,6 +12,7 @@ the resets and the rare trigger firings that log a reaction result (`lct_fire`).
 from __future__ import annotations
 
 import math
+import re
 from typing import Any
 
 import numba
@@ -21,7 +22,7 @@ from ..envs.base import LANE_KEEPING_OFFSET_M
 from ..envs.lct import LaneChangeTestEnv
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from ..metrics import episode_scores
-from ..metrics.lct_scores import J2944, lct_scores
+from ..metrics.lct_scores import J2944, lct_lane_changes, lct_scores
 from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
@@ -47,6 +48,7 @@ from .trace import TraceRing, lane_columns
 INFO_KEYS = ("sim_time_s", "speed_kmh", "lateral_offset_m", "lane_index", "fuel_used_l", "collisions", "reaction_result", "reaction_time_s",
              "mean_deviation_m", "sdlp_m", "headway_s", "ttc_s", "lanes_known", "resets", "reset_time_s", "progress_m",
              "new_collisions")  # fmt: skip
+MDEV_KEYS = ("mdev_basic_m", "mdev_adapted_m", "adapted_start_before_sign_m", "adapted_length_per_lane_m", "adapted_habitual_offset_m")
 StepArrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray], list[int]]
 
 
@@ -238,11 +240,11 @@ class LctBatch(BatchCore):
             k_from = k_to
 
     def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
-        """`episode_metrics` of the envs `es`, the same floats, in two compiled passes over all
-        of them: the generic trace metrics (`metrics.episode_scores`) and the LCT's scoring of
-        instructed lane changes (`metrics.lct_scores`). An episode that passed a sign (its
-        lane-change fits and MDEV) or one scored by ISO 26022 is scored by the template env's
-        own code."""
+        """`episode_metrics` of the envs `es`, the same floats, in compiled passes over all of
+        them: the generic trace metrics (`metrics.episode_scores`), the LCT's scoring of
+        instructed lane changes (`metrics.lct_scores.lct_scores`) and, for the episodes that
+        passed a sign, the lane-change fits and MDEV (`lct_lane_changes`). Episodes scored by
+        ISO 26022 (`scoring="iso26022"`) are scored by the template env's own code."""
         if self.ring is None:
             raise RuntimeError("episode metrics were switched off (record_metrics=False)")
         if not es:
@@ -268,19 +270,26 @@ class LctBatch(BatchCore):
         lct_scores(starts, t, z, lat, steer_deg, self.start_z, *self._signs, g.visibility_m, tpl.basic.start_before_sign_m,
                    tpl.basic.length_per_lane_m, self.lane_lat, int(tpl.initial_lane), b, a, zi, p, gaps, lct)  # fmt: skip
         base[:, 9 : 14 + len(gaps)] = lct[:, : J2944 + len(gaps)]
+        passed = lct[:, J2944 + len(gaps) + 2].astype(np.int64)
+        passed[counts < 2] = 0  # (not scored by `lct_mdev`: the template's code, below)
+        mdev, fits = np.full((m, 5), math.nan), np.zeros((m, len(self._signs[0]), 2))
+        if passed.any():
+            lct_lane_changes(starts, z, lat, self.start_z, *self._signs, passed, g.visibility_m, tpl.basic.start_before_sign_m,
+                             tpl.basic.length_per_lane_m, self.lane_lat, int(tpl.initial_lane), mdev, fits)  # fmt: skip
         out = []
         for j, e in enumerate(es):
-            reached, presented, passed = lct[j, J2944 + len(gaps) :].tolist()
-            if passed:  # lane-change fits and MDEV: the template's code
+            reached, presented, n_passed = lct[j, J2944 + len(gaps) :].tolist()
+            if n_passed and not passed[j]:
                 out.append((e, self.episode_metrics(e, data[:, starts[j] : starts[j + 1]])))
                 continue
             row = [math.nan if v != v else v for v in base[j].tolist()]  # (NaNs as math.nan)
-            out.append((e, self._assemble(e, row, reached, presented)))
+            out.append((e, self._assemble(e, row, reached, presented, mdev[j].tolist(), fits[j, : int(passed[j])].tolist())))
         return out
 
-    def _assemble(self, e: int, row: list[float], reached: float, presented: float) -> dict[str, float]:
-        """Env e's `LaneChangeTestEnv.episode_metrics` dict (its keys in order) for an episode
-        that passed no sign."""
+    def _assemble(self, e: int, row: list[float], reached: float, presented: float, mdev: list[float],
+                  fits: list[list[float]]) -> dict[str, float]:  # fmt: skip
+        """Env e's `LaneChangeTestEnv.episode_metrics` dict (its keys in order) from its
+        scores (`fits`: each passed sign's latency (m) and reached flag)."""
         reactions = self.timers.results_of(e) if self.timers.results[e] else []
         correct = [r.reaction_time_s for r in reactions if r.result == 1]
         tpl = self.template
@@ -292,8 +301,29 @@ class LctBatch(BatchCore):
         ]  # fmt: skip
         out = dict(zip(_BASE_KEYS, values, strict=True))
         out["signs_reached"] = reached
-        out.update({"mdev_basic_m": math.nan, "mdev_adapted_m": math.nan, "lane_changes": 0.0, "lane_changes_correct": 0.0,
-                    "lane_change_errors": 0.0, "mean_lane_change_latency_s": math.nan})  # fmt: skip
+        if not fits:
+            out.update({"mdev_basic_m": math.nan, "mdev_adapted_m": math.nan})
+        else:
+            out.update(zip(MDEV_KEYS, [math.nan if v != v else v for v in mdev], strict=True))
+        timer = {}  # `LaneChangeTestEnv._timer_results`
+        for r in reactions:
+            found = re.match(r"sign (\d+):", r.comment or "")
+            if found:
+                timer[int(found.group(1))] = int(r.result)
+        latencies = []
+        speed_mps = tpl.geometry.speed_kmh / 3.6
+        for k, (latency_m, hit) in enumerate(fits):
+            latency_s = latency_m / speed_mps if math.isfinite(latency_m) else math.nan
+            if math.isfinite(latency_s):
+                latencies.append(latency_s)
+            out[f"sign{k:02d}_latency_s"] = latency_s
+            out[f"sign{k:02d}_reached"] = hit
+            out[f"sign{k:02d}_timer_result"] = float(timer.get(k, 0))
+        correct = sum(1 for _, hit in fits if hit)
+        out["lane_changes"] = float(len(fits))
+        out["lane_changes_correct"] = float(correct)
+        out["lane_change_errors"] = float(len(fits) - correct)
+        out["mean_lane_change_latency_s"] = float(np.mean(latencies)) if latencies else math.nan
         return out
 
     def _on_action_rows(self, es: np.ndarray, act: CompiledAction, trigger: int) -> None:
