@@ -319,10 +319,10 @@ class LctBatch(BatchCore):
             out[f"sign{k:02d}_latency_s"] = latency_s
             out[f"sign{k:02d}_reached"] = hit
             out[f"sign{k:02d}_timer_result"] = float(timer.get(k, 0))
-        correct = sum(1 for _, hit in fits if hit)
+        right = sum(1 for _, hit in fits if hit)
         out["lane_changes"] = float(len(fits))
-        out["lane_changes_correct"] = float(correct)
-        out["lane_change_errors"] = float(len(fits) - correct)
+        out["lane_changes_correct"] = float(right)
+        out["lane_change_errors"] = float(len(fits) - right)
         out["mean_lane_change_latency_s"] = float(np.mean(latencies)) if latencies else math.nan
         return out
 
