@@ -94,6 +94,9 @@ class LctBatch(BatchCore):
                        np.array([s.to_lane for s in signs], dtype=np.int64))  # fmt: skip
         self._iso = cfg.scoring == "iso26022"  # (ISO 26022's segment scores: the template's code)
         self._fire_tables = fire_tables(self.trig, self.timers, self.sign_of_model)
+        if record_metrics and not self._iso:  # the scoring kernels' compile (or cache load) queued now, not at the first ends
+            z = self.start_z - np.array([0.0, 1.0, self._signs[0][0] + 1.0 if len(self._signs[0]) else 2.0])
+            self._scores(np.array([0, 3]), np.stack([np.zeros(3), z, np.full(3, 10.0), np.zeros(3)]))
 
     def _reset_task(self, idx: np.ndarray) -> None:
         self.revealed[idx] = -1
@@ -253,12 +256,27 @@ class LctBatch(BatchCore):
             columns = self.ring.columns_of(es)
             return [(e, self.episode_metrics(e, columns[e])) for e in es]
         starts, data = self.ring.gather(es)  # (column, row): the episodes one after another, reset rows first
+        base, lct, passed, mdev, fits = self._scores(starts, data)
+        gaps = self._score_params[4]
+        out = []
+        for j, e in enumerate(es):
+            reached, presented, n_passed = lct[j, J2944 + len(gaps) :].tolist()
+            if n_passed and not passed[j]:
+                out.append((e, self.episode_metrics(e, data[:, starts[j] : starts[j + 1]])))
+                continue
+            row = [math.nan if v != v else v for v in base[j].tolist()]  # (NaNs as math.nan)
+            out.append((e, self._assemble(e, row, reached, presented, mdev[j].tolist(), fits[j, : int(passed[j])].tolist())))
+        return out
+
+    def _scores(self, starts: np.ndarray, data: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The compiled scoring passes over the episodes in `data` (`TraceRing.gather`'s):
+        (generic keys, LCT keys, signs passed and scored, MDEV rows, fits)."""
         counts = np.diff(starts)
         x, z, speed, steer = data
         lat, lane, off = lane_columns(self.guide, x, z)
         t = (np.arange(len(x)) - np.repeat(starts[:-1], counts)) * self.dt  # (`TraceRing.to_trace`'s clock)
         steer_deg = steer * STEERING_WHEEL_MAX_DEG
-        m = len(es)
+        m = len(starts) - 1
         inf, nan = np.full(len(x), math.inf), np.full(len(x), math.nan)  # headway, TTC, gap; the lead's speed: no traffic
         base = np.empty((m, len(episode_scores.KEYS)))
         b, a, zi, p, gaps, thw, ttc = self._score_params
@@ -276,15 +294,7 @@ class LctBatch(BatchCore):
         if passed.any():
             lct_lane_changes(starts, z, lat, self.start_z, *self._signs, passed, g.visibility_m, tpl.basic.start_before_sign_m,
                              tpl.basic.length_per_lane_m, self.lane_lat, int(tpl.initial_lane), mdev, fits)  # fmt: skip
-        out = []
-        for j, e in enumerate(es):
-            reached, presented, n_passed = lct[j, J2944 + len(gaps) :].tolist()
-            if n_passed and not passed[j]:
-                out.append((e, self.episode_metrics(e, data[:, starts[j] : starts[j + 1]])))
-                continue
-            row = [math.nan if v != v else v for v in base[j].tolist()]  # (NaNs as math.nan)
-            out.append((e, self._assemble(e, row, reached, presented, mdev[j].tolist(), fits[j, : int(passed[j])].tolist())))
-        return out
+        return base, lct, passed, mdev, fits
 
     def _assemble(self, e: int, row: list[float], reached: float, presented: float, mdev: list[float],
                   fits: list[list[float]]) -> dict[str, float]:  # fmt: skip
