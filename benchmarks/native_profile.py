@@ -4,13 +4,14 @@ Measures CPU time (this process's, all threads: other programs on a shared host 
 count) per env-step of a native LCT batch (random actions with resets, `NUMBA_NUM_THREADS=1`
 unless set) and splits it:
 
-* `ego physics only`: the ego car's model alone (`vector.ego.ego_step`: cruise control,
-  minSpeed, powertrain, four-wheel single-track body), the batch's physics steps per policy
-  step, in one compiled loop: the floor for any batch that computes the single env's floats;
+* `ego physics only`: the ego car's model alone (`vector.ego.ego_step_wheels`: cruise
+  control, minSpeed, powertrain, four-wheel single-track body), the batch's physics steps
+  per policy step, in one compiled loop, random steering and pedals as the random actions':
+  the floor for any batch that computes the single env's floats;
 * the whole step without and with the per-step traces (`record_metrics`), and from a
   profile of the latter the share of the compiled step kernels (`lct_substeps`,
-  `lct_outcomes`, `lct_observation`) and of the rest (Python glue, trigger firing, resets,
-  episode scoring).
+  `lct_finish`; before it `lct_outcomes` and `lct_observation`) and of the rest (Python
+  glue, trigger firing, resets, episode scoring).
 
     python benchmarks/native_profile.py [--envs 4096] [--steps 200]
 """
@@ -31,9 +32,10 @@ import gymnasium as gym
 import numpy as np
 
 import opends_gym  # noqa: F401
-from opends_gym.jit import kernel
+from opends_gym.jit import kernel, wait_compiled
+from opends_gym.sim.ego.kernels import wheel_constants
 from opends_gym.sim.ego.spec import MAX_WHEEL_ANGLE_RAD
-from opends_gym.vector.ego import EgoParams, ego_step
+from opends_gym.vector.ego import EgoParams, ego_step_wheels
 
 LCT = "OpenDS/LaneChangeTest-v0"
 
@@ -46,10 +48,11 @@ def physics_only(car: np.ndarray, dt: float, steps: int, x: np.ndarray, z: np.nd
         xe, ze, ye, ue, ve, re, ge, rpm, pv, fu, fl, con, cint = x[e], z[e], yaw[e], u[e], 0.0, 0.0, 3, 2000.0, u[e], 0.0, 50.0, True, 0.0
         a = steer[e] * MAX_WHEEL_ANGLE_RAD
         ca, sa = math.cos(a), math.sin(a)
+        wc = wheel_constants(car, dt, ca, sa)
         for _ in range(steps):
             u0 = ue
-            xe, ze, ye, ue, ve, re, ge, rpm, fu, fl, con, cint, _, _, _, _ = ego_step(
-                car, True, False, 0.0, dt, xe, ze, ye, ue, ve, re, ge, rpm, pv, fu, fl, con, ue, cint, a, ca, sa, gas[e], brake[e]
+            xe, ze, ye, ue, ve, re, ge, rpm, fu, fl, con, cint, _, _, _, _ = ego_step_wheels(
+                car, wc, True, False, 0.0, dt, xe, ze, ye, ue, ve, re, ge, rpm, pv, fu, fl, con, ue, cint, ca, sa, gas[e], brake[e]
             )
             pv = u0
         x[e], z[e], yaw[e], u[e] = xe, ze, ye, ue
@@ -77,7 +80,10 @@ def main() -> None:
     repeat, dt = template.config.action_repeat, template.world.dt_s
     rng = np.random.default_rng(0)
     state = [np.zeros(n), np.zeros(n), np.zeros(n), np.full(n, 22.0)]
-    controls = [rng.uniform(-1, 1, n), rng.uniform(0, 1, n), np.zeros(n)]
+    pedal = rng.uniform(-1, 1, n)  # (as the random actions: half the cars brake)
+    controls = [rng.uniform(-1, 1, n), np.maximum(pedal, 0.0), np.maximum(-pedal, 0.0)]
+    physics_only(p.car, dt, repeat, *[a.copy() for a in state], *controls)
+    wait_compiled()  # (a kernel outside the package compiles in the background and runs as Python meanwhile)
     ego_ns = cpu_per_env_step(lambda: physics_only(p.car, dt, repeat, *state, *controls), n, args.steps)
     print(f"native LCT, {n} envs, random actions with resets, NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}; CPU time per env-step:")
     print(f"  ego physics only ({repeat} physics steps)  {ego_ns:8.0f} ns  ({ego_ns / repeat:.0f} ns per physics step)")
@@ -99,7 +105,8 @@ def main() -> None:
             prof.runcall(lambda: [step() for _ in range(args.steps)])
             stats = pstats.Stats(prof).stats  # type: ignore[attr-defined]
             total = sum(v[2] for v in stats.values())
-            kernels = sum(v[2] for (_, _, name), v in stats.items() if name in ("lct_substeps", "lct_outcomes", "lct_observation"))
+            names = ("lct_substeps", "lct_outcomes", "lct_observation", "lct_finish")
+            kernels = sum(v[2] for (_, _, name), v in stats.items() if name in names)
             share = 100 * kernels / total
             print(f"    compiled step kernels {share:.0f} % of the wall time (cProfile), the rest (Python) {100 - share:.0f} %")
         env.close()

@@ -188,3 +188,32 @@ def test_max_speed_cap_cuts_power_in_the_last_kmh() -> None:
     # Transmission.performAcceleration: from maxSpeed - 1 the share is multiplied by (maxSpeed - v)
     # km/h, so it is halved at 99.5 and turns negative (a push back) above maxSpeed
     assert below > 0.0 and 0.0 < half < below and above < 0.0
+
+
+def test_gear_choice_skips_only_polynomials_that_clamp_to_zero() -> None:
+    # The compiled gearbox skips gear g's polynomial from speed share GEAR_ZERO_FROM[g] on (its share is 0 there): each
+    # polynomial (OpenDS Transmission.getPowerPercentage's coefficients, highest power first) must stay clearly negative
+    # beyond (a dense scan up to 3, past which the negative leading term rules), and the gear chosen and the previous
+    # gear's share must equal those of evaluating every polynomial
+    import numpy as np
+
+    from opends_gym.sim.ego.kernels import GEAR_ZERO_FROM, best_gear_and_share, best_power_gear_py, power_percentage_py
+
+    opends = {
+        1: [-2892.78, 678.61, 558.43, -216.84, 17.78, 0.58],
+        2: [-4206.38, 4837.65, -1897.61, 310.7, -34.7, 3.82, 0.43],
+        3: [-3.17, 1.44, 0.12, 0.27],
+        4: [-1.27, 0.64, 0.24, 0.20],
+        5: [-0.47, 0.12, 0.35, 0.11],
+        6: [-0.27, 0.24, 0.18, 0.01],
+    }
+    for g, coeffs in opends.items():
+        assert np.polyval(coeffs, np.linspace(GEAR_ZERO_FROM[g], 3.0, 300_001)).max() < -1e-4
+        assert power_percentage_py(g, 0.2) == pytest.approx(min(1.0, max(0.0, np.polyval(coeffs, 0.2))), abs=1e-12)
+    edges = [float(np.nextafter(t, d)) for t in GEAR_ZERO_FROM[1:] for d in (0.0, 9.0)] + list(GEAR_ZERO_FROM[1:])
+    for x in np.linspace(0.0, 2.0, 2001).tolist() + edges:
+        shares = [power_percentage_py(g, x) for g in range(1, 7)]
+        plain = 1 + shares.index(max(shares)) if max(shares) > 0.0 else 1
+        assert best_power_gear_py(6, x) == plain
+        for share_gear in (-1, 0, 1, 3, 6):
+            assert best_gear_and_share.py_func(6, x, share_gear) == (plain, power_percentage_py(share_gear, x))

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..jit import inline, kernel
-from ..sim.ego.kernels import body_step_trig, cruise_control, min_speed_gas, powertrain_core
+from ..sim.ego.kernels import body_step_wheels, cruise_control, min_speed_gas, powertrain_core, wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 
 
@@ -206,6 +206,18 @@ def ego_step(car: np.ndarray, engine_on: bool, suppress_cruise_off: bool, min_sp
     given). Returns the new (x, z, yaw, u, v, r, gear, rpm, fuel used, fuel left, cruise on,
     cruise integral), the pedals applied (gas, brake) and the new heading's sine and cosine;
     the caller keeps the u it passed as the next step's `prev_v`, and the steering as applied."""
+    wc = wheel_constants(car, dt, cos_steer, sin_steer)
+    return ego_step_wheels(car, wc, engine_on, suppress_cruise_off, min_speed, dt, x, z, yaw, u, v, r, gear, rpm, prev_v, fuel_used,
+                           fuel_left, cruise_on, cruise_target, cruise_int, cos_steer, sin_steer, gas, brake)  # fmt: skip
+
+
+@inline
+def ego_step_wheels(car: np.ndarray, wc: tuple[float, ...], engine_on: bool, suppress_cruise_off: bool, min_speed: float, dt: float,
+                    x: float, z: float, yaw: float, u: float, v: float, r: float, gear: int, rpm: float, prev_v: float, fuel_used: float,
+                    fuel_left: float, cruise_on: bool, cruise_target: float, cruise_int: float, cos_steer: float, sin_steer: float,
+                    gas: float, brake: float) -> tuple[float, ...]:  # fmt: skip
+    """`ego_step` given the car's `wheel_constants` at this steering (a caller that holds the
+    steering for a policy step's physics steps computes them once)."""
     nan = math.nan
     g, b, cruise_on, cruise_int = cruise_control(
         cruise_on, cruise_target, cruise_int, u, gas, brake, dt, suppress_cruise_off, False, nan, 0.0, nan, nan
@@ -214,5 +226,5 @@ def ego_step(car: np.ndarray, engine_on: bool, suppress_cruise_off: bool, min_sp
     gear, rpm, drive, brake_n, _, _, _, fuel_used, fuel_left = powertrain_core(
         car, gear, True, engine_on, rpm, prev_v, fuel_used, fuel_left, dt, u, g * 1.0, b, 0.0, False
     )
-    x, z, yaw, u, v, r, sy, cy = body_step_trig(car, x, z, yaw, u, v, r, dt, steer_rad, cos_steer, sin_steer, drive, brake_n, 0.0)
+    x, z, yaw, u, v, r, sy, cy = body_step_wheels(car, wc, x, z, yaw, u, v, r, dt, cos_steer, sin_steer, drive, brake_n, 0.0)
     return x, z, yaw, u, v, r, gear, rpm, fuel_used, fuel_left, cruise_on, cruise_int, g, b, sy, cy

@@ -3,11 +3,16 @@
 Why: signs are revealed by their trigger boxes (`manipulateObject visible`), so each env
 keeps the highest sign index revealed; the normative-path deviation, the reward and the
 running MDEV accumulate per physics step, with the single env's formulas. The physics steps
-of a policy step, its outcomes and the observation run as compiled passes (`lct_step`).
+of a policy step run as one compiled pass (`lct_substeps`); then the autoresets (Python, for
+the ended envs only) and one more pass for every env's reward, flags, observation and info
+(`lct_finish`), so a step's Python does the same work whatever the batch size, apart from
+the resets and the rare trigger firings that log a reaction result (`lct_fire`).
 """
 
 from __future__ import annotations
 
+import math
+import re
 from typing import Any
 
 import numba
@@ -16,12 +21,35 @@ import numpy as np
 from ..envs.base import LANE_KEEPING_OFFSET_M
 from ..envs.lct import LaneChangeTestEnv
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
+from ..metrics import episode_scores
+from ..metrics.lct_scores import J2944, lct_lane_changes, lct_scores
+from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
 from .kernels import CHUNK_ENVS
-from .lct_step import _observation_range, _outcomes_range, _substeps_range, lct_observation, lct_outcomes, lct_substeps
-from .trace import TraceRing
+from .lct_fire import fire_tables
+from .lct_step import (
+    INFO_F,
+    INFO_I,
+    _finish_range,
+    _observation_range,
+    _outcomes_range,
+    _substeps_range,
+    lct_finish,
+    lct_observation,
+    lct_outcomes,
+    lct_substeps,
+)
+from .platoon import _BASE_KEYS
+from .trace import TraceRing, lane_columns
+
+# the info keys of a step, in `BatchCore.info`'s order
+INFO_KEYS = ("sim_time_s", "speed_kmh", "lateral_offset_m", "lane_index", "fuel_used_l", "collisions", "reaction_result", "reaction_time_s",
+             "mean_deviation_m", "sdlp_m", "headway_s", "ttc_s", "lanes_known", "resets", "reset_time_s", "progress_m",
+             "new_collisions")  # fmt: skip
+MDEV_KEYS = ("mdev_basic_m", "mdev_adapted_m", "adapted_start_before_sign_m", "adapted_length_per_lane_m", "adapted_habitual_offset_m")
+StepArrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray], list[int]]
 
 
 class LctBatch(BatchCore):
@@ -60,6 +88,15 @@ class LctBatch(BatchCore):
         # a batch of one chunk, which a parallel launch would only delay: waking the pool costs more than stepping it)
         self.parallel = n > CHUNK_ENVS
         self._park = np.full(n, -1, dtype=np.int64)  # the physics step where a car waits for its triggers to fire (-1: none)
+        self._score_params = episode_scores.scoring_params(cfg.physics_hz, self.off_road_limit, self.guide.road_edges_m)
+        signs = env.metric_signs
+        self._signs = (np.array([s.d_m for s in signs]), np.array([s.from_lane for s in signs], dtype=np.int64),
+                       np.array([s.to_lane for s in signs], dtype=np.int64))  # fmt: skip
+        self._iso = cfg.scoring == "iso26022"  # (ISO 26022's segment scores: the template's code)
+        self._fire_tables = fire_tables(self.trig, self.timers, self.sign_of_model)
+        if record_metrics and not self._iso:  # the scoring kernels' compile (or cache load) queued now, not at the first ends
+            z = self.start_z - np.array([0.0, 1.0, self._signs[0][0] + 1.0 if len(self._signs[0]) else 2.0])
+            self._scores(np.array([0, 3]), np.stack([np.zeros(3), z, np.full(3, 10.0), np.zeros(3)]))
 
     def _reset_task(self, idx: np.ndarray) -> None:
         self.revealed[idx] = -1
@@ -107,6 +144,43 @@ class LctBatch(BatchCore):
         }
         return reward, terminated, truncated, info
 
+    def step_and_reset(self, actions: np.ndarray, resetting: np.ndarray, size: int) -> StepArrays:
+        """`shards.step_shard`'s step with NEXT_STEP autoreset: the envs not `resetting` step,
+        the others reset, then one compiled pass (`lct_finish`) writes every env's reward,
+        flags, observation and info (a reset env's are those of its fresh state, as
+        `BatchCore.info` gives them after `reset_rows`). The info arrays are rows of two
+        blocks allocated per step (the caller may keep them). Returns (obs, reward, terminated,
+        truncated, info, envs whose episode ended)."""
+        stepping = ~resetting
+        c = self.actions.convert(actions, stepping)
+        self._physics_steps(stepping.copy(), c)
+        if resetting.any():
+            self.reset_rows(np.flatnonzero(resetting), None)
+        n, s, tm = self.n, self.s, self.timers
+        reward, terminated, truncated = np.empty(n), np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        out = np.empty((n, size), dtype=np.float32)
+        info_f, info_i, known = np.empty((len(INFO_F), n)), np.empty((len(INFO_I), n), dtype=np.int64), np.empty(n, dtype=bool)
+        if size != len(EGO_NAMES) + self.template.config.nearby_vehicles * len(VEHICLE_NAMES) + 3:
+            raise ValueError(f"the LCT observation has 7 ego features, vehicle slots and 3 stimulus values, not {size} values")
+        outcome = (stepping, self.guide.sign, self.guide.start_xz[1], s.z, s.u, self.last_s, self.progress, self.collisions,
+                   self.collisions_seen, self.new_collisions, tm.n_results, self.reaction_cursor, tm.last_result, tm.last_rt,
+                   self.rl["n"], self.rl["m2"], self.has_prev, self.prev_d, self.area, self.lat, self.off_road_limit, self.step_reward,
+                   self.reward_scale, self.off_road_penalty, self.trig.paused, bool(self.config.terminate_on_collision), self.t,
+                   float(self.config.max_episode_s), reward, terminated, truncated)  # fmt: skip
+        obs = (out, s.u, s.yaw, self.guide.road_heading, self.offset, self.lat, self.lane, s.steer_in, s.r, s.z, self.revealed,
+               self.sign_z, self.sign_lane, self.lane_lat)  # fmt: skip
+        copies = (self.t, self.offset, s.fuel_used, self.headway, self.ttc, self.lane, self.collisions)
+        args = (outcome, obs, copies, info_f, info_i, known, bool(self.guide.lanes_known))
+        if self.parallel:
+            with numba.parallel_chunksize(1):
+                lct_finish(*args)
+        else:
+            _finish_range(0, n, *args)
+        info = dict(zip(INFO_F, info_f)) | dict(zip(INFO_I, info_i))
+        info["lanes_known"] = known
+        info = {key: info[key] for key in INFO_KEYS}
+        return out, reward, terminated, truncated, info, np.flatnonzero(terminated | truncated).tolist()
+
     def observation(self, k: int, size: int) -> np.ndarray:
         """The ego features, empty vehicle slots and the sign stimulus (`lct_observation`)."""
         if size != len(EGO_NAMES) + k * len(VEHICLE_NAMES) + 3:
@@ -122,8 +196,9 @@ class LctBatch(BatchCore):
         return out
 
     def _physics_steps(self, live: np.ndarray, c: BatchControls) -> None:
-        """`BatchCore._physics_steps` as one compiled loop (`lct_step`), back in Python only to
-        fire the triggers of the cars that touched their boxes and to score ended timers. A
+        """`BatchCore._physics_steps` as one compiled loop (`lct_step`, trigger actions
+        included), back in Python to score ended timers and to fire the few triggers that log
+        a reaction result (`lct_fire`). A
         policy step of more physics steps than a ring block holds runs a block at a time."""
         with numba.parallel_chunksize(1):  # threads take the chunks one at a time: a busy core holds up one chunk, not half
             self._substeps(live, c)
@@ -133,6 +208,7 @@ class LctBatch(BatchCore):
         ego_f = (s.x, s.z, s.yaw, s.u, s.v, s.r, s.rpm, s.prev_v, s.fuel_used, s.fuel_left, s.steer_in, s.gas_in, s.brake_in,
                  s.cruise_target, s.cruise_int)  # fmt: skip
         timer_f = (timers.start_t, timers.start_x, timers.start_z, timers.peak, timers.hold_since, timers.tlim, timers.dlim)
+        fire = (*self._fire_tables, trig.counts, trig.started, trig.started_at, self.revealed, timers.kind, timers.armed_t)
         k_from = 0
         while k_from < self.repeat:
             k_to = min(self.repeat, k_from + TraceRing.BLOCK)
@@ -149,7 +225,7 @@ class LctBatch(BatchCore):
                     LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, (self.rl["n"], self.rl["mean"], self.rl["m2"]),
                     ring is not None, block_a, block_b, row0, ring.steps if ring is not None else self._no_steps, self.start_z,
                     self.norm, self.norm_d0, self.norm_step, self.scale, self.has_prev,
-                    (self.prev_d, self.prev_dev, self.area, self.step_reward), self.off_road_limit, self._steering,
+                    (self.prev_d, self.prev_dev, self.area, self.step_reward), self.off_road_limit, self._steering, fire,
                 )  # fmt: skip
                 parked, ran = lct_substeps(*args) if self.parallel else _substeps_range(0, self.n, *args)
                 steps = max(steps, ran)
@@ -165,6 +241,100 @@ class LctBatch(BatchCore):
             if steps < k_to:  # every car stopped early
                 break
             k_from = k_to
+
+    def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
+        """`episode_metrics` of the envs `es`, the same floats, in compiled passes over all of
+        them: the generic trace metrics (`metrics.episode_scores`), the LCT's scoring of
+        instructed lane changes (`metrics.lct_scores.lct_scores`) and, for the episodes that
+        passed a sign, the lane-change fits and MDEV (`lct_lane_changes`). Episodes scored by
+        ISO 26022 (`scoring="iso26022"`) are scored by the template env's own code."""
+        if self.ring is None:
+            raise RuntimeError("episode metrics were switched off (record_metrics=False)")
+        if not es:
+            return []
+        if self._iso:
+            columns = self.ring.columns_of(es)
+            return [(e, self.episode_metrics(e, columns[e])) for e in es]
+        starts, data = self.ring.gather(es)  # (column, row): the episodes one after another, reset rows first
+        base, lct, passed, mdev, fits = self._scores(starts, data)
+        gaps = self._score_params[4]
+        out = []
+        for j, e in enumerate(es):
+            reached, presented, n_passed = lct[j, J2944 + len(gaps) :].tolist()
+            if n_passed and not passed[j]:
+                out.append((e, self.episode_metrics(e, data[:, starts[j] : starts[j + 1]])))
+                continue
+            row = [math.nan if v != v else v for v in base[j].tolist()]  # (NaNs as math.nan)
+            out.append((e, self._assemble(e, row, reached, presented, mdev[j].tolist(), fits[j, : int(passed[j])].tolist())))
+        return out
+
+    def _scores(self, starts: np.ndarray, data: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The compiled scoring passes over the episodes in `data` (`TraceRing.gather`'s):
+        (generic keys, LCT keys, signs passed and scored, MDEV rows, fits)."""
+        counts = np.diff(starts)
+        x, z, speed, steer = data
+        lat, lane, off = lane_columns(self.guide, x, z)
+        t = (np.arange(len(x)) - np.repeat(starts[:-1], counts)) * self.dt  # (`TraceRing.to_trace`'s clock)
+        steer_deg = steer * STEERING_WHEEL_MAX_DEG
+        m = len(starts) - 1
+        inf, nan = np.full(len(x), math.inf), np.full(len(x), math.nan)  # headway, TTC, gap; the lead's speed: no traffic
+        base = np.empty((m, len(episode_scores.KEYS)))
+        b, a, zi, p, gaps, thw, ttc = self._score_params
+        episode_scores.episode_scores(starts, t, np.hypot(np.diff(x), np.diff(z)), speed, steer_deg, inf, nan, inf, inf, lat,
+                                      lane.astype(np.float64), off, b, a, zi, p, gaps, thw, ttc, base)  # fmt: skip
+        lct = np.empty((m, J2944 + len(gaps) + 3))
+        tpl = self.template
+        g = tpl.geometry
+        lct_scores(starts, t, z, lat, steer_deg, self.start_z, *self._signs, g.visibility_m, tpl.basic.start_before_sign_m,
+                   tpl.basic.length_per_lane_m, self.lane_lat, int(tpl.initial_lane), b, a, zi, p, gaps, lct)  # fmt: skip
+        base[:, 9 : 14 + len(gaps)] = lct[:, : J2944 + len(gaps)]
+        passed = lct[:, J2944 + len(gaps) + 2].astype(np.int64)
+        passed[counts < 2] = 0  # (not scored by `lct_mdev`: the template's code, below)
+        mdev, fits = np.full((m, 5), math.nan), np.zeros((m, len(self._signs[0]), 2))
+        if passed.any():
+            lct_lane_changes(starts, z, lat, self.start_z, *self._signs, passed, g.visibility_m, tpl.basic.start_before_sign_m,
+                             tpl.basic.length_per_lane_m, self.lane_lat, int(tpl.initial_lane), mdev, fits)  # fmt: skip
+        return base, lct, passed, mdev, fits
+
+    def _assemble(self, e: int, row: list[float], reached: float, presented: float, mdev: list[float],
+                  fits: list[list[float]]) -> dict[str, float]:  # fmt: skip
+        """Env e's `LaneChangeTestEnv.episode_metrics` dict (its keys in order) from its
+        scores (`fits`: each passed sign's latency (m) and reached flag)."""
+        reactions = self.timers.results_of(e) if self.timers.results[e] else []
+        correct = [r.reaction_time_s for r in reactions if r.result == 1]
+        tpl = self.template
+        values = [
+            float(self.t[e]), row[0], row[1], float(self.s.fuel_used[e]), float(self.collisions[e]), *row[2:6], float(len(reactions)),
+            float(len(correct)), float(sum(1 for r in reactions if r.result == -1)), float(sum(1 for r in reactions if r.result == -2)),
+            float(np.mean(correct)) if correct else math.nan, float(self.guide.lanes_known), row[6], row[7], presented, row[8],
+            float(tpl.resets), float(tpl.collision_resets), tpl.reset_time_s, *row[9:],
+        ]  # fmt: skip
+        out = dict(zip(_BASE_KEYS, values, strict=True))
+        out["signs_reached"] = reached
+        if not fits:
+            out.update({"mdev_basic_m": math.nan, "mdev_adapted_m": math.nan})
+        else:
+            out.update(zip(MDEV_KEYS, [math.nan if v != v else v for v in mdev], strict=True))
+        timer = {}  # `LaneChangeTestEnv._timer_results`
+        for r in reactions:
+            found = re.match(r"sign (\d+):", r.comment or "")
+            if found:
+                timer[int(found.group(1))] = int(r.result)
+        latencies = []
+        speed_mps = tpl.geometry.speed_kmh / 3.6
+        for k, (latency_m, hit) in enumerate(fits):
+            latency_s = latency_m / speed_mps if math.isfinite(latency_m) else math.nan
+            if math.isfinite(latency_s):
+                latencies.append(latency_s)
+            out[f"sign{k:02d}_latency_s"] = latency_s
+            out[f"sign{k:02d}_reached"] = hit
+            out[f"sign{k:02d}_timer_result"] = float(timer.get(k, 0))
+        right = sum(1 for _, hit in fits if hit)
+        out["lane_changes"] = float(len(fits))
+        out["lane_changes_correct"] = float(right)
+        out["lane_change_errors"] = float(len(fits) - right)
+        out["mean_lane_change_latency_s"] = float(np.mean(latencies)) if latencies else math.nan
+        return out
 
     def _on_action_rows(self, es: np.ndarray, act: CompiledAction, trigger: int) -> None:
         if act.name == "manipulateObject":

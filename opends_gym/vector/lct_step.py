@@ -4,10 +4,11 @@ Why: `BatchCore._physics_steps` runs each physics step as a handful of kernels w
 and Python between them (six times per policy step). That Python holds the GIL, so shards
 stepped in threads mostly waited for each other. Here one kernel runs the whole loop (ego
 car, trigger contacts, reaction timers, lane measures, trace rows, the LCT's path measures,
-early stop) with the same per-car functions as those kernels (`vector.ego.ego_step`,
-`kernels.*`, `lct_measure` below), so the results are the same floats. It returns to Python
-only for the cars that touch a trigger box (its actions are Python), which it then finishes
-in a second call; reaction timers that end are scored by Python afterwards.
+early stop) with the same per-car functions as those kernels (`vector.ego.ego_step_wheels`,
+`kernels.*`, `lct_measure` below), so the results are the same floats. A car that touches a
+trigger box fires the trigger's actions in the pass (`lct_fire.fire_inline`); only where that
+would log a reaction result does it return to Python, which fires them and finishes the car in
+a second call; reaction timers that end are scored by Python afterwards.
 """
 
 from __future__ import annotations
@@ -18,9 +19,11 @@ import numpy as np
 from numba import prange
 
 from ..jit import inline, kernel, parallel_kernel
+from ..sim.ego.kernels import wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
-from .ego import ego_step
+from .ego import ego_step_wheels
 from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, timer_step, volume_fires
+from .lct_fire import fire_inline
 
 
 @parallel_kernel
@@ -33,12 +36,14 @@ def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarr
                  centres: np.ndarray, half_width: float, keep_m: float, lat: np.ndarray, lane: np.ndarray, offset: np.ndarray,
                  sdlp: tuple, ring: bool, block_a: np.ndarray, block_b: np.ndarray, row0: int, ring_steps: np.ndarray, start_z: float,
                  norm: np.ndarray, d0: float, norm_step: float, scale: float, has_prev: np.ndarray, path: tuple, off_road: float,
-                 steering: tuple) -> tuple[int, int]:  # fmt: skip
+                 steering: tuple, fire: tuple) -> tuple[int, int]:  # fmt: skip
     """Physics steps k_from..k_to-1 of the policy step for the envs `live` (cleared for those
     that stop early), car by car: each car's state stays in registers for its steps.
 
-    A car that touches a trigger box in its physics step k is parked there (`park[e] = k`,
-    `contact[e]` the volume; -1 otherwise) for Python to fire the triggers; a call with
+    A car that touches a trigger box in its physics step k fires its triggers there
+    (`fire_inline`, `fire`: `lct_fire.fire_tables` and the trigger state) or, where Python
+    must, is parked there (`park[e] = k`, `contact[e]` the volume; -1 otherwise) for Python
+    to fire them; a call with
     `resume` then goes on with the parked cars only, after their contact test. Returns (cars
     parked, the most physics steps a finished car ran, counted from the policy step's first;
     trace row k goes to row `row0 + k` of the two blocks). The tuples hold float arrays: `ego`
@@ -114,6 +119,7 @@ def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarr
             path,
             off_road,
             steering,
+            fire,
         )
     return parked.sum(), ran.max()
 
@@ -129,7 +135,7 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
                  centres: np.ndarray, half_width: float, keep_m: float, lat: np.ndarray, lane: np.ndarray, offset: np.ndarray,
                  sdlp: tuple, ring: bool, block_a: np.ndarray, block_b: np.ndarray, row0: int, ring_steps: np.ndarray, start_z: float,
                  norm: np.ndarray, d0: float, norm_step: float, scale: float, has_prev: np.ndarray, path: tuple, off_road: float,
-                 steering: tuple) -> tuple[int, int]:  # fmt: skip
+                 steering: tuple, fire: tuple) -> tuple[int, int]:  # fmt: skip
     """`lct_substeps` for the envs lo..hi-1 (a chunk): (cars parked, most steps run)."""
     x, z, yaw, u, v, r, rpm, prev_v, fuel_used, fuel_left, steer_in, gas_in, brake_in, cruise_target, cruise_int = ego
     timer_t, timer_x, timer_z, peak, hold_since, tlim, dlim = timer_f  # (not start_z: the LCT's start)
@@ -148,6 +154,7 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
         if not resume and k_from == 0:
             angle[e] = steer[e] * MAX_WHEEL_ANGLE_RAD
             cos_a[e], sin_a[e] = math.cos(angle[e]), math.sin(angle[e])
+        wc = wheel_constants(car, dt, cos_a[e], sin_a[e])  # (the steering is held: once per car and call)
         # the car's state, kept in locals until it stops, parks or ends the policy step
         xe, ze, yawe, ue, ve, re, geare, rpme, pv, fu, fl = x[e], z[e], yaw[e], u[e], v[e], r[e], gear[e], rpm[e], prev_v[e], \
             fuel_used[e], fuel_left[e]  # fmt: skip
@@ -159,16 +166,18 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
                 sc += 1
                 te = sc * dt
                 u0, si = ue, steer[e]
-                xe, ze, yawe, ue, ve, re, geare, rpme, fu, fl, con, cint, gi, bi, sy, cy = ego_step(
-                    car, engine_on, suppress_cruise_off, min_speed, dt, xe, ze, yawe, ue, ve, re, geare, rpme, pv, fu, fl, con,
-                    cruise_target[e], cint, angle[e], cos_a[e], sin_a[e], gas[e], brake[e],
+                xe, ze, yawe, ue, ve, re, geare, rpme, fu, fl, con, cint, gi, bi, sy, cy = ego_step_wheels(
+                    car, wc, engine_on, suppress_cruise_off, min_speed, dt, xe, ze, yawe, ue, ve, re, geare, rpme, pv, fu, fl, con,
+                    cruise_target[e], cint, cos_a[e], sin_a[e], gas[e], brake[e],
                 )  # fmt: skip
                 pv = u0
                 if not paused[e]:
                     bx, bz = xe - shift * sy, ze - shift * cy  # (`kernels.box_centre`)
                     j, nr = nearest_volume(bx, bz, vols, nr)
-                    if j >= 0 and volume_fires(e, j, bx, bz, yawe, hx, hz, vols, vol_triggers, te, locks):
-                        park[e], contact[e] = k, j
+                    if (j >= 0 and volume_fires(e, j, bx, bz, yawe, hx, hz, vols, vol_triggers, te, locks)
+                            and not fire_inline(e, j, te, xe, ze, ue, fire, locks, paused, active, done, spec, timer_f, braked,
+                                                start_lane, timer_table, bands)):  # fmt: skip
+                        park[e], contact[e] = k, j  # (Python fires them)
                         break
             moved = False
             if timers and active[e] and not paused[e]:
@@ -354,3 +363,44 @@ def _outcomes_range(lo: int, hi: int, rows: np.ndarray, sign: float, origin_z: f
         reward[e] = r if rows[e] else 0.0
         terminated[e] = ended and rows[e]
         truncated[e] = not ended and t[e] >= max_s - 1e-9 and rows[e]
+
+
+# rows of the float and int blocks `lct_finish` fills: the info arrays of one policy step, in `BatchCore.info`'s key order
+INFO_F = ("sim_time_s", "speed_kmh", "lateral_offset_m", "fuel_used_l", "reaction_result", "reaction_time_s", "mean_deviation_m",
+          "sdlp_m", "headway_s", "ttc_s", "reset_time_s", "progress_m")  # fmt: skip
+INFO_I = ("lane_index", "collisions", "resets", "new_collisions")
+
+
+@parallel_kernel
+def lct_finish(outcome: tuple, obs: tuple, copies: tuple, info_f: np.ndarray, info_i: np.ndarray, known: np.ndarray,
+               lanes_known: bool) -> None:  # fmt: skip
+    """The end of a policy step in one parallel pass: `lct_outcomes` (its arguments `outcome`,
+    less its info tuples: rows of `info_f` and `info_i` take them), `lct_observation` (its
+    arguments `obs`) and the info arrays that are copies of the state (`copies`: t, offset,
+    fuel_used, headway, ttc as floats; lane, collisions as ints), so a step's info is two
+    blocks filled in compiled code (rows named by INFO_F and INFO_I) and `known`."""
+    n = info_f.shape[1]
+    chunks = chunk_count(n)
+    for c in prange(chunks):
+        _finish_range(c * n // chunks, (c + 1) * n // chunks, outcome, obs, copies, info_f, info_i, known, lanes_known)
+
+
+@kernel
+def _finish_range(lo: int, hi: int, outcome: tuple, obs: tuple, copies: tuple, info_f: np.ndarray, info_i: np.ndarray, known: np.ndarray,
+                  lanes_known: bool) -> None:  # fmt: skip
+    """`lct_finish` for the envs lo..hi-1."""
+    rows, sign, origin_z, z, u, last_s, progress, collisions, collisions_seen, new_collisions, n_results, cursor, last_result, \
+        last_rt, sd_n, sd_m2, has_prev, prev_d, area, lat, off_road, step_reward, reward_scale, penalty, paused, \
+        terminate_on_collision, t, max_s, reward, terminated, truncated = outcome  # fmt: skip
+    floats = (info_f[1], info_f[4], info_f[5], info_f[6], info_f[7], info_f[11])
+    _outcomes_range(lo, hi, rows, sign, origin_z, z, u, last_s, progress, collisions, collisions_seen, new_collisions, n_results, cursor,
+                    last_result, last_rt, sd_n, sd_m2, has_prev, prev_d, area, lat, off_road, step_reward, reward_scale, penalty, paused,
+                    terminate_on_collision, t, max_s, floats, (info_i[3],), reward, terminated, truncated)  # fmt: skip
+    out, o_u, yaw, heading, offset, o_lat, lane, steer, r, o_z, revealed, sign_z, sign_lane, lane_lat = obs
+    _observation_range(lo, hi, out, o_u, yaw, heading, offset, o_lat, lane, steer, r, o_z, revealed, sign_z, sign_lane, lane_lat)
+    c_t, c_offset, c_fuel, c_headway, c_ttc, c_lane, c_collisions = copies
+    for e in range(lo, hi):
+        info_f[0, e], info_f[2, e], info_f[3, e], info_f[8, e], info_f[9, e], info_f[10, e] = c_t[e], c_offset[e], c_fuel[e], \
+            c_headway[e], c_ttc[e], 0.0  # fmt: skip
+        info_i[0, e], info_i[1, e], info_i[2, e] = c_lane[e], c_collisions[e], 0
+        known[e] = lanes_known

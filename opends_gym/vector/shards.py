@@ -35,6 +35,11 @@ SHARD_ERRORS = (ValueError, RuntimeError, FloatingPointError)  # bad input from 
 def step_shard(core: BatchCore, actions: np.ndarray, resetting: np.ndarray, k: int, obs_size: int) -> StepResult:
     """One shard's step with NEXT_STEP autoreset; errors of the caller's input are returned."""
     try:
+        fused = getattr(core, "step_and_reset", None)
+        if fused is not None:  # the batch steps, resets and fills its outputs itself (`LctBatch.step_and_reset`)
+            obs, reward, terminated, truncated, values, ended = fused(actions, resetting, obs_size)
+            metrics = core.episodes_metrics(ended) if core.record_metrics and ended else []
+            return obs, reward, terminated, truncated, values, metrics, None
         stepping = ~resetting
         reward, terminated, truncated, values = core.step_rows(actions, stepping)
         if resetting.any():

@@ -5,7 +5,8 @@ the single env keeps one `envs.trace.Trace` each. Here every physics step writes
 contiguous row (all envs) of each recorded column into a time-major ring; an env's
 episode is its reset row (kept aside) plus the ring rows from its first step on, which
 stay contiguous because every live env is stepped in every substep. When an episode ends
-its rows are copied into a `Trace`, and the single env's own metric code scores it.
+its rows are copied into a `Trace`, and the single env's own metric code scores it, or (the
+batches with compiled scoring) `gather` copies the ended episodes' rows into one array.
 Derived columns (time, lateral position, lane, lane offset) are not stored; `to_trace`
 computes them with the guide's formulas.
 """
@@ -113,6 +114,23 @@ class TraceRing:
             g, i = g + take, i + take
         return out
 
+    def gather(self, es: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        """The episodes so far of the envs `es` one after another: (starts, data), data's
+        (column, row) rows starts[j]..starts[j+1]-1 env es[j]'s episode (reset row first), for
+        scoring them in one compiled pass. Copied in compiled code a block at a time."""
+        idx = np.asarray(es, dtype=np.int64)
+        counts = self.steps[idx] + 1
+        starts = np.zeros(len(es) + 1, dtype=np.int64)
+        np.cumsum(counts, out=starts[1:])
+        data = np.empty((len(self.columns), int(starts[-1])))
+        for ci, c in enumerate(self.columns):
+            data[ci, starts[:-1]] = self.first[c][idx]
+        if len(es):
+            lo, hi = int(self.start[idx].min()), int((self.start[idx] + self.steps[idx]).max())
+            for b in range(lo // self.BLOCK, (hi - 1) // self.BLOCK + 1) if hi > lo else ():
+                _gather_block(self.blocks[b], b * self.BLOCK, idx, self.start, self.steps, starts, data)
+        return starts, data
+
     def columns_of(self, es: list[int]) -> dict[int, np.ndarray]:
         """The episodes so far of the envs `es` (reset row first), as one (column, row) array
         each. Envs whose episodes started together are read together, a block's rows at a
@@ -174,6 +192,19 @@ def _physical_memory() -> float:
         return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
     except (ValueError, OSError, AttributeError):  # not POSIX: no check
         return float("inf")
+
+
+@kernel
+def _gather_block(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray, steps: np.ndarray, starts: np.ndarray,
+                  data: np.ndarray) -> None:  # fmt: skip
+    """`TraceRing.gather`'s rows g0..g0+BLOCK-1 (one block) of the episodes es."""
+    for j in range(len(es)):
+        e = es[j]
+        lo, hi = max(start[e], g0), min(start[e] + steps[e], g0 + len(block))
+        out = starts[j] + 1 - start[e]
+        for g in range(lo, hi):
+            for c in range(block.shape[2]):
+                data[c, out + g] = block[g - g0, e, c]
 
 
 def lane_columns(guide: RoadGuide, x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

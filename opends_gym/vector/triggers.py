@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..sim.triggers.core import LOCK_S, CompiledAction, TriggerCore, canonical_key
-from .kernels import touch_triggers
+from .kernels import N_VOL, touch_triggers
 
 _NONE = np.zeros(0, dtype=np.int64)
 NO_EFFECT_ACTIONS = frozenset({"startRecording", "stopRecording"})  # logged by OpenDS, no effect on the drive
@@ -80,7 +80,9 @@ class TriggerBatch:
                 raise ValueError("trigger volumes lie too close together for the native batch's contact search")
         self.car_half = car_half
         # one row per volume (columns `kernels.V_*`): one array, as each array an inlined kernel takes costs a reference count
-        self.vols = np.array([(v.cz, v.cx, math.hypot(v.hx, v.hz) + car_r + 1.0, v.yaw, v.hx, v.hz) for v in vols]).reshape(-1, 6)
+        self.vols = np.array(
+            [(v.cz, v.cx, math.hypot(v.hx, v.hz) + car_r + 1.0, v.yaw, v.hx, v.hz, math.sin(v.yaw), math.cos(v.yaw), car_r) for v in vols]
+        ).reshape(-1, N_VOL)
         self.pause_s = np.array([t.pause_s for t in self.triggers])
         width = max([len(v.triggers) for v in vols], default=0)
         padded = [list(v.triggers) + [-1] * (width - len(v.triggers)) for v in vols]

@@ -115,9 +115,8 @@ def body_step(
 def side_share(dt: float) -> float:
     """The share of a wheel's sideways sliding its impulse removes in a step of dt: OpenDS's
     SIDE_DAMPING per 0.01 s tick, compounded (exactly SIDE_DAMPING at dt = 0.01 s)."""
-    if dt == OPENDS_TICK_S:
-        return SIDE_DAMPING
-    return 1.0 - (1.0 - SIDE_DAMPING) ** (dt / OPENDS_TICK_S)
+    compounded = 1.0 - (1.0 - SIDE_DAMPING) ** (dt / OPENDS_TICK_S)  # (unconditional: a loop's compiler hoists it)
+    return SIDE_DAMPING if dt == OPENDS_TICK_S else compounded
 
 
 @inline
@@ -134,11 +133,48 @@ def body_step_trig(p: np.ndarray, x: float, z: float, yaw: float, u: float, v: f
     rolling friction capped by the brake impulse on the others (`calcRollingFriction`), both
     scaled down together when they exceed load x dt x frictionSlip; then the body moves.
     """
+    w = wheel_constants(p, dt, cos_d, sin_d)
+    return body_step_wheels(p, w, x, z, yaw, u, v, r, dt, cos_d, sin_d, drive_n, brake_n, side_n)
+
+
+# `wheel_constants`: 1/mass, 1/yaw inertia, the sideways share, then per wheel (front left, front right, rear left, rear right)
+# the sideways and the forward effective-mass denominators, then the front and the rear wheel's impulse limit
+W_INV_M, W_INV_I, W_SIDE, W_DEN_SIDE, W_DEN_FWD, W_MAX_FRONT, W_MAX_REAR = 0, 1, 2, 3, 7, 11, 12
+
+
+@inline
+def wheel_constants(p: np.ndarray, dt: float, cos_d: float, sin_d: float) -> tuple[float, ...]:
+    """What `body_step_wheels` needs of the car (`body_params`), the step and the steering
+    angle's cosine and sine (slots W_*): constant while the steering is held, so a caller that
+    runs several physics steps of one policy step computes them once (the same expressions,
+    so the same floats)."""
     m, lf, lr, ht, inertia = p[B_MASS], p[B_LF], p[B_LR], p[B_HALF_TRACK], p[B_YAW_INERTIA]
     inv_m, inv_i = 1.0 / m, 1.0 / inertia
     slip = p[B_FRICTION_SLIP]
-    side = side_share(dt)
     roll_term = p[B_ROLL_TERM]
+    s0, f0 = _wheel_denominators(lf, ht, cos_d, sin_d, inv_m, inv_i, roll_term)
+    s1, f1 = _wheel_denominators(lf, -ht, cos_d, sin_d, inv_m, inv_i, roll_term)
+    s2, f2 = _wheel_denominators(-lr, ht, 1.0, 0.0, inv_m, inv_i, roll_term)
+    s3, f3 = _wheel_denominators(-lr, -ht, 1.0, 0.0, inv_m, inv_i, roll_term)
+    return inv_m, inv_i, side_share(dt), s0, s1, s2, s3, f0, f1, f2, f3, p[B_LOAD_FRONT] * dt * slip, p[B_LOAD_REAR] * dt * slip
+
+
+@inline
+def _wheel_denominators(a: float, b: float, fc: float, fs: float, inv_m: float, inv_i: float, roll_term: float) -> tuple[float, float]:
+    """A wheel's sideways and forward effective-mass denominators (contact at a ahead, b left
+    of the centre of gravity; forward axis (fc, fs))."""
+    arm = a * fc + b * fs  # p x axle
+    arm_f = a * fs - b * fc  # p x forward
+    return inv_m + arm * arm * inv_i + roll_term, inv_m + arm_f * arm_f * inv_i
+
+
+@inline
+def body_step_wheels(p: np.ndarray, wc: tuple[float, ...], x: float, z: float, yaw: float, u: float, v: float, r: float, dt: float,
+                     cos_d: float, sin_d: float, drive_n: float, brake_n: float,
+                     side_n: float) -> tuple[float, float, float, float, float, float, float, float]:  # fmt: skip
+    """`body_step_trig` with the car's `wheel_constants` for this step and steering given."""
+    lf, lr, ht = p[B_LF], p[B_LR], p[B_HALF_TRACK]
+    inv_m, inv_i, side = wc[W_INV_M], wc[W_INV_I], wc[W_SIDE]
     # OpenDS's CarControl.accelerate: twice the engine force on each front wheel, none behind
     front_force = 0.5 * drive_n
     brake_imp = 0.25 * brake_n * dt  # per wheel (brake_n: the four wheels' force over a step)
@@ -148,27 +184,24 @@ def body_step_trig(p: np.ndarray, x: float, z: float, yaw: float, u: float, v: f
         b = ht if w % 2 == 0 else -ht
         if w < 2:
             fc, fs = cos_d, sin_d  # forward axis of a steered wheel (forward, left components)
-            load = p[B_LOAD_FRONT]
+            max_imp = wc[W_MAX_FRONT]
         else:
             fc, fs = 1.0, 0.0
-            load = p[B_LOAD_REAR]
+            max_imp = wc[W_MAX_REAR]
         # contact velocity (forward, left)
         pu = u - r * b
         pv = v + r * a
         # sideways: the axle (-fs, fc)
-        arm = a * fc + b * fs  # p x axle
-        j_side = -side * (-fs * pu + fc * pv) / (inv_m + arm * arm * inv_i + roll_term)
+        j_side = -side * (-fs * pu + fc * pv) / wc[W_DEN_SIDE + w]
         # forward: engine force on the front wheels, else rolling friction up to the brake
         if w < 2 and front_force != 0.0:
             j_fwd = front_force * dt
         else:
-            arm_f = a * fs - b * fc  # p x forward
-            j_fwd = -(fc * pu + fs * pv) / (inv_m + arm_f * arm_f * inv_i) / 4.0
+            j_fwd = -(fc * pu + fs * pv) / wc[W_DEN_FWD + w] / 4.0
             if j_fwd > brake_imp:
                 j_fwd = brake_imp
             elif j_fwd < -brake_imp:
                 j_fwd = -brake_imp
-        max_imp = load * dt * slip
         xf = j_fwd * FORWARD_SLIP_FACTOR
         sq = xf * xf + j_side * j_side
         if sq > max_imp * max_imp:
@@ -232,16 +265,38 @@ def power_percentage(gear: int, speed_share: float) -> float:
     return 0.0 if pp < 0.0 else 1.0 if pp > 1.0 else pp
 
 
+# the speed share from which each forward gear's `power_percentage` polynomial stays below 0 (gears 1..6; index 0 unused): just
+# above its largest real root (numpy.roots of its coefficients; tests/test_powertrain.py checks the polynomials stay below -1e-4
+# beyond), so its clamped share is exactly 0 there and the polynomial need not be evaluated
+GEAR_ZERO_FROM = (math.inf, 0.2858, 0.4380, 0.6898, 0.9060, 1.1142, 1.3893)
+
+
+@inline
+def forward_gear_power(g: int, speed_share: float) -> float:
+    """`power_percentage` of forward gear g (1..6), skipping the polynomial where it is 0."""
+    return 0.0 if speed_share >= GEAR_ZERO_FROM[g] else power_percentage(g, speed_share)
+
+
 @inline
 def best_power_gear(n_gears: int, speed_share: float) -> int:
     """`Transmission.findBestPowerGear`: the forward gear of highest power percentage (the
     first on a tie; 1 when all are 0)."""
-    best, best_gear = 0.0, 1
-    for g in range(1, n_gears + 1):
-        pp = power_percentage(g, speed_share)
-        if pp > best:
-            best, best_gear = pp, g
-    return best_gear
+    return best_gear_and_share(n_gears, speed_share, 0)[0]
+
+
+@inline
+def best_gear_and_share(n_gears: int, speed_share: float, share_gear: int) -> tuple[int, float]:
+    """(`best_power_gear` of at most 6 gears, `power_percentage` of `share_gear`), each gear's
+    polynomial evaluated once."""
+    best, best_gear, share = 0.0, 1, -1.0
+    for g in range(1, 7):
+        if g <= n_gears:
+            pp = forward_gear_power(g, speed_share)
+            if pp > best:
+                best, best_gear = pp, g
+            if g == share_gear:
+                share = pp
+    return best_gear, (share if share >= 0.0 else power_percentage(share_gear, speed_share))
 
 
 @inline
@@ -305,9 +360,11 @@ def powertrain_core(car: np.ndarray, gear: int, automatic: bool, engine_on: bool
     # Transmission.performAcceleration: the automatic picks this step's best gear, the power
     # share is the previous gear's; near maxSpeed the share shrinks by (maxSpeed - v)
     share_gear = gear
+    speed_share = speed_kmh / SPEED_AT_FULL_SHARE_KMH
     if automatic and gear > 0:
-        gear = best_power_gear(n_ratios if n_ratios < 6 else 6, speed_kmh / SPEED_AT_FULL_SHARE_KMH)
-    pp = power_percentage(share_gear, speed_kmh / SPEED_AT_FULL_SHARE_KMH)
+        gear, pp = best_gear_and_share(n_ratios if n_ratios < 6 else 6, speed_share, share_gear)
+    else:
+        pp = power_percentage(share_gear, speed_share)
     max_kmh = car[C_PT + P_MAX_SPEED_KMH]
     if speed_kmh >= max_kmh - 1.0:
         pp *= max_kmh - speed_kmh
