@@ -141,10 +141,25 @@ def available_mb() -> float:
 
 
 # ---------------------------------------------------------------------- timing
+def settle_compiles(step: Callable[[], object], rounds: int = 20) -> None:
+    """Step until no kernel is left compiling in the background: until then kernels run as
+    Python (same results, far slower), and a kernel first called late (the episode scoring,
+    when episodes first end) starts its compile then."""
+    from opends_gym.jit import compile_status, wait_compiled
+
+    for _ in range(rounds):
+        before = compile_status().get("python_calls", 0)
+        wait_compiled()
+        step()
+        if compile_status().get("python_calls", 0) == before:
+            return
+
+
 def timed_steps(step: Callable[[int], None], seconds: float, batch: int = 20) -> tuple[float, float]:
     """Call step(i) until `seconds` of wall time passed; (calls per second, cpu share)."""
     for i in range(3):  # warm-up
         step(i)
+    settle_compiles(lambda: step(0))
     gc.collect()  # (garbage of the previous measurement is not this one's cost)
     n, t0, c0 = 0, time.perf_counter(), time.process_time()
     while True:
@@ -326,6 +341,7 @@ def measure_native_task(case: Case, n: int, seconds: float, metrics: bool) -> Na
 
         for i in range(3):  # warm-up, then count from zero
             step(i)
+        settle_compiles(lambda: step(0))
         ends[:], scoring[:] = [0, 0], [0.0, 0]
         rate, cpu = timed_steps(step, seconds, batch=4)
     finally:
