@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -53,3 +55,12 @@ def task_copy(tmp_path: Path):
         return dst
 
     return make
+
+
+def cli_output(argv: list[str]) -> tuple[int, str, str]:
+    """`opends-gym ARGV`'s exit code, stdout and stderr, run in its own process: in-process,
+    a command's output has reached pytest's global capture instead of capsys or a redirect
+    in full parallel runs on a fresh clone (three tests so far), so assertions read ''."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.run([sys.executable, "-m", "opends_gym.cli.main", *argv], capture_output=True, text=True, env=env, timeout=600)
+    return proc.returncode, proc.stdout, proc.stderr

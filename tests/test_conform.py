@@ -13,11 +13,10 @@ import math
 
 import pytest
 
-from opends_gym.cli.main import main
 from opends_gym.record.cardata import read_cardata
 from opends_gym.record.conform import GOALS, Recorded, conform
 
-from .conftest import DRIVES
+from .conftest import DRIVES, cli_output
 
 TASK = DRIVES / "Countryside"
 LOGS = sorted(p for p in DRIVES.glob("drives/*/carData*.txt") if read_cardata(p).t_s()[-1] > 20.0)
@@ -69,11 +68,12 @@ def test_simulated_time_is_read_from_the_log() -> None:
     assert Recorded(DRIVES / "drives/2019_01_04-11_40_24/carData.txt").time_scale == pytest.approx(1.0, abs=0.01)
 
 
-def test_cli_writes_json_and_the_whole_run_trace(tmp_path, capsys) -> None:
+def test_cli_writes_json_and_the_whole_run_trace(tmp_path) -> None:
     log = LOGS[0]
     out = tmp_path / "trace.csv"
-    code = main(["conform", str(log), "--task", str(TASK), "--json", "--trace", str(out)])
-    result = json.loads(capsys.readouterr().out)
+    code, stdout, stderr = cli_output(["conform", str(log), "--task", str(TASK), "--json", "--trace", str(out)])
+    assert code == 0, stderr[-2000:]
+    result = json.loads(stdout)
     assert code == 0 and result["passed"] is True and result["samples"] == Recorded(log).n
     rows = list(csv.DictReader(out.open()))
     assert list(rows[0]) == ["t_s", "x_m", "z_m", "yaw_rad", "speed_kmh"] and len(rows) == result["samples"]
@@ -93,8 +93,8 @@ def test_back_key_gas_is_told_from_the_motion() -> None:
     assert back and forward and all(99.4 < rec.t[i] < 99.7 for i in back)
 
 
-def test_bad_log_is_one_clear_error(tmp_path, capsys) -> None:
+def test_bad_log_is_one_clear_error(tmp_path) -> None:
     log = tmp_path / "carData.txt"
     log.write_text("Driving Task: x\nDate-Time: 2019_01_04-11_42_15\nDriver: d\nUsed Format = x\n1:0:0:0:0:0:0:1:0:0:0:0:true\n")
-    assert main(["conform", str(log), "--task", str(TASK)]) == 2
-    assert "at least 2 rows" in capsys.readouterr().err
+    code, _, err = cli_output(["conform", str(log), "--task", str(TASK)])
+    assert code == 2 and "at least 2 rows" in err and len(err.strip().splitlines()) == 1

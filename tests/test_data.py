@@ -6,9 +6,6 @@ import contextlib
 import csv
 import io
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import minari
@@ -17,7 +14,7 @@ import pytest
 
 from opends_gym.cli.main import main
 
-from .conftest import DRIVES
+from .conftest import DRIVES, cli_output
 
 ROOT = Path(__file__).resolve().parents[1]
 COUNTRYSIDE = DRIVES / "Countryside"
@@ -191,12 +188,8 @@ def test_analyze_against_a_study_table(recording: tuple[Path, dict], tmp_path: P
 
 
 def _main_output(argv: list[str]) -> tuple[int, str, str]:
-    """`opends-gym ARGV`'s exit code, stdout and stderr, run in its own process: in-process,
-    its output once reached pytest's global capture instead of capsys, capfd or a redirect
-    (in a full parallel run on a fresh clone), so the assertions read an empty string."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    proc = subprocess.run([sys.executable, "-m", "opends_gym.cli.main", *argv], capture_output=True, text=True, env=env, timeout=600)
-    return proc.returncode, proc.stdout, proc.stderr
+    """`opends-gym ARGV` in its own process (conftest.cli_output)."""
+    return cli_output(argv)
 
 
 def test_population_spec_errors_are_one_line(recording: tuple[Path, dict]) -> None:
