@@ -105,6 +105,59 @@ def _sdlp(y: np.ndarray, keep: np.ndarray, lo: int, n: int, buf: np.ndarray) -> 
 
 
 @kernel
+def j2944_segments(t: np.ndarray, y: np.ndarray, keep: np.ndarray, lo: int, hi: int, seg_len: float, min_valid: float,
+                   segs: np.ndarray, buf: np.ndarray) -> tuple[int, int]:  # fmt: skip
+    """(segments, valid segments) of `lateral.sdlp_segments` over y[lo:hi] with keep's samples
+    counted; each valid segment's SDLP goes to segs[0:valid] (the episode and LCT scorers share it)."""
+    n_seg, valid = 0, 0
+    if hi - lo >= 2:
+        n_seg = int((t[hi - 1] - t[lo]) // seg_len)
+        i0 = lo
+        for k in range(n_seg):
+            bound = t[lo] + seg_len * float(k + 1)
+            i1 = i0
+            while i1 < hi and t[i1] < bound:
+                i1 += 1
+            cnt, good = 0, 0
+            for i in range(i0, i1):
+                if keep[i]:
+                    cnt += 1
+                    if math.isfinite(y[i]):
+                        good += 1
+            value = math.nan
+            if cnt and float(good) / cnt >= min_valid:
+                value = _sdlp(y, keep, i0, i1 - i0, buf)
+            if math.isfinite(value):
+                segs[valid] = value
+                valid += 1
+            i0 = i1
+    return n_seg, valid
+
+
+@kernel
+def reversal_rates_into(row: np.ndarray, at: int, keep: np.ndarray, lo: int, hi: int, min_run: int, fs: float, b: np.ndarray,
+                        a: np.ndarray, zi: np.ndarray, on: bool, steer_deg: np.ndarray, gaps: np.ndarray) -> None:  # fmt: skip
+    """`steering.reversal_rates` over keep's stretches of at least min_run samples, one rate
+    per gap into row[at:at+len(gaps)] (the episode and LCT scorers share it)."""
+    counts = np.zeros(len(gaps), dtype=np.int64)
+    duration = 0.0
+    run = -1
+    for i in range(lo, hi + 1):
+        kk = keep[i] if i < hi else False
+        if kk and run < 0:
+            run = i
+        elif not kk and run >= 0:
+            if i - run >= min_run:
+                y = _filtered(b, a, zi, on, steer_deg, run, i - run)
+                for g in range(len(gaps)):
+                    counts[g] += _reversals(y, gaps[g])
+                duration += (i - run - 1) / fs
+            run = -1
+    for g in range(len(gaps)):
+        row[at + g] = counts[g] / (duration / 60.0) if duration > 0.0 else math.nan
+
+
+@kernel
 def episode_scores(starts: np.ndarray, t: np.ndarray, ds: np.ndarray, speed: np.ndarray, steer_deg: np.ndarray, gap: np.ndarray,
                    lead_v: np.ndarray, headway: np.ndarray, ttc: np.ndarray, lateral: np.ndarray, lane: np.ndarray,
                    offset: np.ndarray, b: np.ndarray, a: np.ndarray, zi: np.ndarray, p: np.ndarray, gaps: np.ndarray,
@@ -191,54 +244,18 @@ def episode_scores(starts: np.ndarray, t: np.ndarray, ds: np.ndarray, speed: np.
         row[7] = float(off_count) / fs
         row[8] = exits
         # SDLP over fixed segments (`lateral.sdlp_segments`, nothing excluded, valid: finite)
-        n_seg, valid_segs, ok_all = 0, 0, 0
+        ok_all = 0
         for i in range(lo, hi):
             if math.isfinite(lateral[i]):
                 ok_all += 1
-        if n >= 2:
-            n_seg = int((t[hi - 1] - t[lo]) // seg_len)
-            i0 = lo
-            while i0 < hi and t[i0] < t[lo]:
-                i0 += 1
-            for k in range(n_seg):
-                bound = t[lo] + seg_len * float(k + 1)
-                i1 = i0
-                while i1 < hi and t[i1] < bound:
-                    i1 += 1
-                cnt = i1 - i0
-                good = 0
-                for i in range(i0, i1):
-                    if math.isfinite(lateral[i]):
-                        good += 1
-                value = math.nan
-                if cnt and float(good) / cnt >= min_valid:
-                    value = _sdlp(lateral, everywhere, i0, cnt, buf)
-                if math.isfinite(value):
-                    segs[valid_segs] = value
-                    valid_segs += 1
-                i0 = i1
+        n_seg, valid_segs = j2944_segments(t, lateral, everywhere, lo, hi, seg_len, min_valid, segs, buf)
         row[9] = np_sum(segs, 0, valid_segs) / valid_segs if valid_segs else math.nan
         row[10] = float(ok_all) / n if n else math.nan
         row[11] = 1.0 - n / n if n else math.nan
         row[12] = n_seg
         row[13] = valid_segs
         # steering reversal rates over the lane-keeping stretches (`steering.reversal_rates`)
-        counts = np.zeros(len(gaps), dtype=np.int64)
-        duration = 0.0
-        run = -1
-        for i in range(lo, hi + 1):
-            kk = keep[i] if i < hi else False
-            if kk and run < 0:
-                run = i
-            elif not kk and run >= 0:
-                if i - run >= min_run:
-                    y = _filtered(b, a, zi, on, steer_deg, run, i - run)
-                    for g in range(len(gaps)):
-                        counts[g] += _reversals(y, gaps[g])
-                    duration += (i - run - 1) / fs
-                run = -1
-        for g in range(len(gaps)):
-            row[14 + g] = counts[g] / (duration / 60.0) if duration > 0.0 else math.nan
+        reversal_rates_into(row, 14, keep, lo, hi, min_run, fs, b, a, zi, on, steer_deg, gaps)
         base = 14 + len(gaps)
         # car following summary (`headway.car_following_summary`)
         leads, m, thw_lo = 0, 0, math.nan

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from ..jit import kernel
-from .episode_scores import _filtered, _reversals, _sdlp
+from .episode_scores import j2944_segments, reversal_rates_into
 from .sums import np_sum
 
 J2944 = 5  # sdlp_j2944_m, _valid_fraction, _excluded_fraction, _segments, _segments_valid (`episode_scores.KEYS[9:14]`)
@@ -84,55 +84,20 @@ def lct_scores(starts: np.ndarray, t: np.ndarray, z: np.ndarray, lateral: np.nda
         for i in range(lo, hi):
             y[i] = lateral[i] - lane_lat[lane[i]]
         # SDLP over fixed segments (`lateral.sdlp_segments` with the instructed changes excluded)
-        n_seg, valid_segs, counted_all, ok_all = 0, 0, 0, 0
+        counted_all, ok_all = 0, 0
         for i in range(lo, hi):
             if keep[i]:
                 counted_all += 1
                 if math.isfinite(y[i]):
                     ok_all += 1
-        if n >= 2:
-            n_seg = int((t[hi - 1] - t[lo]) // seg_len)
-            i0 = lo
-            for k in range(n_seg):
-                bound = t[lo] + seg_len * float(k + 1)
-                i1 = i0
-                while i1 < hi and t[i1] < bound:
-                    i1 += 1
-                cnt, good = 0, 0
-                for i in range(i0, i1):
-                    if keep[i]:
-                        cnt += 1
-                        if math.isfinite(y[i]):
-                            good += 1
-                value = math.nan
-                if cnt and float(good) / cnt >= min_valid:
-                    value = _sdlp(y, keep, i0, i1 - i0, buf)
-                if math.isfinite(value):
-                    segs[valid_segs] = value
-                    valid_segs += 1
-                i0 = i1
+        n_seg, valid_segs = j2944_segments(t, y, keep, lo, hi, seg_len, min_valid, segs, buf)
         row[0] = np_sum(segs, 0, valid_segs) / valid_segs if valid_segs else math.nan
         row[1] = float(ok_all) / counted_all if counted_all else math.nan
         row[2] = 1.0 - counted_all / n if n else math.nan
         row[3] = n_seg
         row[4] = valid_segs
         # steering reversal rates over the stretches outside instructed changes (`steering.reversal_rates`)
-        counts = np.zeros(n_gaps, dtype=np.int64)
-        duration = 0.0
-        run = -1
-        for i in range(lo, hi + 1):
-            kk = keep[i] if i < hi else False
-            if kk and run < 0:
-                run = i
-            elif not kk and run >= 0:
-                if i - run >= min_run:
-                    f = _filtered(b, a, zi, on, steer_deg, run, i - run)
-                    for g in range(n_gaps):
-                        counts[g] += _reversals(f, gaps[g])
-                    duration += (i - run - 1) / fs
-                run = -1
-        for g in range(n_gaps):
-            row[J2944 + g] = counts[g] / (duration / 60.0) if duration > 0.0 else math.nan
+        reversal_rates_into(row, J2944, keep, lo, hi, min_run, fs, b, a, zi, on, steer_deg, gaps)
         row[J2944 + n_gaps] = reached
         row[J2944 + n_gaps + 1] = presented
         row[J2944 + n_gaps + 2] = passed
