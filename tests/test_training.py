@@ -253,32 +253,42 @@ def test_policy_settings_file_chooses_sampled_actions_and_is_checked(quick_run: 
 
 
 def test_sac_trains_saves_and_drives_through_the_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """The off-policy path: a short SAC run writes its model and normaliser, and the model
-    drives an episode through `--agent sac:PATH`."""
+    """The off-policy path as configs/lct_sac.yaml runs it (native batch, the rule driver
+    cloned into the actor, then SAC): `opends-gym train` writes the model and normaliser, the
+    curve shows SAC's gradient steps after the clone's row, and the model drives an episode
+    through `--agent sac:PATH` as it does in-process."""
     raw = yaml.safe_load((ROOT / "configs" / "lct_sac.yaml").read_text(encoding="utf-8"))
     raw.update(
         env_kwargs={"signs": 3, "lead_in_m": 100, "lead_out_m": 100, "policy_hz": 5, "max_episode_s": 30},
-        total_steps=1200,
-        checkpoint_every_steps=600,
-        eval_every_steps=600,
+        total_steps=3072,
+        n_envs=16,
+        checkpoint_every_steps=1536,
+        eval_every_steps=1536,
         eval_episodes=1,
         progress_bar=False,
+        stop_at={},
         output=str(tmp_path / "run"),
     )
-    raw["hyperparameters"].update(learning_starts=200, buffer_size=2000)
+    raw["warm_start"].update(episodes=1, dagger=1, epochs=5)
+    raw["hyperparameters"].update(learning_starts=512, buffer_size=4000, critic_warmup=20, gradient_steps=1)
     (tmp_path / "sac.yaml").write_text(yaml.safe_dump(raw), encoding="utf-8")
-    cfg, base = load_train_config(tmp_path / "sac.yaml")
-    assert cfg.algorithm == "sac"
-    metrics = train(cfg, base, tmp_path / "run")
-    assert metrics["algorithm"] == "sac" and metrics["mean"]["duration_s"] > 0
+    assert cli(["train", str(tmp_path / "sac.yaml")]) == 0
+    metrics = json.loads(capsys.readouterr().out)
+    assert metrics["algorithm"] == "sac" and metrics["total_steps"] == 3072
     model = tmp_path / "run" / "model.zip"
     assert model.is_file() and (tmp_path / "run" / "model.vecnormalize.pkl").is_file()
+    rows = list(csv.DictReader((tmp_path / "run" / "curve.csv").open(encoding="utf-8")))
+    assert [int(r["steps"]) for r in rows] == [0, 1536, 3072]
+    assert int(rows[0]["warm_start_steps"]) > 100 and rows[0]["gradient_steps"] == ""  # the clone, scored
+    # SAC's updates from the batched step (of 16 envs) that completes learning_starts on: one each
+    assert [int(r["gradient_steps"]) for r in rows[1:]] == [(1536 - 512) // 16 + 1, (3072 - 512) // 16 + 1]
+    from stable_baselines3 import SAC
+
+    assert SAC.load(str(model)).num_timesteps == 3072
     args = ["run", "OpenDS/LaneChangeTest-v0", "--agent", f"sac:{model}", "--json", "--episodes", "1"]
     for option in ("signs=3", "lead_in_m=100", "lead_out_m=100", "policy_hz=5", "max_episode_s=30"):
         args += ["--env-arg", option]
     assert cli(args) == 0
-    # the CLI drives the saved SAC policy: the episode of that policy driven in-process (seed 0);
-    # how long a 1200-step policy stays on the road is up to its training
     from opends_gym.drivers.episodes import run_episode
     from opends_gym.drivers.policy import PolicyDriver
 
@@ -287,6 +297,10 @@ def test_sac_trains_saves_and_drives_through_the_cli(tmp_path: Path, capsys: pyt
     env.close()
     episode = json.loads(capsys.readouterr().out)["episodes"][0]
     assert episode["steps"] == direct.steps >= 2 and episode["return"] == pytest.approx(direct.ret)
+    raw["hyperparameters"]["critic_warmupp"] = 1
+    (tmp_path / "bad.yaml").write_text(yaml.safe_dump(raw), encoding="utf-8")
+    assert cli(["train", str(tmp_path / "bad.yaml"), "--output", str(tmp_path / "bad")]) == 2
+    assert "unknown key(s) critic_warmupp for vec_env native sac; valid keys:" in capsys.readouterr().err
 
 
 def test_evaluate_script_scores_every_driver_and_shipped_policy() -> None:

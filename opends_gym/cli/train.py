@@ -86,11 +86,13 @@ def run(args: argparse.Namespace) -> int:
         resume = Path(args.resume).resolve() if args.resume else None
         try:
             if cfg.vec_env == "native":
-                from ..training.native_ppo import train as train_native
+                from ..training.native_ppo import train as train_ppo
+                from ..training.native_sac import train as train_sac
                 from .progress import ProgressBar
 
                 bar = ProgressBar(cfg.total_steps, label="env steps") if cfg.progress_bar else None
                 try:
+                    train_native = train_sac if cfg.algorithm == "sac" else train_ppo
                     metrics = train_native(cfg, base, out, resume=resume, progress=bar.update if bar else None)
                 finally:
                     if bar is not None:
