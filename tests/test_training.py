@@ -110,6 +110,9 @@ def test_config_typos_are_errors_naming_the_file(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="algorithm must be one of"):
         load_train_config(bad)
     assert cli(["train", str(bad)]) == 2
+    bad.write_text("env: OpenDS/LaneChangeTest-v0\n", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"bad\.yaml: stop_at must be a mapping of keys to values, not '18'"):
+        load_train_config(bad, {"stop_at": "18"})  # (as `--set stop_at=18` gives it)
 
 
 def _training_configs() -> list[str]:
@@ -191,14 +194,8 @@ SHIPPED = {  # policy folder: (env id, what its test requires of one episode)
 }
 
 
-# The shipped policies were trained on the vehicle model before issue 17 (steering 0.5 rad at
-# full lock, another powertrain and tyres); on OpenDS's car they no longer pass. Retrain them
-# with `opends-gym train configs/<name>.yaml` and drop this mark (strict: it fails once they pass).
-_STALE = pytest.mark.xfail(strict=True, reason="trained on the pre-issue-17 vehicle model; retrain with configs/<name>.yaml")
-RETRAINED = {"lct_ppo", "platoon_ppo", "brake_ppo"}  # on OpenDS's car
-
-
-@pytest.mark.parametrize("name", [pytest.param(n, marks=() if n in RETRAINED else _STALE) for n in sorted(SHIPPED)])
+# All four are trained on OpenDS's car (issue 17's vehicle model): `opends-gym train <name>`.
+@pytest.mark.parametrize("name", sorted(SHIPPED))
 def test_shipped_policy_passes_its_test(name: str, capsys: pytest.CaptureFixture[str]) -> None:
     """The baselines in agents/policies drive their test through `--agent ppo:PATH` (or
     `sac:PATH`); brake_ppo's drive repeats exactly for its seed."""

@@ -56,6 +56,9 @@ class TrainConfig:
             raise ValueError(f"framework must be one of {', '.join(FRAMEWORKS)}, not {self.framework!r}")
         if self.vec_env not in VEC_ENVS:
             raise ValueError(f"vec_env must be one of {', '.join(VEC_ENVS)}, not {self.vec_env!r}")
+        for key in ("env_kwargs", "policy_kwargs", "hyperparameters", "stop_at", "warm_start", "rllib"):
+            if not isinstance(getattr(self, key), dict):
+                raise ValueError(f"{key} must be a mapping of keys to values, not {getattr(self, key)!r}")
         for metric, bounds in self.stop_at.items():
             if not (isinstance(bounds, list | tuple) and len(bounds) == 2 and all(isinstance(b, int | float) for b in bounds)):
                 raise ValueError(f"stop_at: {metric} needs [low, high], not {bounds!r}")
