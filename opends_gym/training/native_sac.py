@@ -22,6 +22,9 @@ The batch autoresets on the next step (its reward 0, its action ignored): that s
 transition and is not stored. A terminated episode's last transition has no bootstrap
 value; a truncated one's is worth the value of its last observation.
 
+`--resume` loads the model and normaliser; the replay buffer starts empty and the warm
+start's demonstrations (the `bc_coef` term) are not saved, so a resumed run is plain SAC.
+
 Deterministic for a seed on one machine (envs seeded `seed + i`, torch seeded, one torch
 thread by default, minibatches from a numpy generator seeded with `seed`).
 """
