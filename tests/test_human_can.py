@@ -18,7 +18,7 @@ from opends_gym.human.inputs.can_protocol import GatewayFramer, parse_chunk
 from opends_gym.human.runner import DriveSession
 from opends_gym.human.session_config import DriveConfig, parse_input_spec
 from opends_gym.human.snapshot import VehicleSnapshot
-from tests.human_helpers import ReactionTestDriver, ScriptedGateway, wait_for
+from tests.human_helpers import Lockstep, ReactionTestDriver, ScriptedGateway, wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 DBC = ROOT / "configs" / "can_example.dbc"
@@ -141,9 +141,12 @@ def test_gateway_loopback_drives_the_reaction_test() -> None:
     cfg = DriveConfig(target="ReactionTest", inputs=(spec,), window=False, fast=True, duration_s=48.0)
     try:
         with DriveSession(cfg) as session:
+            gateway_source = next(s for s in session.sources.combiner.sources if s.name == "can-gateway")
+            step = Lockstep(gateway_source, gw)  # (the gateway answers before the next physics step)
             result = session.run()
     finally:
         gw.close()
+    assert step.stalls == 0 and step.sent >= 0.9 * 48 * 20
     table = [(r["group"], r["result"]) for r in result.reactions]
     assert table == [("Brake", 1), ("LaneChange", 1)], result.reactions
     assert 0.0 < result.reactions[0]["reaction_time_s"] < 3.0
@@ -197,7 +200,8 @@ def test_can_bus_bad_frames_are_ignored(bus_pair) -> None:  # type: ignore[no-un
     peer.send(can.Message(arbitration_id=0x7FF, data=b"\x01\x02", is_extended_id=False))  # not in the DBC
     peer.send(can.Message(arbitration_id=0x100, data=b"\x01", is_extended_id=False))  # too short to decode
     send(peer, db, "DriverInputs", SteeringWheelAngle=10.0, AcceleratorPedal=120.0)  # pedal beyond its DBC range
-    wait_for(lambda: src.problems >= 2)
+    wait_for(lambda: src.frames >= 1)  # the last frame decoded (without its pedal) and queued: the bad ones came before it
+    assert src.problems >= 2
     f = src.poll(0.0)
     assert f.accelerator is None and f.steering == pytest.approx(-10.0 / 450.0)
     assert src.status().connected
@@ -211,8 +215,10 @@ def test_can_bus_session_moves_the_car() -> None:
     cfg = DriveConfig(target="ReactionTest", inputs=(spec,), window=False, fast=True, duration_s=4.0)
     try:
         with DriveSession(cfg) as session:
-            wait_for(lambda: session.sources.combiner.sources[0].connected)
+            bus = session.sources.combiner.sources[0]
+            wait_for(lambda: bus.connected)
             send(peer, db, "DriverInputs", AcceleratorPedal=100.0)
+            wait_for(lambda: bus.frames >= 1)  # (received before the drive starts: --fast runs 4 s in a blink)
             result = session.run()
             final_speed = session.snapshot.speed_kmh
         feedback = [m for m in iter(lambda: peer.recv(0.2), None) if m.arbitration_id == 0x200]
