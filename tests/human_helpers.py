@@ -60,6 +60,8 @@ class ScriptedGateway:
         self.feedback: list[tuple[float, float, float, float]] = []
         self.received = b""
         self.connections = 0
+        self.replies = 0  # messages the controller sent back
+        self.answered = 0  # feedback messages received when the controller last answered
         self.conn: socket.socket | None = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
@@ -94,6 +96,8 @@ class ScriptedGateway:
                         reply = self.controller(last)
                         if reply:
                             conn.sendall(reply.encode())
+                            self.replies += 1
+                        self.answered = len(self.feedback)
             except OSError:
                 pass
             finally:
@@ -124,6 +128,37 @@ class ScriptedGateway:
         self._stop.set()
         self._thread.join(2.0)
         self.server.close()
+
+
+class Lockstep:
+    """Holds a `--fast` session at each feedback its CAN gateway source sends until the scripted
+    gateway has answered it and the source has parsed the answer, so the closed loop runs on
+    simulation time: the answer drives the next physics step however long the gateway's thread
+    waited for a core (free running, a loaded host let the car run a second or two ahead of
+    its driver and miss the lane change). `stalls` counts answers that never came (the session
+    reports a failing feedback as a warning only)."""
+
+    def __init__(self, source: Any, gateway: ScriptedGateway, timeout_s: float = 30.0) -> None:
+        self.source, self.gateway, self.timeout_s = source, gateway, timeout_s
+        self.sent = 0
+        self.stalls = 0
+        self._send = source.feedback
+        source.feedback = self.feedback  # (the session calls the instance's feedback after each step)
+
+    def feedback(self, snapshot: Any) -> bool:
+        if not self._send(snapshot):
+            return False
+        self.sent += 1
+        gw, src = self.gateway, self.source
+        end = time.monotonic() + self.timeout_s
+        while gw.answered < self.sent and time.monotonic() < end:
+            time.sleep(0.0002)  # (a round trip on the loopback takes well under a millisecond)
+        replies = gw.replies
+        while src.messages_received < replies and time.monotonic() < end:
+            time.sleep(0.0002)
+        if src.messages_received < replies or gw.answered < self.sent:
+            self.stalls += 1
+        return True
 
 
 class ReactionTestDriver:

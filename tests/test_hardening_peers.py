@@ -242,8 +242,9 @@ def test_can_gateway_bursts_and_endless_messages_stay_bounded(caplog: pytest.Log
                 gw.send(b"z" * 500)
                 assert len(src.framer.buffer) <= MAX_MESSAGE_CHARS
             wait_for(lambda: src.framer.dropped >= 1)
+            parsed = src.messages_received
             gw.send(b"</action></message>" + b'<message><action name="brake">0.25</action></message>')
-            wait_for(lambda: src._updates.qsize() >= 1)
+            wait_for(lambda: src.messages_received >= parsed + 2)  # the unterminated one's tail, then the brake
             assert src.poll(1.0).brake == 0.25
         assert len([r for r in caplog.records if r.name.startswith("opends_gym.human.inputs")]) <= 2
     finally:

@@ -4,19 +4,21 @@ drive through the ReactionTest) and a python-can bus decoded with the example DB
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import can
 import cantools
 import pytest
 
+from opends_gym.human.inputs.base import InputFrame
 from opends_gym.human.inputs.can_bus import CanBusSource
 from opends_gym.human.inputs.can_gateway import CanGatewaySource
 from opends_gym.human.inputs.can_protocol import GatewayFramer, parse_chunk
 from opends_gym.human.runner import DriveSession
 from opends_gym.human.session_config import DriveConfig, parse_input_spec
 from opends_gym.human.snapshot import VehicleSnapshot
-from tests.human_helpers import ReactionTestDriver, ScriptedGateway, wait_for
+from tests.human_helpers import Lockstep, ReactionTestDriver, ScriptedGateway, wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 DBC = ROOT / "configs" / "can_example.dbc"
@@ -88,10 +90,16 @@ def test_entities_are_not_expanded() -> None:
 
 # ---------------------------------------------------------------------- the TCP client
 def test_gateway_survives_hostile_input_and_reconnects() -> None:
+    """Each wait is for the event itself, never for time to pass: the source is started after
+    its not-yet-connected status is read (it connects within microseconds on a fast host),
+    and the I/O thread's parsing is awaited through a last message whose effect shows it got
+    that far (the thread handles the stream in order; counts of problems or queued updates
+    depend on how the stream is cut into reads)."""
     gw = ScriptedGateway()
-    src = CanGatewaySource("127.0.0.1", gw.port, max_steering_deg=270.0)
+    src = CanGatewaySource("127.0.0.1", gw.port, max_steering_deg=270.0, start=False)
     try:
         assert src.status().blocking  # the drive waits for the gateway's first connection
+        src.client.start()
         wait_for(lambda: src.client.connected)
         gw.send(b"\x00\xff garbage <<< \xfe")
         gw.send(b"y" * 15000)
@@ -99,16 +107,16 @@ def test_gateway_survives_hostile_input_and_reconnects() -> None:
         gw.send(b'<message><action name="steering">-5')  # half a message...
         gw.send(b"4</action></message>")  # ...completed later
         gw.send(msg(("brake", "2.5")).encode())
-        wait_for(lambda: src.problems >= 3 and src._updates.qsize() >= 1)
-        f = src.poll(0.0)
+        gw.send(msg(("setGear", "3")).encode())  # (the last: once it is applied, so is everything before it)
+        f = poll_until(src, lambda f: f.gear == 3)
         assert f.steering == pytest.approx(54 / 270) and f.brake is None
+        assert src.problems >= 3  # the unterminated and the oversized input, the brake out of range
         gw.drop()  # the gateway goes away abruptly
         wait_for(lambda: gw.connections == 2 and src.client.connected, 10.0)
         st = src.status()
         assert st.connected and not st.blocking
         gw.send(msg(("acceleration", "0.1")).encode())
-        wait_for(lambda: src._updates.qsize() >= 1)
-        f = src.poll(1.0)
+        f = poll_until(src, lambda f: f.accelerator is not None, t_s=1.0)
         assert f.accelerator == pytest.approx(0.6) and f.steering == pytest.approx(54 / 270)  # levels are held
         src.feedback(VehicleSnapshot(t_s=1.0, speed_kmh=42.0, yaw_rad=0.0, x_m=1.5, z_m=-3.0))
         wait_for(lambda: b"$SimCarState#42.00#0.00#1.500#-3.000%" in gw.received)
@@ -119,6 +127,13 @@ def test_gateway_survives_hostile_input_and_reconnects() -> None:
     assert said_goodbye  # OpenDS says goodbye
 
 
+def poll_until(src: CanGatewaySource, done: Callable[[InputFrame], bool], t_s: float = 0.0) -> InputFrame:
+    """Poll the source as the simulation does, each step, until a frame shows `done`; that frame."""
+    frames: list[InputFrame] = []
+    wait_for(lambda: done(frames.append(src.poll(t_s)) or frames[-1]))
+    return frames[-1]
+
+
 def test_gateway_loopback_drives_the_reaction_test() -> None:
     """The test plays the gateway: from the feedback channel it steers, brakes and accelerates."""
     gw = ScriptedGateway(ReactionTestDriver())
@@ -126,9 +141,12 @@ def test_gateway_loopback_drives_the_reaction_test() -> None:
     cfg = DriveConfig(target="ReactionTest", inputs=(spec,), window=False, fast=True, duration_s=48.0)
     try:
         with DriveSession(cfg) as session:
+            gateway_source = next(s for s in session.sources.combiner.sources if s.name == "can-gateway")
+            step = Lockstep(gateway_source, gw)  # (the gateway answers before the next physics step)
             result = session.run()
     finally:
         gw.close()
+    assert step.stalls == 0 and step.sent >= 0.9 * 48 * 20
     table = [(r["group"], r["result"]) for r in result.reactions]
     assert table == [("Brake", 1), ("LaneChange", 1)], result.reactions
     assert 0.0 < result.reactions[0]["reaction_time_s"] < 3.0
@@ -182,7 +200,8 @@ def test_can_bus_bad_frames_are_ignored(bus_pair) -> None:  # type: ignore[no-un
     peer.send(can.Message(arbitration_id=0x7FF, data=b"\x01\x02", is_extended_id=False))  # not in the DBC
     peer.send(can.Message(arbitration_id=0x100, data=b"\x01", is_extended_id=False))  # too short to decode
     send(peer, db, "DriverInputs", SteeringWheelAngle=10.0, AcceleratorPedal=120.0)  # pedal beyond its DBC range
-    wait_for(lambda: src.problems >= 2)
+    wait_for(lambda: src.frames >= 1)  # the last frame decoded (without its pedal) and queued: the bad ones came before it
+    assert src.problems >= 2
     f = src.poll(0.0)
     assert f.accelerator is None and f.steering == pytest.approx(-10.0 / 450.0)
     assert src.status().connected
@@ -196,8 +215,10 @@ def test_can_bus_session_moves_the_car() -> None:
     cfg = DriveConfig(target="ReactionTest", inputs=(spec,), window=False, fast=True, duration_s=4.0)
     try:
         with DriveSession(cfg) as session:
-            wait_for(lambda: session.sources.combiner.sources[0].connected)
+            bus = session.sources.combiner.sources[0]
+            wait_for(lambda: bus.connected)
             send(peer, db, "DriverInputs", AcceleratorPedal=100.0)
+            wait_for(lambda: bus.frames >= 1)  # (received before the drive starts: --fast runs 4 s in a blink)
             result = session.run()
             final_speed = session.snapshot.speed_kmh
         feedback = [m for m in iter(lambda: peer.recv(0.2), None) if m.arbitration_id == 0x200]

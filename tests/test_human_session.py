@@ -236,13 +236,44 @@ def test_drive_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> No
 
 
 def test_real_time_pacing_follows_the_wall_clock() -> None:
+    """Never ahead of the wall clock; behind it only by the lag the clock gave up and counted
+    (a loaded host gives up more, `test_pacing_catches_up_then_drops_the_lag`, instead of
+    running the drive long; how much is the host's, so it is not asserted here)."""
     cfg = DriveConfig(target="ReactionTest", window=False, duration_s=1.0)
     with DriveSession(cfg) as s:
         t0 = time.perf_counter()
         result = s.run()
         wall = time.perf_counter() - t0
-    assert result.sim_time_s == pytest.approx(1.0) and 0.95 <= wall < 1.6
-    assert result.pacing.dropped_s == 0.0
+    p = result.pacing
+    assert result.sim_time_s == pytest.approx(1.0) and wall >= 0.95
+    assert p.held_s == 0.0 and wall - (result.sim_time_s + p.dropped_s) < 0.5
+
+
+def test_pacing_catches_up_then_drops_the_lag() -> None:
+    """`PacingClock` on a scripted clock: steps are due at the wall clock's rate, a stall is made
+    up by at most `max_catch_up_steps` steps and the rest given up (counted), a hold moves the
+    origin (not made up), `--fast` runs its batch whatever the time."""
+    from opends_gym.human.pacing import PacingClock
+
+    now = [0.0]
+    clock = PacingClock(0.125, max_catch_up_steps=6, now=lambda: now[0], sleep=lambda s: None)
+    now[0] = 0.4
+    assert clock.steps_due() == 3
+    clock.advance(3)
+    now[0] = 3.0  # a stall: 21 steps due, 6 run now, 15 given up
+    assert clock.steps_due() == 6 and clock.stats.dropped_s == 15 * 0.125
+    clock.advance(6)
+    assert clock.steps_due() == 0  # caught up: the drive slowed down rather than jumping
+    now[0] = 3.2
+    assert clock.steps_due() == 1
+    clock.advance(1)
+    clock.hold()
+    now[0] = 4.2  # held a second
+    assert clock.steps_due() == 0 and clock.stats.held_s == 1.0 and clock.stats.dropped_s == 15 * 0.125
+    now[0] = 4.3
+    assert clock.steps_due() == 1
+    fast = PacingClock(0.125, fast=True, fast_batch=4, now=lambda: 0.0)
+    assert fast.steps_due() == 4
 
 
 def test_display_keys_change_only_the_view() -> None:

@@ -79,7 +79,7 @@ def run_identity(env_id: str, policy: Policy, n: int, steps: int, seed: int = 7,
     obs_s, info_s = sync.reset(seed=seed)
     _same("reset obs", obs, obs_s)
     _compare_infos(-1, info, info_s, n)
-    seen = {"episodes": 0, "reactions": 0, "correct": 0, "ttc_under_3s": 0}
+    seen = {"episodes": 0, "reactions": 0, "correct": 0, "ttc_under_3s": 0, "lanes_unknown": 0}
     for t in range(steps):
         a = policy(obs, rng, n)
         obs, r, term, trunc, info = native.step(a)
@@ -93,6 +93,7 @@ def run_identity(env_id: str, policy: Policy, n: int, steps: int, seed: int = 7,
         seen["reactions"] += int(np.count_nonzero(info["reaction_result"]))
         seen["correct"] += int(np.count_nonzero(info["reaction_result"] == 1))
         seen["ttc_under_3s"] += int(np.count_nonzero(info["ttc_s"] < 3.0))
+        seen["lanes_unknown"] += int(np.count_nonzero(~info["lanes_known"]))
     native.close()
     sync.close()
     return seen
@@ -116,6 +117,23 @@ def test_episodes_ending_together_report_the_single_envs_metrics() -> None:
     column per metric); each env's equal the single env's, and the other envs have none."""
     seen = run_identity(LCT, hard_left, n=5, steps=40)
     assert seen["episodes"] >= 8  # (at least two steps on which four ended)
+
+
+def full_lock(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
+    """Full lock left from the reset on with a little throttle (env 0 steers straight on): the
+    car spins and its circle takes it behind its start line."""
+    a = np.zeros((n, 2), dtype=np.float32)
+    a[1:, 0] = 1.0
+    a[:, 1] = 0.3
+    return a
+
+
+def test_a_car_behind_its_start_line_reports_lanes_known_as_the_single_env() -> None:
+    """Behind the point where the task's lanes begin (here: the start line, s < 0) the single
+    env reports `lanes_known` False (`RoadGuide.lanes_known_at`); the batch does too, per env,
+    and back on True once the car is in front of it again (observations, infos, metrics equal)."""
+    seen = run_identity(LCT, full_lock, n=3, steps=45)
+    assert seen["lanes_unknown"] >= 2 * 20  # the two spinning cars: ~28 steps each behind the line
 
 
 def straight_on(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:

@@ -15,6 +15,7 @@ import gymnasium as gym
 from ..drivers.agents import make_agent
 from ..drivers.participant import ParticipantDriver
 from ..drivers.population import ParticipantParams, sample_population
+from ..errors import UserError
 
 
 @functools.lru_cache(maxsize=4)
@@ -46,11 +47,36 @@ class StudyParticipant:
         return self.driver.glances if self.driver is not None else None
 
 
-def make_trial_agent(spec: str, participants: int, seed: int) -> Any:
-    """`spec` -> agent; `participant:ID[:LOAD]` is participant ID of the study's population."""
+class CheckedAgent:
+    """An agent whose `reset` refusal (a policy or clone made for another observation) is a
+    one-line UserError naming the spec, as `opends-gym run --agent` gives it."""
+
+    def __init__(self, agent: Any, spec: str, where: str = "") -> None:
+        self.agent = agent
+        self.spec = spec
+        self.where = where  # e.g. "condition X, task Y: " before the message
+        self.name = getattr(agent, "name", spec)
+        self.act = agent.act
+
+    def __getattr__(self, name: str) -> Any:  # (the agent's other attributes, its `glances` for one)
+        agent = self.__dict__.get("agent")
+        if agent is None:
+            raise AttributeError(name)
+        return getattr(agent, name)
+
+    def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
+        try:
+            self.agent.reset(env, seed)
+        except ValueError as e:
+            raise UserError(f"{self.where}agent {self.spec}: {e}") from None
+
+
+def make_trial_agent(spec: str, participants: int, seed: int, where: str = "") -> Any:
+    """`spec` -> agent; `participant:ID[:LOAD]` is participant ID of the study's population
+    (`where`: the trial, for a one-line refusal at reset)."""
     name, _, rest = spec.partition(":")
     if name == "participant":
         index_text, _, load = rest.partition(":")
         index = int(index_text)
         return StudyParticipant(population(participants, seed)[index], load or "baseline")
-    return make_agent(spec)
+    return CheckedAgent(make_agent(spec), spec, where)

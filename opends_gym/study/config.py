@@ -215,6 +215,7 @@ def load_study(path: str | Path, participants: int | None = None) -> Study:
     metrics = _metric_list(top, "metrics")
     tasks = _tasks(top)
     conditions = _conditions(top, tasks, agent)
+    _check_clones(top, n, agent, tasks, conditions)
     names = [c.name for c in conditions]
     reference = top.get("reference", str, names[0])
     if reference not in names:
@@ -345,6 +346,35 @@ def _conditions(top: _Where, tasks: tuple[TaskSpec, ...], agent: str) -> tuple[C
             args = _env_args(where, task.env_id)
         out.append(ConditionSpec(name, load, cond_agent, args, _drt(where), where.get("instructions", str, "")))
     return tuple(out)
+
+
+def format_agent(template: str, participant: int, load: str | None, condition: str, task: str) -> str:
+    """One trial's agent spec from the study's or condition's template."""
+    return template.format(participant=participant, load=load or "", condition=condition, task=task).rstrip(":")
+
+
+def _check_clones(top: _Where, participants: int, agent: str, tasks: tuple[TaskSpec, ...], conditions: tuple[ConditionSpec, ...]) -> None:
+    """A `bc:` agent's trials run with its clone's observation options (`study.clones`): each
+    must be an option of the task's env, and no task or condition may set it otherwise."""
+    from .clones import clone_options, conflicting_option
+
+    for cond in conditions:
+        template = cond.agent or agent
+        here = top.child("conditions").child(cond.name) if cond.agent else top
+        for task in tasks:
+            fields = env_fields(task.env_id)
+            args = {**task.env_args, **cond.env_args}
+            for spec in sorted({format_agent(template, p, cond.load, cond.name, task.name) for p in range(participants)}):
+                for key, value in clone_options(spec).items():
+                    if fields and key not in fields:
+                        problem = f"{spec} was trained with {key}={value!r}, not an option of {task.env_id} (task {task.name})"
+                        raise here.error("agent", problem)
+                clash = conflicting_option(spec, args)
+                if clash is not None:
+                    key, value = clash
+                    owner = top.child("conditions").child(cond.name) if key in cond.env_args else top.child("tasks").child(task.name)
+                    problem = f"condition {cond.name}'s agent {spec} was trained with {key}={value!r} (drop the option or use such a clone)"
+                    raise owner.child("env_args").error(key, problem)
 
 
 def _env_args(where: _Where, env_id: str) -> dict[str, Any]:

@@ -13,7 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from .config import ConditionSpec, DrtSpec, Study, TaskSpec
+from .clones import with_clone_options
+from .config import ConditionSpec, DrtSpec, Study, TaskSpec, format_agent
 
 
 @dataclass(frozen=True)
@@ -60,8 +61,7 @@ def env_args_for(study: Study, task: TaskSpec, condition: ConditionSpec, accepte
 
 
 def agent_spec(study: Study, condition: ConditionSpec, task: TaskSpec, participant: int) -> str:
-    template = condition.agent or study.agent
-    return template.format(participant=participant, load=condition.load or "", condition=condition.name, task=task.name).rstrip(":")
+    return format_agent(condition.agent or study.agent, participant, condition.load, condition.name, task.name)
 
 
 def expand(study: Study) -> list[Trial]:
@@ -73,7 +73,8 @@ def expand(study: Study) -> list[Trial]:
     for p in range(study.participants):
         for cond in study.conditions:
             for ti, task in enumerate(study.tasks):
-                args = env_args_for(study, task, cond, accepted[task.env_id])
+                agent = agent_spec(study, cond, task, p)
+                args = with_clone_options(agent, env_args_for(study, task, cond, accepted[task.env_id]))  # (a clone's observation options)
                 for rep in range(study.repetitions):
                     trials.append(
                         Trial(
@@ -84,7 +85,7 @@ def expand(study: Study) -> list[Trial]:
                             seed=trial_seed(study.seed, p, ti, rep),
                             env_id=task.env_id,
                             env_args=tuple(sorted(args.items(), key=lambda kv: kv[0])),
-                            agent=agent_spec(study, cond, task, p),
+                            agent=agent,
                             load=cond.load,
                             drt=cond.drt or task.drt,
                             metrics=task.metrics or study.metrics,

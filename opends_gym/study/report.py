@@ -76,7 +76,7 @@ def figure(group: Any, conditions: list[str], reference: str, title: str, power:
     left.set_ylabel("participant mean")
     left.set_title(title, fontsize=9)
     for c in present:
-        if c == reference:
+        if c == reference or reference not in present:  # (a metric the reference condition never gave a finite value of)
             continue
         both = cells[[reference, c]].dropna()
         right.hist((both[c] - both[reference]).to_numpy(float), bins=20, alpha=0.6, label=f"{c} - {reference}")
@@ -97,7 +97,7 @@ def _power_panel(ax: Any, cells: Any, present: list[str], reference: str, power:
     """Simulated power (the summary's method) at n = 2 .. max_n on a log grid, per condition."""
     ns = np.unique(np.geomspace(2, power.max_n, 12).astype(int))
     for c in present:
-        if c == reference:
+        if c == reference or reference not in present:
             continue
         both = cells[[reference, c]].dropna()
         diff = (both[c] - both[reference]).to_numpy(float)

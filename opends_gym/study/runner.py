@@ -82,7 +82,7 @@ def trial_agent(trial: Trial, participants: int, seed: int) -> Any:
     from .agents import make_trial_agent
 
     try:
-        return make_trial_agent(trial.agent, participants, seed)
+        return make_trial_agent(trial.agent, participants, seed, f"task {trial.task}, condition {trial.condition}: ")
     except (ValueError, TypeError, OSError) as e:
         raise UserError(f"condition {trial.condition}: agent {trial.agent}: {e}") from None
 

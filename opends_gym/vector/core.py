@@ -23,6 +23,7 @@ from ..sim.triggers.core import CompiledAction
 from . import ego
 from .actions import BatchActions, BatchControls
 from .kernels import record_lanes
+from .lanes_known import lanes_known_rows
 from .timers import KINDS, TimerBatch
 from .trace import TraceRing
 from .triggers import TriggerBatch
@@ -296,7 +297,7 @@ class BatchCore:
             "sdlp_m": self.sdlp(),
             "headway_s": self.headway.copy(),
             "ttc_s": self.ttc.copy(),
-            "lanes_known": np.full(len(self.t), bool(self.guide.lanes_known)),
+            "lanes_known": lanes_known_rows(self.guide, self.last_s),
             "resets": np.zeros(len(self.t), dtype=np.int64),  # (on_road_exit="terminate" only: never reset)
             "reset_time_s": np.zeros(len(self.t)),
             "progress_m": self.progress.copy(),

@@ -28,6 +28,7 @@ from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
 from .kernels import CHUNK_ENVS
+from .lanes_known import known_from, lanes_known_rows
 from .lct_fire import fire_tables
 from .lct_step import (
     INFO_F,
@@ -136,7 +137,7 @@ class LctBatch(BatchCore):
             "sdlp_m": sdlp,
             "headway_s": self.headway.copy(),
             "ttc_s": self.ttc.copy(),
-            "lanes_known": np.full(n, bool(self.guide.lanes_known)),
+            "lanes_known": lanes_known_rows(self.guide, self.last_s),
             "resets": np.zeros(n, dtype=np.int64),  # (on_road_exit="terminate" only: never reset)
             "reset_time_s": np.zeros(n),
             "progress_m": progress,
@@ -170,7 +171,7 @@ class LctBatch(BatchCore):
         obs = (out, s.u, s.yaw, self.guide.road_heading, self.offset, self.lat, self.lane, s.steer_in, s.r, s.z, self.revealed,
                self.sign_z, self.sign_lane, self.lane_lat)  # fmt: skip
         copies = (self.t, self.offset, s.fuel_used, self.headway, self.ttc, self.lane, self.collisions)
-        args = (outcome, obs, copies, info_f, info_i, known, bool(self.guide.lanes_known))
+        args = (outcome, obs, copies, info_f, info_i, known, known_from(self.guide))
         if self.parallel:
             with numba.parallel_chunksize(1):
                 lct_finish(*args)

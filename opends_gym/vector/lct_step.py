@@ -23,6 +23,7 @@ from ..sim.ego.kernels import wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from .ego import ego_step_wheels
 from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, timer_step, volume_fires
+from .lanes_known import lanes_known_at
 from .lct_fire import fire_inline
 
 
@@ -373,7 +374,7 @@ INFO_I = ("lane_index", "collisions", "resets", "new_collisions")
 
 @parallel_kernel
 def lct_finish(outcome: tuple, obs: tuple, copies: tuple, info_f: np.ndarray, info_i: np.ndarray, known: np.ndarray,
-               lanes_known: bool) -> None:  # fmt: skip
+               lanes: tuple[bool, float]) -> None:  # fmt: skip
     """The end of a policy step in one parallel pass: `lct_outcomes` (its arguments `outcome`,
     less its info tuples: rows of `info_f` and `info_i` take them), `lct_observation` (its
     arguments `obs`) and the info arrays that are copies of the state (`copies`: t, offset,
@@ -382,12 +383,12 @@ def lct_finish(outcome: tuple, obs: tuple, copies: tuple, info_f: np.ndarray, in
     n = info_f.shape[1]
     chunks = chunk_count(n)
     for c in prange(chunks):
-        _finish_range(c * n // chunks, (c + 1) * n // chunks, outcome, obs, copies, info_f, info_i, known, lanes_known)
+        _finish_range(c * n // chunks, (c + 1) * n // chunks, outcome, obs, copies, info_f, info_i, known, lanes)
 
 
 @kernel
 def _finish_range(lo: int, hi: int, outcome: tuple, obs: tuple, copies: tuple, info_f: np.ndarray, info_i: np.ndarray, known: np.ndarray,
-                  lanes_known: bool) -> None:  # fmt: skip
+                  lanes: tuple[bool, float]) -> None:  # fmt: skip
     """`lct_finish` for the envs lo..hi-1."""
     rows, sign, origin_z, z, u, last_s, progress, collisions, collisions_seen, new_collisions, n_results, cursor, last_result, \
         last_rt, sd_n, sd_m2, has_prev, prev_d, area, lat, off_road, step_reward, reward_scale, penalty, paused, \
@@ -403,4 +404,4 @@ def _finish_range(lo: int, hi: int, outcome: tuple, obs: tuple, copies: tuple, i
         info_f[0, e], info_f[2, e], info_f[3, e], info_f[8, e], info_f[9, e], info_f[10, e] = c_t[e], c_offset[e], c_fuel[e], \
             c_headway[e], c_ttc[e], 0.0  # fmt: skip
         info_i[0, e], info_i[1, e], info_i[2, e] = c_lane[e], c_collisions[e], 0
-        known[e] = lanes_known
+        known[e] = lanes_known_at(lanes, last_s[e])  # (`vector.lanes_known`: lanes = known_from(guide))

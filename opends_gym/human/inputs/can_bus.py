@@ -158,11 +158,11 @@ class CanBusSource:
                 self.warn.warn("CAN bus: %s = %r is out of range [%s, %s]; ignored", name, v, lo, hi)
                 continue
             good[name] = fv
-        self.frames += 1
         try:
             self._queue.put_nowait(good)
         except queue.Full:
             self.problems += 1
+        self.frames += 1  # (after the queue: a frame counted is one the next poll applies)
 
     # ------------------------------------------------------------------ simulation side
     def poll(self, t_s: float) -> InputFrame:

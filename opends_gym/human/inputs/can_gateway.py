@@ -42,6 +42,7 @@ class CanGatewaySource:
         self.warn = RateLimitedWarning(log)  # one per source: a flooding gateway logs one line per 5 s
         self.framer = GatewayFramer(self.warn)
         self.problems = 0
+        self.messages_received = 0  # messages the I/O thread parsed (counted once queued, or dropped on a full queue)
         self.messages_applied = 0
         self._updates: queue.Queue[GatewayUpdate] = queue.Queue(MAX_PENDING)
         self._levels = InputFrame()
@@ -77,6 +78,7 @@ class CanGatewaySource:
             except queue.Full:
                 self.problems += 1
                 self.warn.warn("CAN gateway: the simulation is not keeping up; a message was dropped")
+            self.messages_received += 1
 
     # ------------------------------------------------------------------ simulation side
     def poll(self, t_s: float) -> InputFrame:
@@ -105,13 +107,13 @@ class CanGatewaySource:
         f.messages = tuple(messages)
         return f
 
-    def feedback(self, snapshot: Any) -> None:
-        """Send `$SimCarState#speed#heading#x#z%` at the gateway's update rate."""
+    def feedback(self, snapshot: Any) -> bool:
+        """Send `$SimCarState#speed#heading#x#z%` at the gateway's update rate; True when sent now."""
         t = float(snapshot.t_s)
         if t + 1e-9 < self._next_feedback_t or not self.client.connected:
-            return
+            return False
         self._next_feedback_t = t + self.update_period_s
-        self.client.send(f"$SimCarState#{snapshot.speed_kmh:.2f}#{snapshot.heading_deg:.2f}#{snapshot.x_m:.3f}#{snapshot.z_m:.3f}%")
+        return self.client.send(f"$SimCarState#{snapshot.speed_kmh:.2f}#{snapshot.heading_deg:.2f}#{snapshot.x_m:.3f}#{snapshot.z_m:.3f}%")
 
     def status(self) -> InputStatus:
         """Until the gateway has connected once, the drive waits (blocking); later losses are shown."""
