@@ -81,6 +81,8 @@ class LctBatch(BatchCore):
         self.prev_dev = np.zeros(n)
         if self.trace_columns != ("x_m", "z_m", "speed_mps", "steering") or self.has_traffic or self.needs_distance:
             raise TypeError("lct_step writes the LCT's trace columns and measures; change it with them")
+        if self.ring is not None:  # env-major: each car's physics steps write its rows in turn; ended episodes read contiguous rows
+            self.ring = TraceRing(n, self.trace_columns, self.ring.size - 2, env_major=True)
         self._no_block = np.empty((1, 1, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
         self._steering = (np.zeros(n), np.zeros(n), np.zeros(n))  # lct_substeps' scratch
