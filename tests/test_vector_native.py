@@ -118,6 +118,20 @@ def test_episodes_ending_together_report_the_single_envs_metrics() -> None:
     assert seen["episodes"] >= 8  # (at least two steps on which four ended)
 
 
+def unclipped(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
+    """Float64 actions outside [-1, 1] now and then, pedals of -0.0 and +0.0 (the batch's
+    compiled conversion must give the single env's clipped floats and zero pedals)."""
+    a = np.zeros((n, 2))
+    a[:, 0] = np.where(rng.random(n) < 0.1, rng.choice([-2.5, 2.5], n), rng.normal(0, 0.02, n) - 0.5 * obs[:, 1])
+    a[:, 1] = rng.choice([-3.0, -0.0, 0.0, 0.4, 1.0, 7.0], n)
+    return a
+
+
+def test_actions_beyond_the_box_and_signed_zero_pedals_as_the_single_env() -> None:
+    seen = run_identity(LCT, unclipped, n=4, steps=80)
+    assert seen["episodes"] >= 1
+
+
 def straight_on(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
     """Holds the wheel straight (the LCT starts aligned with the road), braking now and then."""
     a = np.zeros((n, 2), dtype=np.float32)

@@ -29,6 +29,7 @@ from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from .ego import ego_step_wheels
 from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, timer_step, volume_fires
 from .lct_fire import fire_inline
+from .trace import TRACE_GROUP
 
 
 @parallel_kernel
@@ -56,7 +57,7 @@ def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarr
     cruise_target, cruise_int), `timer_f` (start_t, start_x, start_z, peak, hold_since, tlim, dlim),
     `sdlp` (n, mean, m2), `path` (prev_d, prev_dev, area, reward), `steering` (each car's
     steering angle, its cosine and sine: the steering is held for the policy step); trace
-    rows are (x, z, u, steer_in), in env-major blocks (`TraceRing(env_major=True)`).
+    rows are (x, z, u, steer_in), in grouped blocks (`TraceRing(grouped=True)`).
     """
     n = len(live)
     chunks = chunk_count(n)
@@ -147,7 +148,7 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
     sd_n, sd_mean, sd_m2 = sdlp
     prev_d, prev_dev, area, reward = path
     angle, cos_a, sin_a = steering
-    block = block_a.shape[1]  # (env-major blocks: (n, BLOCK, column))
+    block = block_a.shape[0] * TRACE_GROUP  # rows of a block (grouped: (BLOCK / TRACE_GROUP, n, TRACE_GROUP, column))
     parked, ran = 0, k_from
     for e in range(lo, hi):
         if not resume:
@@ -198,7 +199,8 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
             if ring:
                 row = row0 + k
                 out, i = (block_a, row) if row < block else (block_b, row - block)
-                out[e, i, 0], out[e, i, 1], out[e, i, 2], out[e, i, 3] = xe, ze, ue, si  # (an env-major ring: `TraceRing`)
+                grp, slot = i // TRACE_GROUP, i % TRACE_GROUP  # (a grouped ring: `TraceRing`)
+                out[grp, e, slot, 0], out[grp, e, slot, 1], out[grp, e, slot, 2], out[grp, e, slot, 3] = xe, ze, ue, si
                 rs += 1
             pd, pdev, ar, rw = lct_measure(ze, la, start_z, norm, d0, norm_step, scale, hp, pd, pdev, ar, rw)
             hp = True
