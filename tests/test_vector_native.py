@@ -120,10 +120,12 @@ def test_episodes_ending_together_report_the_single_envs_metrics() -> None:
 
 def unclipped(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
     """Float64 actions outside [-1, 1] now and then, pedals of -0.0 and +0.0 (the batch's
-    compiled conversion must give the single env's clipped floats and zero pedals)."""
+    compiled conversion must give the single env's clipped floats and zero pedals); env 0
+    steers off the road."""
     a = np.zeros((n, 2))
     a[:, 0] = np.where(rng.random(n) < 0.1, rng.choice([-2.5, 2.5], n), rng.normal(0, 0.02, n) - 0.5 * obs[:, 1])
     a[:, 1] = rng.choice([-3.0, -0.0, 0.0, 0.4, 1.0, 7.0], n)
+    a[0, 0] = 0.5  # (env 0 leaves the road: resets)
     return a
 
 

@@ -12,8 +12,8 @@ a second call; reaction timers that end are scored by Python afterwards.
 
 The per-chunk loops are `jit.borrowing_kernel`s (no reference counting: they allocate
 nothing): every inlined helper that takes arrays (the trigger search and contact test, the
-lane measures) updated their reference counts atomically at each physics step, ~28 % of
-`_substeps_range`'s CPU time on one thread here.
+lane measures) updated their reference counts atomically at each physics step (~10 % of
+the pass's CPU time on one thread, 4,096 envs, measured against the code before).
 """
 
 from __future__ import annotations
