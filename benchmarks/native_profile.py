@@ -11,9 +11,12 @@ unless set) and splits it:
 * the whole step without and with the per-step traces (`record_metrics`), and from a
   profile of the latter the share of the compiled step kernels (`lct_substeps`,
   `lct_finish`; before it `lct_outcomes` and `lct_observation`) and of the rest (Python
-  glue, trigger firing, resets, episode scoring).
+  glue, trigger firing, resets, episode scoring);
+* `--parts`: the step's parts by CPU time (each part's calls timed with `process_time`:
+  the compiled physics pass, the finishing pass, action checks and conversion, resets,
+  episode scoring, the episode-metrics arrays, the rest), in ns per env-step.
 
-    python benchmarks/native_profile.py [--envs 4096] [--steps 200]
+    python benchmarks/native_profile.py [--envs 4096] [--steps 200] [--parts]
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import math
 import os
 import pstats
 import time
+from collections.abc import Callable
 
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
@@ -58,10 +62,39 @@ def physics_only(car: np.ndarray, dt: float, steps: int, x: np.ndarray, z: np.nd
         x[e], z[e], yaw[e], u[e] = xe, ze, ye, ue
 
 
-def cpu_per_env_step(step: object, n: int, steps: int) -> float:
-    """CPU ns per env-step of `steps` calls of step() (after 5 untimed ones)."""
+def timed_parts(parts: dict[str, float]) -> list[tuple[object, str, Callable[..., object]]]:
+    """Time the LCT batch's step parts into `parts` (CPU seconds, all threads); returns what
+    to put back."""
+    from opends_gym.vector import actions, env, lct
+
+    named = [(lct, "lct_substeps", "physics pass (lct_substeps)"), (lct, "_substeps_range", "physics pass (lct_substeps)"),
+             (lct, "lct_finish", "finishing pass (lct_finish)"), (lct, "_finish_range", "finishing pass (lct_finish)"),
+             (actions.BatchActions, "convert", "action checks and conversion"), (env, "_check_actions", "action checks and conversion"),
+             (lct.LctBatch, "reset_rows", "resets (BatchCore.reset_rows)"), (lct.LctBatch, "episodes_metrics", "episode scoring"),
+             (env, "_metrics_arrays", "episode_metrics arrays")]  # fmt: skip
+    undo = []
+    for obj, name, label in named:
+        fn = getattr(obj, name)
+        undo.append((obj, name, fn))
+
+        def timed(*a: object, _fn: Callable[..., object] = fn, _label: str = label) -> object:
+            c = time.process_time()
+            try:
+                return _fn(*a)
+            finally:
+                parts[_label] = parts.get(_label, 0.0) + time.process_time() - c
+
+        setattr(obj, name, timed)
+    return undo
+
+
+def cpu_per_env_step(step: object, n: int, steps: int, parts: dict[str, float] | None = None) -> float:
+    """CPU ns per env-step of `steps` calls of step() (after 5 untimed ones; `parts` emptied
+    after them)."""
     for _ in range(5):
         step()  # type: ignore[operator]
+    if parts is not None:
+        parts.clear()
     c0 = time.process_time()
     for _ in range(steps):
         step()  # type: ignore[operator]
@@ -72,6 +105,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--envs", type=int, default=4096)
     ap.add_argument("--steps", type=int, default=200)
+    ap.add_argument("--parts", action="store_true", help="split each whole step's CPU time by part")
     args = ap.parse_args()
     logging.disable(logging.WARNING)
     n = args.envs
@@ -98,8 +132,16 @@ def main() -> None:
             env.step(actions[i[0] % 16])
             i[0] += 1
 
-        ns = cpu_per_env_step(step, n, args.steps)
+        parts: dict[str, float] = {}
+        undo = timed_parts(parts) if args.parts else []
+        ns = cpu_per_env_step(step, n, args.steps, parts)
+        for obj, name, fn in undo:
+            setattr(obj, name, fn)
         print(f"  whole step, record_metrics={metrics!s:<5}         {ns:8.0f} ns  ({1e9 / ns:,.0f} env-steps per CPU second)")
+        for label, seconds in sorted(parts.items(), key=lambda kv: -kv[1]):
+            print(f"    {label:<38} {1e9 * seconds / (args.steps * n):8.0f} ns")
+        if parts:
+            print(f"    {'the rest (Python: env.step, info)':<38} {ns - 1e9 * sum(parts.values()) / (args.steps * n):8.0f} ns")
         if metrics:
             prof = cProfile.Profile()
             prof.runcall(lambda: [step() for _ in range(args.steps)])

@@ -136,6 +136,22 @@ def test_a_car_behind_its_start_line_reports_lanes_known_as_the_single_env() -> 
     assert seen["lanes_unknown"] >= 2 * 20  # the two spinning cars: ~28 steps each behind the line
 
 
+def unclipped(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
+    """Float64 actions outside [-1, 1] now and then, pedals of -0.0 and +0.0 (the batch's
+    compiled conversion must give the single env's clipped floats and zero pedals); env 0
+    steers off the road."""
+    a = np.zeros((n, 2))
+    a[:, 0] = np.where(rng.random(n) < 0.1, rng.choice([-2.5, 2.5], n), rng.normal(0, 0.02, n) - 0.5 * obs[:, 1])
+    a[:, 1] = rng.choice([-3.0, -0.0, 0.0, 0.4, 1.0, 7.0], n)
+    a[0, 0] = 0.5  # (env 0 leaves the road: resets)
+    return a
+
+
+def test_actions_beyond_the_box_and_signed_zero_pedals_as_the_single_env() -> None:
+    seen = run_identity(LCT, unclipped, n=4, steps=80)
+    assert seen["episodes"] >= 1
+
+
 def straight_on(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
     """Holds the wheel straight (the LCT starts aligned with the road), braking now and then."""
     a = np.zeros((n, 2), dtype=np.float32)

@@ -3,16 +3,19 @@
 Why: `envs.actions.ContinuousAction` / `ContinuousButtonsAction` turn one action into
 `DriverControls`; here a (N, k) array becomes arrays of steering, gas and brake plus the
 button edges, with the same checks (NaN or infinity is an error naming the env) and the
-same clipping.
+same clipping. The check and the `continuous` conversion are one compiled pass
+(`first_nonfinite`, `continuous_controls`): a policy step's serial Python per env.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..envs.actions import BUTTONS
+from ..jit import kernel
 
 SIGNAL_OFF, SIGNAL_LEFT, SIGNAL_RIGHT = 0, 1, 2
 
@@ -45,22 +48,42 @@ class BatchActions:
         n = len(self.held)
         if a.shape != (n, self.width):
             raise ValueError(f"actions must have shape ({n}, {self.width}), got {a.shape}")
-        finite = np.isfinite(a).all(axis=1) | ~rows
-        if not finite.all():
-            e = int(np.flatnonzero(~finite)[0])
-            raise ValueError(f"env {e}: action contains NaN or infinity: {a[e].tolist()}")
-        a = np.clip(a, -1.0, 1.0)
-        pedal = a[:, 1]
-        steer = a[:, 0].copy()
-        gas = np.maximum(pedal, 0.0)
-        brake = np.maximum(-pedal, 0.0)
+        bad = first_nonfinite(a, rows)
+        if bad >= 0:
+            raise ValueError(f"env {bad}: action contains NaN or infinity: {a[bad].tolist()}")
+        steer, gas, brake = np.empty(n), np.empty(n), np.empty(n)
+        continuous_controls(a, steer, gas, brake)
         pressed = np.zeros(n, dtype=bool)
         signal = np.zeros(n, dtype=np.int64)
         if self.name == "continuous_buttons":
-            down = a[:, 2:] > 0.0
+            down = a[:, 2:] > 0.0  # (as after np.clip: NaN is not > 0 either)
             edge = down & ~self.held
             self.held = np.where(rows[:, None], down, self.held)
             pressed = edge[:, 0] & rows
             left, right = down[:, 2], down[:, 3]
             signal = np.where(left & ~right, SIGNAL_LEFT, np.where(right & ~left, SIGNAL_RIGHT, SIGNAL_OFF))
         return BatchControls(steer, gas, brake, pressed, signal)
+
+
+@kernel
+def first_nonfinite(a: np.ndarray, rows: np.ndarray) -> int:
+    """The first env of `rows` whose action row of `a` holds NaN or infinity (-1: none)."""
+    for e in range(a.shape[0]):
+        if rows[e]:
+            for j in range(a.shape[1]):
+                if not math.isfinite(a[e, j]):
+                    return e
+    return -1
+
+
+@kernel
+def continuous_controls(a: np.ndarray, steer: np.ndarray, gas: np.ndarray, brake: np.ndarray) -> None:
+    """Steering, gas and brake of every env from the first two action columns, the floats of
+    `np.clip(a, -1, 1)`, `np.maximum(pedal, 0)`, `np.maximum(-pedal, 0)` (NaN stays NaN, a
+    zero pedal gives +0.0: numpy's maximum returns its second operand when they are equal)."""
+    for e in range(a.shape[0]):
+        s, p = a[e, 0], a[e, 1]
+        steer[e] = -1.0 if s < -1.0 else 1.0 if s > 1.0 else s
+        p = -1.0 if p < -1.0 else 1.0 if p > 1.0 else p
+        gas[e] = p if p > 0.0 or p != p else 0.0
+        brake[e] = -p if -p > 0.0 or p != p else 0.0

@@ -47,6 +47,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
+from .actions import first_nonfinite
 from .core import BatchCore
 from .shards import LocalShard, ProcessShard
 from .trace import _physical_memory
@@ -239,13 +240,13 @@ def _metrics_arrays(ended: list[tuple[int, dict[str, float]]], n: int) -> dict[s
         return out
     rows = np.fromiter((e for e, _ in ended), dtype=np.intp, count=len(ended))
     table = np.array([tuple(m.values()) for _, m in ended], dtype=np.float64)
-    mask = np.zeros(n, dtype=np.bool_)
-    mask[rows] = True
+    # every key's column and mask as rows of two blocks (two allocations, not two per key)
+    columns, masks = np.zeros((len(keys), n)), np.zeros((len(keys), n), dtype=np.bool_)
+    columns[:, rows] = table.T
+    masks[:, rows] = True
     out = {}
     for j, key in enumerate(keys):
-        column = np.zeros(n)
-        column[rows] = table[:, j]
-        out[key], out[f"_{key}"] = column, mask.copy()
+        out[key], out[f"_{key}"] = columns[j], masks[j]
     return out
 
 
@@ -286,12 +287,11 @@ def _check_actions(a: np.ndarray, stepping: np.ndarray) -> None:
     """Refuse a batch with a non-numeric or NaN/inf action in a stepping env, before any shard
     steps (a later shard's error used to leave the earlier shards a step ahead)."""
     try:
-        values = a.astype(np.float64, copy=False)
+        values = np.ascontiguousarray(a, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(f"actions must be numbers, got dtype {a.dtype}") from None
-    bad = ~np.isfinite(values).all(axis=1) & stepping
-    if bad.any():
-        e = int(np.flatnonzero(bad)[0])
+    e = first_nonfinite(values.reshape(len(values), -1), stepping)  # (one compiled pass)
+    if e >= 0:
         raise ValueError(f"env {e}: action contains NaN or infinity: {values[e].tolist()}")
 
 

@@ -82,7 +82,9 @@ class LctBatch(BatchCore):
         self.prev_dev = np.zeros(n)
         if self.trace_columns != ("x_m", "z_m", "speed_mps", "steering") or self.has_traffic or self.needs_distance:
             raise TypeError("lct_step writes the LCT's trace columns and measures; change it with them")
-        self._no_block = np.empty((1, 1, len(self.trace_columns)))
+        if self.ring is not None:  # grouped: each car's physics steps write its rows in turn; ended episodes read them in runs
+            self.ring = TraceRing(n, self.trace_columns, self.ring.size - 2, grouped=True)
+        self._no_block = np.empty((1, 1, 1, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
         self._steering = (np.zeros(n), np.zeros(n), np.zeros(n))  # lct_substeps' scratch
         # the step's kernels run chunks of envs on numba's threads (False: their serial twins, for Python threads and for
@@ -152,17 +154,24 @@ class LctBatch(BatchCore):
         `BatchCore.info` gives them after `reset_rows`). The info arrays are rows of two
         blocks allocated per step (the caller may keep them). Returns (obs, reward, terminated,
         truncated, info, envs whose episode ended)."""
+        if size != len(EGO_NAMES) + self.template.config.nearby_vehicles * len(VEHICLE_NAMES) + 3:
+            raise ValueError(f"the LCT observation has 7 ego features, vehicle slots and 3 stimulus values, not {size} values")
         stepping = ~resetting
         c = self.actions.convert(actions, stepping)
-        self._physics_steps(stepping.copy(), c)
-        if resetting.any():
-            self.reset_rows(np.flatnonzero(resetting), None)
+        # one chunk-size block for both parallel passes (threads take the chunks one at a time: a busy core holds up one chunk,
+        # not half the batch); entering one costs 15-40 µs of Python here
+        with numba.parallel_chunksize(1):
+            self._substeps(stepping.copy(), c)
+            if resetting.any():
+                self.reset_rows(np.flatnonzero(resetting), None)
+            return self._finish(stepping, size)
+
+    def _finish(self, stepping: np.ndarray, size: int) -> StepArrays:
+        """`step_and_reset`'s outputs (`lct_finish`)."""
         n, s, tm = self.n, self.s, self.timers
         reward, terminated, truncated = np.empty(n), np.empty(n, dtype=bool), np.empty(n, dtype=bool)
         out = np.empty((n, size), dtype=np.float32)
         info_f, info_i, known = np.empty((len(INFO_F), n)), np.empty((len(INFO_I), n), dtype=np.int64), np.empty(n, dtype=bool)
-        if size != len(EGO_NAMES) + self.template.config.nearby_vehicles * len(VEHICLE_NAMES) + 3:
-            raise ValueError(f"the LCT observation has 7 ego features, vehicle slots and 3 stimulus values, not {size} values")
         outcome = (stepping, self.guide.sign, self.guide.start_xz[1], s.z, s.u, self.last_s, self.progress, self.collisions,
                    self.collisions_seen, self.new_collisions, tm.n_results, self.reaction_cursor, tm.last_result, tm.last_rt,
                    self.rl["n"], self.rl["m2"], self.has_prev, self.prev_d, self.area, self.lat, self.off_road_limit, self.step_reward,
@@ -173,8 +182,7 @@ class LctBatch(BatchCore):
         copies = (self.t, self.offset, s.fuel_used, self.headway, self.ttc, self.lane, self.collisions)
         args = (outcome, obs, copies, info_f, info_i, known, known_from(self.guide))
         if self.parallel:
-            with numba.parallel_chunksize(1):
-                lct_finish(*args)
+            lct_finish(*args)
         else:
             _finish_range(0, n, *args)
         info = dict(zip(INFO_F, info_f)) | dict(zip(INFO_I, info_i))

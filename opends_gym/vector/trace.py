@@ -23,23 +23,32 @@ from ..jit import kernel
 from ..sim.guide import RoadGuide
 from .kernels import lane_of
 
+TRACE_GROUP = 8  # rows of one car stored together in a grouped ring (`TraceRing`)
+
 
 class TraceRing:
     """`columns` recorded per physics step for `n` envs; episodes up to `max_steps` long.
     Columns that are not `Trace` columns (task measures) are read with `column`.
 
-    Rows live in blocks of BLOCK rows (one (BLOCK, n, columns) array per block: a car's values
-    of one step share a cache line, for the compiled step loop that writes them and for the
-    reads of one car's episode). A block is
+    Rows live in blocks of BLOCK rows: one (BLOCK, n, columns) array per block (a car's values
+    of one step share a cache line; for the step loops that write one row of every car at a
+    time), or with `grouped` one (BLOCK / GROUP, n, GROUP, columns) array: a car's GROUP
+    rows of a group are contiguous (256 bytes), for a step loop that runs each car's physics
+    steps in turn (the LCT's: its rows of a policy step mostly in one group, the cars one
+    after another in memory) and for reading an ended episode, which in the time-major
+    layout costs a cache and TLB miss per row (~50 µs for a ~300-row episode, in the serial
+    part of a step). A block is
     allocated when first written and recycled once no running episode reaches back into it,
     so memory grows with the longest running episode (not with `max_steps` up front), short
     episodes stay in cache, and nothing is ever copied to make room.
     """
 
     BLOCK = 256
+    GROUP = TRACE_GROUP
 
-    def __init__(self, n: int, columns: tuple[str, ...], max_steps: int) -> None:
+    def __init__(self, n: int, columns: tuple[str, ...], max_steps: int, grouped: bool = False) -> None:
         self.columns = columns
+        self.grouped = grouped
         self.n = n
         self.size = int(max_steps) + 2  # the most rows an episode can have
         need = self.size * n * len(columns) * 8
@@ -49,7 +58,7 @@ class TraceRing:
                 "use fewer envs, a shorter max_episode_s, or record_metrics=False"
             )
         self.index = {c: i for i, c in enumerate(columns)}
-        self.blocks: dict[int, np.ndarray] = {}  # block number (g // BLOCK) -> (BLOCK rows, n, column)
+        self.blocks: dict[int, np.ndarray] = {}  # block number (g // BLOCK) -> (BLOCK rows, n, column) or (n, BLOCK rows, column)
         self._spare: list[np.ndarray] = []
         self.first = {c: np.zeros(n) for c in columns}  # the reset row of each env's episode
         self.g = 0  # rows written so far
@@ -67,7 +76,10 @@ class TraceRing:
         """One physics step: a row for every env (rows of envs not `live` are never read)."""
         block, row = self.reserve(1)[0], self.g % self.BLOCK
         for c, i in self.index.items():
-            block[row, :, i] = values[c]
+            if self.grouped:
+                block[row // self.GROUP, :, row % self.GROUP, i] = values[c]
+            else:
+                block[row, :, i] = values[c]
         self.g += 1
         if live is None:
             self.steps += 1
@@ -90,13 +102,18 @@ class TraceRing:
     def set_last(self, c: str, values: np.ndarray) -> None:
         """Overwrite column c of the row written last (a measure known only after the row)."""
         b, row = divmod(self.g - 1, self.BLOCK)
-        self.blocks[b][row, :, self.index[c]] = values
+        if self.grouped:
+            self.blocks[b][row // self.GROUP, :, row % self.GROUP, self.index[c]] = values
+        else:
+            self.blocks[b][row, :, self.index[c]] = values
 
     def _new_block(self, b: int) -> np.ndarray:
         oldest = int(self.start.min()) // self.BLOCK  # blocks before it hold no running episode's rows
         for old in [k for k in self.blocks if k < oldest]:
             self._spare.append(self.blocks.pop(old))
-        block = self._spare.pop() if self._spare else _fresh_block((self.BLOCK, self.n, len(self.columns)))
+        c = len(self.columns)
+        shape = (self.BLOCK // self.GROUP, self.n, self.GROUP, c) if self.grouped else (self.BLOCK, self.n, c)
+        block = self._spare.pop() if self._spare else _fresh_block(shape)
         self.blocks[b] = block
         return block
 
@@ -110,7 +127,12 @@ class TraceRing:
         while g < end:
             b, row = divmod(g, self.BLOCK)
             take = min(self.BLOCK - row, end - g)
-            out[i : i + take] = self.blocks[b][row : row + take, e, ci]
+            block = self.blocks[b]
+            if self.grouped:
+                rr = np.arange(row, row + take)
+                out[i : i + take] = block[rr // self.GROUP, e, rr % self.GROUP, ci]
+            else:
+                out[i : i + take] = block[row : row + take, e, ci]
             g, i = g + take, i + take
         return out
 
@@ -128,7 +150,8 @@ class TraceRing:
         if len(es):
             lo, hi = int(self.start[idx].min()), int((self.start[idx] + self.steps[idx]).max())
             for b in range(lo // self.BLOCK, (hi - 1) // self.BLOCK + 1) if hi > lo else ():
-                _gather_block(self.blocks[b], b * self.BLOCK, idx, self.start, self.steps, starts, data)
+                gather_block = _gather_block_grouped if self.grouped else _gather_block
+                gather_block(self.blocks[b], b * self.BLOCK, idx, self.start, self.steps, starts, data)
         return starts, data
 
     def columns_of(self, es: list[int]) -> dict[int, np.ndarray]:
@@ -148,7 +171,12 @@ class TraceRing:
             while g < end:
                 b, row = divmod(g, self.BLOCK)
                 take = min(self.BLOCK - row, end - g)
-                data[:, :, i : i + take] = self.blocks[b][row : row + take, idx, :].transpose(2, 1, 0)
+                block = self.blocks[b]
+                if self.grouped:
+                    rr = np.arange(row, row + take)[:, None]
+                    data[:, :, i : i + take] = block[rr // self.GROUP, idx[None, :], rr % self.GROUP, :].transpose(2, 1, 0)
+                else:
+                    data[:, :, i : i + take] = block[row : row + take, idx, :].transpose(2, 1, 0)
                 g, i = g + take, i + take
             for j, e in enumerate(members):
                 out[e] = data[:, j, :]
@@ -178,7 +206,7 @@ class TraceRing:
         return tr
 
 
-def _fresh_block(shape: tuple[int, int, int]) -> np.ndarray:
+def _fresh_block(shape: tuple[int, ...]) -> np.ndarray:
     """An uninitialised float array in anonymous memory of ordinary pages. (numpy's own
     allocations of 4 MB and more ask the kernel for huge pages; where the kernel then
     compacts memory to find one at the first write, the compiled step stalled for
@@ -205,6 +233,20 @@ def _gather_block(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray,
         for g in range(lo, hi):
             for c in range(block.shape[2]):
                 data[c, out + g] = block[g - g0, e, c]
+
+
+@kernel
+def _gather_block_grouped(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray, steps: np.ndarray, starts: np.ndarray,
+                          data: np.ndarray) -> None:  # fmt: skip
+    """`_gather_block` of a grouped block (BLOCK / GROUP, n, GROUP, column)."""
+    for j in range(len(es)):
+        e = es[j]
+        lo, hi = max(start[e], g0), min(start[e] + steps[e], g0 + block.shape[0] * TRACE_GROUP)
+        out = starts[j] + 1 - start[e]
+        for g in range(lo, hi):
+            r = g - g0
+            for c in range(block.shape[3]):
+                data[c, out + g] = block[r // TRACE_GROUP, e, r % TRACE_GROUP, c]
 
 
 def lane_columns(guide: RoadGuide, x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
