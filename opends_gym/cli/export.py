@@ -2,7 +2,8 @@
 
 DRIVES are MCAP recordings (`run`, `drive`, a study) and OpenDS carData.txt logs; each is driven
 through the env at its policy rate (`opends_gym.data.episodes`) and written with the env spec
-(`opends_gym.data.minari_io`) under MINARI_DATASETS_PATH.
+(`opends_gym.data.minari_io`) under MINARI_DATASETS_PATH. `--augment recovery` adds perturbed copies
+of each carData log labelled with their way back to it (`opends_gym.data.recovery`).
 """
 
 from __future__ import annotations
@@ -21,12 +22,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--trim-idle", action="store_true", help="person drives and carData logs start at their first gas (not waiting at the start)"
     )
+    p.add_argument(
+        "--augment",
+        choices=("recovery",),
+        default=None,
+        help="recovery: add perturbed copies of each carData log labelled with the action that returns the car to its path and speed",
+    )
     p.add_argument("--author", default=None, help="dataset author (Minari metadata)")
 
 
 def run(args: argparse.Namespace) -> int:
     from ..data.episodes import NeverSetsOff, load_episode
     from ..data.minari_io import dataset_id, write_dataset
+    from ..data.recovery import cardata_with_recovery
     from ..envs.config import EnvConfig
     from ..errors import UserError
     from .run import _parse_value
@@ -43,12 +51,16 @@ def run(args: argparse.Namespace) -> int:
     episodes = []
     for path in args.drives:
         try:
-            ep = load_episode(path, args.env, args.task, kwargs, args.trim_idle)
+            if args.augment == "recovery":
+                ep, *copies = cardata_with_recovery(path, args.env, args.task, kwargs, args.trim_idle)
+            else:
+                ep, copies = load_episode(path, args.env, args.task, kwargs, args.trim_idle), []
         except NeverSetsOff as e:  # a log of someone waiting: with --trim-idle nothing of it is driving
             print(f"{e}: skipped", file=sys.stderr)
             continue
-        print(f"{path}: {ep.steps} steps ({ep.kind}) on {ep.env_spec.id}", file=sys.stderr)
-        episodes.append(ep)
+        more = f", {len(copies)} recovery copies ({sum(c.steps for c in copies)} steps)" if args.augment else ""
+        print(f"{path}: {ep.steps} steps ({ep.kind}) on {ep.env_spec.id}{more}", file=sys.stderr)
+        episodes += [ep, *copies]
     if not episodes:
         raise UserError("no drive gives gas: nothing to export with --trim-idle")
     ds = write_dataset(ident, episodes, author=args.author)
