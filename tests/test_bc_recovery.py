@@ -105,7 +105,21 @@ def test_export_augment_recovery_adds_labelled_copies(tmp_path: Path, monkeypatc
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
     err = io.StringIO()
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
-        code = main(["export", str(SHORT_LOG), "--task", str(TASK), "--trim-idle", "--augment", "recovery", "--minari", "test/aug"])
+        code = main(
+            [
+                "export",
+                str(SHORT_LOG),
+                "--task",
+                str(TASK),
+                "--trim-idle",
+                "--augment",
+                "recovery",
+                "--augment-every",
+                "2",
+                "--minari",
+                "test/aug",
+            ]
+        )
     assert code == 0, err.getvalue()
     import minari
 

@@ -28,19 +28,28 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         help="recovery: add perturbed copies of each carData log labelled with the action that returns the car to its path and speed",
     )
+    p.add_argument(
+        "--augment-every",
+        type=float,
+        default=1.0,
+        metavar="SECONDS",
+        help="--augment recovery: a copy starts every SECONDS of each log (default 1; fewer logs, more copies)",
+    )
     p.add_argument("--author", default=None, help="dataset author (Minari metadata)")
 
 
 def run(args: argparse.Namespace) -> int:
     from ..data.episodes import NeverSetsOff, load_episode
     from ..data.minari_io import dataset_id, write_dataset
-    from ..data.recovery import cardata_with_recovery
+    from ..data.recovery import RecoveryConfig, cardata_with_recovery
     from ..envs.config import EnvConfig
     from ..errors import UserError
     from .run import _parse_value
     from .targets import _coerce
 
     ident = dataset_id(args.minari)
+    if not args.augment_every > 0.0:
+        raise UserError(f"--augment-every must be a positive number of seconds, not {args.augment_every:g}")
     # the options every env shares typed by EnvConfig (road_preview_m=10,25,50), the rest as they read
     # (the env, a recording's or a carData log's, is known only once a drive is loaded)
     shared = {f.name: str(f.type) for f in dataclasses.fields(EnvConfig)}
@@ -52,7 +61,8 @@ def run(args: argparse.Namespace) -> int:
     for path in args.drives:
         try:
             if args.augment == "recovery":
-                ep, *copies = cardata_with_recovery(path, args.env, args.task, kwargs, args.trim_idle)
+                config = RecoveryConfig(every_s=args.augment_every)
+                ep, *copies = cardata_with_recovery(path, args.env, args.task, kwargs, args.trim_idle, config)
             else:
                 ep, copies = load_episode(path, args.env, args.task, kwargs, args.trim_idle), []
         except NeverSetsOff as e:  # a log of someone waiting: with --trim-idle nothing of it is driving
