@@ -11,7 +11,8 @@ Bansal et al. 2018 (ChauffeurNet) perturb the logged trajectory and train on the
 it. Here the car model is known and the env deterministic, so the recovery is found by simulating
 it, not by a hand-tuned gain:
 
-* the drive is replayed as the export replays it (`episodes.drive`); every `every_s` seconds a copy
+* the drive is replayed as the export replays it (`episodes.drive`); every `every_s` seconds
+  (`--augment-every`) a copy
   starts from the logged state at that time (the carData row, interpolated; the env's world, its
   traffic included, as the replay had it then), shifted across the path by up to `lateral_m`,
   turned by up to `heading_rad` and with its speed scaled by a factor in [1 - `slower`, 1 + `faster`]
