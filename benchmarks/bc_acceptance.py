@@ -277,11 +277,29 @@ def countryside_logs(args: argparse.Namespace, cache: Path) -> tuple[str, list[P
     return "the bundled real OpenDS logs", sorted((DRIVES / "drives").glob("*/carData*.txt"))
 
 
+def _export_logs(logs: list[Path], export: dict[str, Any], augment: str, indices: list[int]) -> list[list[Any]]:
+    """The episodes of logs[i] for each index as `opends-gym export --trim-idle [--augment]` makes them
+    (none where a log never sets off: export skips it); a pool worker's share."""
+    from opends_gym.data.episodes import NeverSetsOff, load_episode
+    from opends_gym.data.recovery import RecoveryConfig, cardata_with_recovery
+
+    out: list[list[Any]] = []
+    for i in indices:
+        try:
+            if augment.startswith("recovery:"):  # recovery:EVERY_S
+                config = RecoveryConfig(every_s=float(augment.partition(":")[2]))
+                out.append(cardata_with_recovery(logs[i], None, str(CS_TASK), export, trim_idle=True, config=config))
+            else:
+                out.append([load_episode(logs[i], None, str(CS_TASK), export, trim_idle=True)])
+        except NeverSetsOff:
+            out.append([])
+    return out
+
+
 def countryside(args: argparse.Namespace, cache: Path) -> dict[str, Any]:
     import minari
 
     from opends_gym.data.bc import BCConfig, train_bc
-    from opends_gym.data.episodes import NeverSetsOff, load_episode
     from opends_gym.data.minari_io import write_dataset
 
     t0 = time.perf_counter()
@@ -289,16 +307,14 @@ def countryside(args: argparse.Namespace, cache: Path) -> dict[str, Any]:
     preview = tuple(float(v) for v in args.cs_preview.split(",") if v.strip())
     export = {**CS_EXPORT, "road_preview_m": preview} if preview else CS_EXPORT  # the dataset's env spec: the clone's env
     key = logs_key(logs) + ("-preview-" + "-".join(f"{d:g}" for d in preview) if preview else "")
+    key += f"-{args.cs_augment}-{round(args.cs_augment_every * 1000)}ms" if args.cs_augment else ""
     name = f"bench/countryside-{key}-v0"
     if name not in minari.list_local_datasets():
         # from each log's own first state at its first gas; through traffic: the real logs began minutes into their
         # sessions (2019_01_04-11_40_24: 107 s), so the env's traffic, started at the task's time 0, is not where OpenDS's was
-        episodes = []
-        for p in logs:
-            try:
-                episodes.append(load_episode(p, None, str(CS_TASK), export, trim_idle=True))
-            except NeverSetsOff:  # as `opends-gym export --trim-idle` skips it
-                continue
+        augment = f"{args.cs_augment}:{args.cs_augment_every}" if args.cs_augment else ""
+        exported = pooled(partial(_export_logs, logs, export), augment, list(range(len(logs))), args.workers)
+        episodes = [ep for eps in exported for ep in eps]
         write_dataset(name, episodes)
     t1 = time.perf_counter()
     clone = cache / f"cs-clone-{key}"
@@ -311,6 +327,7 @@ def countryside(args: argparse.Namespace, cache: Path) -> dict[str, Any]:
         "log_files": len(logs),
         "history": args.cs_history,
         "road_preview_m": list(preview),
+        "augment": f"{args.cs_augment} every {args.cs_augment_every:g} s" if args.cs_augment else "",
         "train_steps": summary["steps"],
         "reach_m": reach_m(logs, args.seconds),
         "collect_s": t1 - t0,
@@ -393,6 +410,15 @@ def main() -> None:
         metavar="D,...",
         help="Countryside: the road preview the logs are exported with (env road_preview_m, metres; '' for none)",
     )
+    ap.add_argument(
+        "--cs-augment",
+        choices=("recovery",),
+        default=None,
+        help="Countryside: export with --augment recovery (perturbed copies labelled with the way back, data.recovery)",
+    )
+    ap.add_argument(
+        "--cs-augment-every", type=float, default=1.0, metavar="S", help="--cs-augment recovery: a copy every S seconds of each log"
+    )
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "opends-gym-bc-acceptance")
@@ -423,7 +449,8 @@ def main() -> None:
         print(f"{check:<{width}}  {goal:<18}  {measured:<44}  {'yes' if ok else 'NO'}")
     if "countryside" in result:
         cs = result["countryside"]
-        print(f"Countryside: cloned from {cs['logs']}, road preview {cs['road_preview_m'] or 'none'} m")
+        aug = f", augmented: {cs['augment']} ({cs['train_steps']} training steps)" if cs["augment"] else ""
+        print(f"Countryside: cloned from {cs['logs']}, road preview {cs['road_preview_m'] or 'none'} m{aug}")
     print(f"wall {result['wall_s']:.0f} s (cache {args.cache})")
     if args.json:
         print(json.dumps(result, indent=1))

@@ -2,7 +2,8 @@
 
 DRIVES are MCAP recordings (`run`, `drive`, a study) and OpenDS carData.txt logs; each is driven
 through the env at its policy rate (`opends_gym.data.episodes`) and written with the env spec
-(`opends_gym.data.minari_io`) under MINARI_DATASETS_PATH.
+(`opends_gym.data.minari_io`) under MINARI_DATASETS_PATH. `--augment recovery` adds perturbed copies
+of each carData log labelled with their way back to it (`opends_gym.data.recovery`).
 """
 
 from __future__ import annotations
@@ -21,18 +22,34 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--trim-idle", action="store_true", help="person drives and carData logs start at their first gas (not waiting at the start)"
     )
+    p.add_argument(
+        "--augment",
+        choices=("recovery",),
+        default=None,
+        help="recovery: add perturbed copies of each carData log labelled with the action that returns the car to its path and speed",
+    )
+    p.add_argument(
+        "--augment-every",
+        type=float,
+        default=1.0,
+        metavar="SECONDS",
+        help="--augment recovery: a copy starts every SECONDS of each log (default 1; fewer logs, more copies)",
+    )
     p.add_argument("--author", default=None, help="dataset author (Minari metadata)")
 
 
 def run(args: argparse.Namespace) -> int:
     from ..data.episodes import NeverSetsOff, load_episode
     from ..data.minari_io import dataset_id, write_dataset
+    from ..data.recovery import RecoveryConfig, cardata_with_recovery
     from ..envs.config import EnvConfig
     from ..errors import UserError
     from .run import _parse_value
     from .targets import _coerce
 
     ident = dataset_id(args.minari)
+    if not args.augment_every > 0.0:
+        raise UserError(f"--augment-every must be a positive number of seconds, not {args.augment_every:g}")
     # the options every env shares typed by EnvConfig (road_preview_m=10,25,50), the rest as they read
     # (the env, a recording's or a carData log's, is known only once a drive is loaded)
     shared = {f.name: str(f.type) for f in dataclasses.fields(EnvConfig)}
@@ -43,12 +60,17 @@ def run(args: argparse.Namespace) -> int:
     episodes = []
     for path in args.drives:
         try:
-            ep = load_episode(path, args.env, args.task, kwargs, args.trim_idle)
+            if args.augment == "recovery":
+                config = RecoveryConfig(every_s=args.augment_every)
+                ep, *copies = cardata_with_recovery(path, args.env, args.task, kwargs, args.trim_idle, config)
+            else:
+                ep, copies = load_episode(path, args.env, args.task, kwargs, args.trim_idle), []
         except NeverSetsOff as e:  # a log of someone waiting: with --trim-idle nothing of it is driving
             print(f"{e}: skipped", file=sys.stderr)
             continue
-        print(f"{path}: {ep.steps} steps ({ep.kind}) on {ep.env_spec.id}", file=sys.stderr)
-        episodes.append(ep)
+        more = f", {len(copies)} recovery copies ({sum(c.steps for c in copies)} steps)" if args.augment else ""
+        print(f"{path}: {ep.steps} steps ({ep.kind}) on {ep.env_spec.id}{more}", file=sys.stderr)
+        episodes += [ep, *copies]
     if not episodes:
         raise UserError("no drive gives gas: nothing to export with --trim-idle")
     ds = write_dataset(ident, episodes, author=args.author)

@@ -287,16 +287,22 @@ def from_cardata(
 
     p = Path(path)
     rec = Recorded(p)
-    pedal = cardata_pedal(rec)
     i0 = cardata_start_row(rec, trim_idle)
     env = _input_env(env_id, task, str(p), env_kwargs or {})
     try:
-        rows = i0 + held_rows(rec.sim_t[i0:], _policy_hz(env))
-        actions = [np.asarray([np.clip(rec.steering[i], -1, 1), np.clip(pedal[i], -1, 1)], dtype=np.float32) for i in rows]
-        steps = list(zip(actions, engine_keys(rec.engine_on, rows), strict=True))
+        steps = cardata_steps(rec, i0, _policy_hz(env))
         return drive(env, str(p), "cardata", None, {"start_pose": cardata_start_pose(rec, i0)}, steps)
     finally:
         env.close()
+
+
+def cardata_steps(rec: Any, i0: int, policy_hz: float) -> list[tuple[np.ndarray, dict[str, Any]]]:
+    """A carData log's (action, hooks) per policy step from row i0 (`drive`'s input): the inputs
+    held at each step's start and the ignition key where the log's engine state changes."""
+    pedal = cardata_pedal(rec)
+    rows = i0 + held_rows(rec.sim_t[i0:], policy_hz)
+    actions = [np.asarray([np.clip(rec.steering[i], -1, 1), np.clip(pedal[i], -1, 1)], dtype=np.float32) for i in rows]
+    return list(zip(actions, engine_keys(rec.engine_on, rows), strict=True))
 
 
 def load_episode(

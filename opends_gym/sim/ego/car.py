@@ -16,7 +16,7 @@ from .fast_body import FastVehicle
 from .kernels import CRUISE_GAIN, CRUISE_INTEGRAL_BAND_MPS, CRUISE_INTEGRAL_MAX, CRUISE_KI, car_constants
 from .powertrain import Powertrain, gear_rpm
 from .spec import MAX_WHEEL_ANGLE_RAD, BodyState, VehicleBackend, VehicleSpec
-from .step import A_MIN_SPEED, cruise_params, drive_inputs, ego_step
+from .step import A_MIN_SPEED, cruise_params, drive_inputs, ego_step, ego_steps
 
 __all__ = ["CRUISE_GAIN", "CRUISE_INTEGRAL_BAND_MPS", "CRUISE_INTEGRAL_MAX", "CRUISE_KI", "CarInputs", "EgoCar", "make_backend"]
 _NO_LEAD = (float("nan"), float("nan"))
@@ -189,6 +189,38 @@ class EgoCar:
             self.cruise_active = False
         if c.cruise_speed_delta_mps:
             self.cruise_target_mps = max(0.0, self.cruise_target_mps + c.cruise_speed_delta_mps)
+
+    def ahead(self, dt_s: float, c: DriverControls, steps: int) -> tuple[float, float, float]:
+        """(x, z, forward speed) after `steps` physics steps holding the clipped inputs `c`; the car is
+        put back as it was (a look ahead through the car model: `data.recovery` searches inputs with it)."""
+        state = self.get_state()
+        try:
+            if self._car is None or self.crosswind[1] > 0.0 or c.engine_on is not None or c.gear is not None:
+                for _ in range(steps):  # the general path (another backend, crosswind, gear changes)
+                    self.step(dt_s, c)
+                s = self.body.state
+                return float(s.x), float(s.z), float(s.u)
+            s = self.body.state
+            st = self.powertrain.state
+            x, z, yaw, u, v, r, pitch = s.x, s.z, s.yaw, s.u, s.v, s.r, 0.0
+            on, integral = self.cruise_active, self.cruise_integral
+            lead_gap, lead_v = self.lead if self.lead is not None else _NO_LEAD
+            slope = self.body.ground_pitch  # type: ignore[attr-defined]
+            steer_rad = c.steering * MAX_WHEEL_ANGLE_RAD
+            left = steps
+            while left > 0:  # `step`'s fast path without its bookkeeping, compiled where the road's slope is constant
+                n = left if slope is None else 1
+                if slope is not None:
+                    pitch = slope(x, z, yaw)
+                x, z, yaw, u, v, r, done, on, integral = ego_steps(
+                    self._car, self._aid, st.values, st.ring, dt_s, steer_rad, c.accelerator, c.brake, c.clutch, c.hand_brake, on,
+                    self.cruise_target_mps, integral, lead_gap, lead_v, x, z, yaw, u, v, r, pitch, n,
+                )  # fmt: skip
+                left -= done
+                st.ensure_ring_room()
+            return float(x), float(z), float(u)
+        finally:
+            self.set_state(state)
 
     # ------------------------------------------------------------------ state
     def get_state(self) -> dict[str, Any]:

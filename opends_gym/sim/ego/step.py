@@ -122,3 +122,23 @@ def ego_step(car: np.ndarray, aid: np.ndarray, s: np.ndarray, ring: np.ndarray, 
         u -= G * math.sin(pitch) * dt
     x, z, yaw, u, v, r = body_step(car, x, z, yaw, u, v, r, dt, steer_rad, drive, brake_n, 0.0)
     return x, z, yaw, u, v, r, ring.shape[0] - int(s[S_RING_COUNT]), gas, brake, cruise_on, cruise_integral
+
+
+@kernel
+def ego_steps(car: np.ndarray, aid: np.ndarray, s: np.ndarray, ring: np.ndarray, dt: float, steer_rad: float, gas: float, brake: float,
+              clutch: float, hand_brake: bool, cruise_on: bool, cruise_target: float, cruise_integral: float, lead_gap: float,
+              lead_v: float, x: float, z: float, yaw: float, u: float, v: float, r: float, pitch: float,
+              steps: int) -> tuple[float, float, float, float, float, float, int, bool, float]:  # fmt: skip
+    """`ego_step` up to `steps` times with the same inputs on a road of constant slope (a look
+    ahead, `EgoCar.ahead`): the body's (x, z, yaw, u, v, r), the steps done (fewer where `ring`
+    has no free row left: grow it and go on) and the cruise control's (on, integral)."""
+    done = 0
+    while done < steps:
+        x, z, yaw, u, v, r, free, _, _, cruise_on, cruise_integral = ego_step(
+            car, aid, s, ring, dt, steer_rad, gas, brake, clutch, hand_brake, cruise_on, cruise_target, cruise_integral, lead_gap, lead_v,
+            x, z, yaw, u, v, r, pitch,
+        )  # fmt: skip
+        done += 1
+        if free < 2:
+            break
+    return x, z, yaw, u, v, r, done, cruise_on, cruise_integral

@@ -1,0 +1,136 @@
+"""Recovery augmentation (`export --augment recovery`, `data.recovery`): perturbed states of a logged
+drive are labelled with the action that takes the car back to the log's path and speed.
+
+The "log" here is the env's own car driven from the Countryside task's start with full gas for 4 s,
+then straight on with a constant pedal: from a state on it, holding the log's action reproduces the
+log, so a label there can be compared with the log's action.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from opends_gym.cli.main import main
+from opends_gym.data.episodes import make_env
+from opends_gym.data.recovery import RecoveryConfig, RecoveryLabeler, Reference, perturbed_pose, recovery_copy
+from opends_gym.sim.controls import DriverControls
+
+from .conftest import DRIVES
+
+TASK = DRIVES / "Countryside"
+LOGGED = np.asarray([0.0, 0.35], dtype=np.float32)  # the log's steering and pedal after its first 4 s
+SHORT_LOG = DRIVES / "drives" / "2019_01_04-11_26_07" / "carData(2).txt"  # a real log: 4 s, 28 m from its first gas
+
+
+@pytest.fixture(scope="module")
+def logged() -> Any:
+    """The env (its road exits not ending an episode) and a 10 s reference driven in it with LOGGED."""
+    env = make_env("OpenDS/DrivingTask-v0", {"task": str(TASK), "action": "continuous", "on_road_exit": "continue"})
+    env.reset(seed=0)
+    base: Any = env.unwrapped
+    base.turn_engine_key(True)  # the task starts with the engine off
+    rows = []
+    pedal = np.where(np.arange(100) < 40, 1.0, LOGGED[1])
+    for p in pedal:
+        s = base.world.ego.state
+        rows.append((base.world.t_s, s.x, s.y, s.z, s.yaw, s.u))
+        env.step(np.asarray([LOGGED[0], p], dtype=np.float32))
+    t, x, y, z, yaw, u = np.asarray(rows).T
+    ref = Reference(t, x, y, z, yaw, u, np.full(len(t), LOGGED[0]), pedal, np.ones(len(t)))
+    yield env, ref
+    env.close()
+
+
+def _label(env: Any, ref: Reference, lateral_m: float = 0.0, speed_factor: float = 1.0, at_s: float = 6.0) -> np.ndarray:
+    """The recovery label of the logged state at `at_s`, shifted left by `lateral_m` and its speed scaled."""
+    env.reset(seed=0, options={"start_pose": perturbed_pose(ref.at_time(at_s), lateral_m, 0.0, speed_factor)})
+    env.unwrapped.world.ego.inputs.steering = float(LOGGED[0])
+    return RecoveryLabeler(env, ref).label(int(np.searchsorted(ref.t[ref.rows], at_s)))[0]
+
+
+def test_a_state_on_the_log_is_labelled_with_the_logs_action(logged: Any) -> None:
+    env, ref = logged
+    assert ref.at_time(6.0)["u"] > 10.0  # it drives
+    on = _label(env, ref)
+    assert on[1] == pytest.approx(LOGGED[1], abs=0.1)
+    assert on[0] == pytest.approx(LOGGED[0], abs=0.02)
+
+
+def test_slower_than_the_log_gets_more_pedal_and_faster_less(logged: Any) -> None:
+    env, ref = logged
+    on = _label(env, ref)[1]
+    assert _label(env, ref, speed_factor=0.7)[1] > on + 0.2 and _label(env, ref, speed_factor=0.7)[1] > LOGGED[1]
+    assert _label(env, ref, speed_factor=1.3)[1] < min(on, LOGGED[1]) - 0.2  # off the gas or braking
+
+
+def test_left_of_the_path_steers_right_and_right_of_it_left(logged: Any) -> None:
+    env, ref = logged
+    on = _label(env, ref)[0]
+    assert _label(env, ref, lateral_m=1.5)[0] < on - 0.005  # + is left (OpenDS's steering sign)
+    assert _label(env, ref, lateral_m=-1.5)[0] > on + 0.005
+
+
+def test_a_recovery_copy_returns_to_the_path_and_the_speed(logged: Any) -> None:
+    env, ref = logged
+    start = np.asarray([1.5, 0.05, 0.6])  # 1.5 m left, turned further left, 40 % slower
+    ep = recovery_copy(env, ref, 4.0, None, start, "log#recovery0", RecoveryConfig(horizon_s=4.0))
+    assert ep is not None and ep.kind == "recovery" and ep.steps == 40
+    base: Any = env.unwrapped
+    s = base.world.ego.state
+    _, across, _ = ref.locate(s.x, s.z, 0)
+    assert abs(across) < 0.5  # from 1.5 m
+    assert ep.infos["speed_kmh"][-1] / 3.6 == pytest.approx(ref.at_time(8.0)["u"], rel=0.15)  # from 60 % of it
+
+
+def test_the_car_model_look_ahead_is_the_cars_own_steps(logged: Any) -> None:
+    env, _ = logged
+    env.reset(seed=0)
+    ego = env.unwrapped.world.ego
+    dt = env.unwrapped.world.dt_s
+    c = DriverControls.pedals(0.1, 0.4, 0.0).clipped()
+    ahead = ego.ahead(dt, c, 90)
+    assert (ego.state.x, ego.state.u) == (env.unwrapped.world.ego.state.x, 0.0)  # put back
+    for _ in range(90):
+        ego.step(dt, c)
+    assert ahead == pytest.approx((ego.state.x, ego.state.z, ego.state.u), abs=1e-9)
+
+
+def test_export_augment_recovery_adds_labelled_copies(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        code = main(
+            [
+                "export",
+                str(SHORT_LOG),
+                "--task",
+                str(TASK),
+                "--trim-idle",
+                "--augment",
+                "recovery",
+                "--augment-every",
+                "2",
+                "--minari",
+                "test/aug",
+            ]
+        )
+    assert code == 0, err.getvalue()
+    import minari
+
+    ds = minari.load_dataset("test/aug-v0")
+    kinds = [m["kind"] for m in ds.storage.get_episode_metadata(ds.episode_indices)]
+    assert kinds[0] == "cardata" and kinds.count("recovery") == len(kinds) - 1 >= 1
+    assert "recovery copies" in err.getvalue()
+    fake = tmp_path / "drive.mcap"
+    fake.write_bytes(b"\x89MCAP0\r\n" + b"\0" * 16)
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        code = main(["export", str(fake), "--augment", "recovery", "--minari", "test/aug2"])
+    assert code == 2
+    assert err.getvalue().strip().endswith("recovery copies are made of OpenDS carData.txt logs, not of MCAP recordings")
