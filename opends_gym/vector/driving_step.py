@@ -19,7 +19,7 @@ from numba import prange
 from ..jit import borrowing_kernel, inline, kernel, parallel_kernel
 from ..sim.geometry2d import boxes_overlap
 from ..sim.traffic.motion import NOTHING_LIVE, _sees, step_rows
-from ..sim.traffic.state import B_ENABLED, F_SPEED, F_YAW
+from ..sim.traffic.state import B_BRAKING, B_ENABLED, F_SPEED, F_YAW, I_BRAKE_PATH, I_OV_BRAKE, I_OV_TURN, I_TURN_PATH
 from .kernels import chunk_count
 
 
@@ -169,14 +169,18 @@ def _history_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, 
                   ext_cmd: np.ndarray, a: int, c: int, k: int, hf: np.ndarray, hi_: np.ndarray, hb: np.ndarray, hpos: np.ndarray,
                   hend: np.ndarray, hlight: np.ndarray, hext: np.ndarray, whole: bool) -> None:  # fmt: skip
     """Rows a..a+c-1 of the state := history entry k: all of it (`whole`), or what the
-    kinematics observation reads besides positions (the int and bool rows)."""
+    nearby-vehicle slots read besides the rows `_shared_range` keeps (`motion.outputs`'s)."""
     for j in range(c):
         r = a + j
-        for q in range(hi_.shape[1]):
-            i[q, r] = hi_[k, q, j]
-        for q in range(hb.shape[1]):
-            b[q, r] = hb[k, q, j]
-        if whole:
+        if not whole:
+            for q in (I_TURN_PATH, I_BRAKE_PATH, I_OV_BRAKE, I_OV_TURN):
+                i[q, r] = hi_[k, q, j]
+            b[B_BRAKING, r] = hb[k, B_BRAKING, j]
+        else:
+            for q in range(hi_.shape[1]):
+                i[q, r] = hi_[k, q, j]
+            for q in range(hb.shape[1]):
+                b[q, r] = hb[k, q, j]
             for q in range(hf.shape[1]):
                 f[q, r] = hf[k, q, j]
             for q in range(3):
