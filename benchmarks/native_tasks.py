@@ -104,11 +104,17 @@ def traffic_kernel_ns(n: int, seconds: float) -> tuple[float, float, float, floa
     pf, pp, pi = tr.paths.arrays()
     t = b.t.copy()
     state = (st.f, st.i, st.b, st.pos, st.end_xz, tr.work, tr.flags, tr.kw, tr.shared)
-    saved = [x.copy() for x in state]
 
     def worlds() -> None:
         _worlds_range(0, n, st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, t, tr.ego, b.dt,
                       tr.work, tr.flags, tr.no_lights, tr.brake, tr.turn, tr.net, tr.quiet, tr.c, live, tr.codes, tr.car_rows)  # fmt: skip
+
+    before_warm = [x.copy() for x in state]
+    worlds()  # (the work rows a world that steps itself keeps, its neighbour order above all, as after its first own step)
+    for x, v in zip(state, before_warm):
+        if x is not tr.work:
+            np.copyto(x, v)
+    saved = [x.copy() for x in state]
 
     def shared() -> None:
         _shared_range(0, n, st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, t_shared, tr.ego,
@@ -142,6 +148,67 @@ def traffic_kernel_ns(n: int, seconds: float) -> tuple[float, float, float, floa
         out.append(spent / (k * n * tr.c) * 1e9)
     vec.close()
     return out[0], out[1], out[2], out[3]
+
+
+def motorway_parts(n: int, steps: int) -> None:
+    """CPU time per part of the native MotorwayTask batch's policy step (random actions, no
+    metrics, after 20 warm-up steps), each part timed by a wrapper around its call (so the
+    parts nest: a step's total, its physics steps, their kernels)."""
+    from opends_gym.vector import driving, traffic
+
+    spent: dict[str, list[float]] = {}
+
+    def timed(owner: object, name: str, label: str) -> None:
+        fn = getattr(owner, name)
+
+        def wrapper(*a: object, **k: object) -> object:
+            c0 = time.process_time()
+            try:
+                return fn(*a, **k)
+            finally:
+                cell = spent.setdefault(label, [0.0, 0.0])
+                cell[0] += time.process_time() - c0
+                cell[1] += 1
+
+        setattr(owner, name, wrapper)
+
+    parts = [(driving.BatchCore, "step_rows", "policy step (all below)"),
+             (driving.DrivingTaskBatch, "_physics_step", "physics steps (ego, traffic, contacts, triggers)"),
+             (driving, "step_shared", "traffic: worlds following the history (`step_shared`)"),
+             (driving.TrafficHistory, "extend_to", "traffic: the history's own world (`extend_to`)"),
+             (driving.ego, "step", "ego cars (`ego.step`)"), (driving, "contacts", "contacts with traffic and obstacles"),
+             (driving, "_touch_all", "trigger volumes"), (driving.DrivingTaskBatch, "_record_row", "trace rows (lead, route lanes)"),
+             (driving.DrivingTaskBatch, "_lead_measures", "lead vehicle, headway, TTC"), (driving, "record_route", "route lanes"),
+             (driving.DrivingTaskBatch, "observation", "observation (all below)"), (traffic, "nearest_slots", "nearby-vehicle slots"),
+             (driving, "history_rows", "rows synced from the history for the slots")]  # fmt: skip
+    saved = [(owner, name, getattr(owner, name)) for owner, name, _ in parts]
+    for owner, name, label in parts:
+        timed(owner, name, label)
+    try:
+        vec = gym.make_vec("OpenDS/DrivingTask-v0", num_envs=n, vectorization_mode="vector_entry_point", task=MOTORWAY,
+                           record_metrics=False)  # fmt: skip
+        vec.reset(seed=0)
+        vec.action_space.seed(0)
+        actions = [vec.action_space.sample() for _ in range(16)]
+        for i in range(20):
+            vec.step(actions[i % 16])
+        wait_compiled()
+        spent.clear()
+        c0 = time.process_time()
+        for i in range(steps):
+            vec.step(actions[i % 16])
+        total = time.process_time() - c0
+        vec.close()
+    finally:
+        for owner, name, fn in saved:
+            setattr(owner, name, fn)
+    per_car = 41 * 6  # cars x physics steps per env-step
+    print(f"\n| part ({n} envs, {steps} policy steps) | CPU ns per env-step | per car and physics step |")
+    print("|---|---:|---:|")
+    print(f"| everything (`vec.step`) | {total / (steps * n) * 1e9:,.0f} | {total / (steps * n * per_car) * 1e9:.1f} |")
+    for _, _, label in parts:
+        c = spent.get(label, [0.0, 0.0])[0]
+        print(f"| {label} | {c / (steps * n) * 1e9:,.0f} | {c / (steps * n * per_car) * 1e9:.1f} |")
 
 
 def motorway_table(n: int, seconds: float, rounds: int) -> None:
@@ -199,6 +266,7 @@ def main() -> None:
     ap.add_argument("--profile", action="store_true")
     ap.add_argument("--motorway", type=int, default=0, help="also MotorwayTask as a native batch of this many envs")
     ap.add_argument("--motorway-only", action="store_true")
+    ap.add_argument("--motorway-parts", action="store_true", help="also a per-part CPU profile of the MotorwayTask batch")
     args = ap.parse_args()
     logging.disable(logging.WARNING)
     warnings.simplefilter("ignore")  # (the corpus task's missing scene mesh, once per env)
@@ -210,6 +278,8 @@ def main() -> None:
         for w in (64, 256, args.motorway):
             total, adv, drv, follow = traffic_kernel_ns(w, 1.0)
             print(f"| {w} | {total:.0f} | {adv:.0f} | {drv:.0f} | {follow:.1f} |", flush=True)
+        if args.motorway_parts:
+            motorway_parts(args.motorway, 40)
     if args.motorway_only:
         return
     cases = {c.label: c for c in tp.opends_cases()}
