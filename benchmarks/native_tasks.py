@@ -13,7 +13,9 @@ native `OpenDS/DrivingTask-v0` batch of N envs (`opends_gym.vector.driving`), ra
 with resets, without and with metrics (metrics with `max_episode_s=120`, so the traces of
 1,024 envs fit in memory: 13 columns x 60 Hz x 120 s x 8 bytes = 0.75 MB per env), next to
 its single env (`gymnasium.make`) in the same run, then the CPU time per car of its traffic
-kernel alone for 64, 256 and N worlds (and of its two halves, `advance_carrots` and `drive`); `--motorway-only` skips the other tasks.
+kernel alone for 64, 256 and N worlds (a world's own step and its two halves, `advance_carrots`
+and `drive`; and the step of the worlds that follow the shared traffic history,
+`vector.traffic_history`); `--motorway-only` skips the other tasks.
 
     python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile] [--motorway 1024 [--motorway-only]]
 """
@@ -74,13 +76,15 @@ def motorway(n: int, seconds: float, metrics: bool) -> tuple[float, float]:
     return rate * n, 1e9 / (rate * n / share)
 
 
-def traffic_kernel_ns(n: int, seconds: float) -> tuple[float, float, float]:
+def traffic_kernel_ns(n: int, seconds: float) -> tuple[float, float, float, float]:
     """CPU ns per car and physics step of the batch's traffic kernel alone for n MotorwayTask
     worlds after 50 policy steps of a gentle drive, the same physics step again and again (so
     the cars never reach their routes' ends), serially: (each world's `step_objects`, as the
-    batch steps them; its two kernels over all worlds at once: `advance_carrots`, `drive`)."""
+    batch steps a world whose ego car a traffic car has seen; its two kernels over all worlds
+    at once: `advance_carrots`, `drive`; the step of worlds that follow the shared traffic
+    history, `driving_step._shared_range`: a safety-box test and a copy per car)."""
     from opends_gym.sim.traffic.motion import advance_carrots, drive
-    from opends_gym.vector.driving_step import _worlds_range
+    from opends_gym.vector.driving_step import _shared_range, _worlds_range
 
     vec = gym.make_vec("OpenDS/DrivingTask-v0", num_envs=n, vectorization_mode="vector_entry_point", task=MOTORWAY, record_metrics=False)
     vec.reset(seed=0)
@@ -90,16 +94,32 @@ def traffic_kernel_ns(n: int, seconds: float) -> tuple[float, float, float]:
         vec.step(a)
     b = vec.unwrapped.shards[0].core  # type: ignore[attr-defined]
     tr, st = b.traffic, b.traffic.st
+    tr.sync(whole=True)  # (the worlds' own rows: those that follow the history keep positions only)
+    h = tr.history
+    h.extend_to(int(tr.kw.max()) + 1)
+    kw = tr.kw.copy()
+    t_shared = (kw + 1) * b.dt
     live = np.ones(n, dtype=bool)
     rows = np.ones(n * tr.c, dtype=bool)
     pf, pp, pi = tr.paths.arrays()
     t = b.t.copy()
-    state = (st.f, st.i, st.b, st.pos, st.end_xz, tr.work, tr.flags)
-    saved = [x.copy() for x in state]
+    state = (st.f, st.i, st.b, st.pos, st.end_xz, tr.work, tr.flags, tr.kw, tr.shared)
 
     def worlds() -> None:
         _worlds_range(0, n, st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, t, tr.ego, b.dt,
                       tr.work, tr.flags, tr.no_lights, tr.brake, tr.turn, tr.net, tr.quiet, tr.c, live, tr.codes, tr.car_rows)  # fmt: skip
+
+    before_warm = [x.copy() for x in state]
+    worlds()  # (the work rows a world that steps itself keeps, its neighbour order above all, as after its first own step)
+    for x, v in zip(state, before_warm):
+        if x is not tr.work:
+            np.copyto(x, v)
+    saved = [x.copy() for x in state]
+
+    def shared() -> None:
+        _shared_range(0, n, st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, t_shared, tr.ego,
+                      b.dt, tr.work, tr.flags, tr.no_lights, tr.brake, tr.turn, tr.net, tr.quiet, tr.c, live, tr.codes, tr.car_rows,
+                      tr.shared, tr.kw, h.length, *h.arrays())  # fmt: skip
 
     def advance() -> None:
         advance_carrots(st.f, st.i, st.b, st.pos, tr.sp.packed, pf, pp, pi, tr.c, rows, t, b.dt, tr.work, tr.flags)
@@ -108,13 +128,13 @@ def traffic_kernel_ns(n: int, seconds: float) -> tuple[float, float, float]:
         drive(st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, tr.c, rows, tr.ego, b.dt, tr.work,
               tr.flags, False, tr.no_lights)  # fmt: skip
 
-    for warm in (worlds, advance, driving):  # (the two kernels' first calls from Python queue their compiles: time the compiled ones)
+    for warm in (worlds, advance, driving, shared):  # (kernels' first calls from Python queue their compiles: time the compiled ones)
         warm()
         for x, v in zip(state, saved):
             np.copyto(x, v)
     wait_compiled()
     out = []
-    for before, timed in ((None, worlds), (None, advance), (advance, driving)):
+    for before, timed in ((None, worlds), (None, advance), (advance, driving), (None, shared)):
         k, spent = 0, 0.0
         while spent < seconds:
             for x, v in zip(state, saved):
@@ -127,18 +147,80 @@ def traffic_kernel_ns(n: int, seconds: float) -> tuple[float, float, float]:
             k += 1
         out.append(spent / (k * n * tr.c) * 1e9)
     vec.close()
-    return out[0], out[1], out[2]
+    return out[0], out[1], out[2], out[3]
+
+
+def motorway_parts(n: int, steps: int) -> None:
+    """CPU time per part of the native MotorwayTask batch's policy step (random actions, no
+    metrics, after 20 warm-up steps), each part timed by a wrapper around its call (so the
+    parts nest: a step's total, its physics steps, their kernels)."""
+    from opends_gym.vector import driving, traffic
+
+    spent: dict[str, list[float]] = {}
+
+    def timed(owner: object, name: str, label: str) -> None:
+        fn = getattr(owner, name)
+
+        def wrapper(*a: object, **k: object) -> object:
+            c0 = time.process_time()
+            try:
+                return fn(*a, **k)
+            finally:
+                cell = spent.setdefault(label, [0.0, 0.0])
+                cell[0] += time.process_time() - c0
+                cell[1] += 1
+
+        setattr(owner, name, wrapper)
+
+    parts = [(driving.BatchCore, "step_rows", "policy step (all below)"),
+             (driving.DrivingTaskBatch, "_physics_step", "physics steps (ego, traffic, contacts, triggers)"),
+             (driving, "step_shared", "traffic: worlds following the history (`step_shared`)"),
+             (driving.TrafficHistory, "extend_to", "traffic: the history's own world (`extend_to`)"),
+             (driving.ego, "step", "ego cars (`ego.step`)"), (driving, "contacts", "contacts with traffic and obstacles"),
+             (driving, "_touch_all", "trigger volumes"), (driving.DrivingTaskBatch, "_record_row", "trace rows (lead, route lanes)"),
+             (driving.DrivingTaskBatch, "_lead_measures", "lead vehicle, headway, TTC"), (driving, "record_route", "route lanes"),
+             (driving.DrivingTaskBatch, "observation", "observation (all below)"), (traffic, "nearest_slots", "nearby-vehicle slots"),
+             (driving, "history_rows", "rows synced from the history for the slots")]  # fmt: skip
+    saved = [(owner, name, getattr(owner, name)) for owner, name, _ in parts]
+    for owner, name, label in parts:
+        timed(owner, name, label)
+    try:
+        vec = gym.make_vec("OpenDS/DrivingTask-v0", num_envs=n, vectorization_mode="vector_entry_point", task=MOTORWAY,
+                           record_metrics=False)  # fmt: skip
+        vec.reset(seed=0)
+        vec.action_space.seed(0)
+        actions = [vec.action_space.sample() for _ in range(16)]
+        for i in range(20):
+            vec.step(actions[i % 16])
+        wait_compiled()
+        spent.clear()
+        c0 = time.process_time()
+        for i in range(steps):
+            vec.step(actions[i % 16])
+        total = time.process_time() - c0
+        vec.close()
+    finally:
+        for owner, name, fn in saved:
+            setattr(owner, name, fn)
+    per_car = 41 * 6  # cars x physics steps per env-step
+    print(f"\n| part ({n} envs, {steps} policy steps) | CPU ns per env-step | per car and physics step |")
+    print("|---|---:|---:|")
+    print(f"| everything (`vec.step`) | {total / (steps * n) * 1e9:,.0f} | {total / (steps * n * per_car) * 1e9:.1f} |")
+    for _, _, label in parts:
+        c = spent.get(label, [0.0, 0.0])[0]
+        print(f"| {label} | {c / (steps * n) * 1e9:,.0f} | {c / (steps * n * per_car) * 1e9:.1f} |")
 
 
 def motorway_table(n: int, seconds: float, rounds: int) -> None:
-    print("\n| MotorwayTask (41 traffic cars) | env-steps/s: rounds | median | CPU ns per env-step: median |")
-    print("|---|---|---:|---:|")
+    print("\n| MotorwayTask (41 traffic cars) | env-steps/s: rounds | median | CPU ns per env-step: median | cores busy: median |")
+    print("|---|---|---:|---:|---:|")
     for label, envs, metrics in (("single env", 0, True), (f"native, {n} envs, no metrics", n, False),
                                  (f"native, {n} envs, metrics", n, True)):  # fmt: skip
         runs = [motorway(envs, seconds, metrics) for _ in range(rounds)]
         r, c = [x[0] for x in runs], [x[1] for x in runs]
+        busy = [x[0] * x[1] / 1e9 for x in runs]  # (CPU seconds per wall second: this process's threads)
         print(f"| {label} | {', '.join(f'{x / 1e3:,.1f}k' for x in r)} | {statistics.median(r) / 1e3:,.1f}k | "
-              f"{statistics.median(c):,.0f} |", flush=True)  # fmt: skip
+              f"{statistics.median(c):,.0f} | {statistics.median(busy):.2f} |", flush=True)  # fmt: skip
 
 
 def profile(env_id: str, n: int, steps: int) -> tuple[float, float, float]:
@@ -184,16 +266,20 @@ def main() -> None:
     ap.add_argument("--profile", action="store_true")
     ap.add_argument("--motorway", type=int, default=0, help="also MotorwayTask as a native batch of this many envs")
     ap.add_argument("--motorway-only", action="store_true")
+    ap.add_argument("--motorway-parts", action="store_true", help="also a per-part CPU profile of the MotorwayTask batch")
     args = ap.parse_args()
     logging.disable(logging.WARNING)
     warnings.simplefilter("ignore")  # (the corpus task's missing scene mesh, once per env)
     if args.motorway:
         motorway_table(args.motorway, args.seconds, max(1, args.rounds))
-        print("\n| traffic kernel alone, one thread: worlds | CPU ns per car and physics step | of it `advance_carrots` | `drive` |")
-        print("|---:|---:|---:|---:|")
+        print("\n| traffic kernel alone, one thread: worlds | CPU ns per car and physics step: own step | of it `advance_carrots` | "
+              "`drive` | following the shared history |")  # fmt: skip
+        print("|---:|---:|---:|---:|---:|")
         for w in (64, 256, args.motorway):
-            total, adv, drv = traffic_kernel_ns(w, 1.0)
-            print(f"| {w} | {total:.0f} | {adv:.0f} | {drv:.0f} |", flush=True)
+            total, adv, drv, follow = traffic_kernel_ns(w, 1.0)
+            print(f"| {w} | {total:.0f} | {adv:.0f} | {drv:.0f} | {follow:.1f} |", flush=True)
+        if args.motorway_parts:
+            motorway_parts(args.motorway, 40)
     if args.motorway_only:
         return
     cases = {c.label: c for c in tp.opends_cases()}

@@ -26,21 +26,28 @@ def lane_keeper(obs: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray
     return np.clip(a, -1.0, 1.0)
 
 
-def run_lockstep(n: int, steps: int, seed: int, **kwargs: Any) -> dict[str, float]:
+def run_lockstep(n: int, steps: int, seed: int, history_steps: int = 0, **kwargs: Any) -> dict[str, float]:
     """Step the native batch and SyncVectorEnv of single envs in lockstep; compare observations
-    (ego pose features and the nearest traffic cars), rewards, flags, info and episode metrics."""
+    (ego pose features and the nearest traffic cars), rewards, flags, info and episode metrics.
+    Also counts the env-steps whose traffic followed the shared history (`following`) and the
+    others (`own`); `history_steps` > 0 keeps that many history entries."""
     native = gym.make_vec(TASK, num_envs=n, vectorization_mode="vector_entry_point", task=MOTORWAY, **kwargs)
     sync = gym.make_vec(TASK, num_envs=n, vectorization_mode="sync", task=MOTORWAY, **kwargs)
     assert isinstance(native.unwrapped, NativeVectorEnv)
+    traffic = native.unwrapped.shards[0].core.traffic  # type: ignore[attr-defined]
+    if history_steps:
+        traffic.history.max_steps = history_steps
     rng = np.random.default_rng(seed)
     obs, info = native.reset(seed=seed)
     obs_s, info_s = sync.reset(seed=seed)
     _same("reset obs", obs, obs_s)
     _compare_infos(-1, info, info_s, n)
-    seen = {"episodes": 0.0, "collisions": 0.0, "stimuli": 0.0, "cars_seen": 0.0, "km": 0.0}
+    seen = {"episodes": 0.0, "collisions": 0.0, "stimuli": 0.0, "cars_seen": 0.0, "km": 0.0, "following": 0.0, "own": 0.0}
     for t in range(steps):
         a = lane_keeper(obs, rng, n)
         obs, r, term, trunc, info = native.step(a)
+        seen["following"] += float(np.sum(traffic.shared))
+        seen["own"] += float(np.sum(~traffic.shared))
         obs_s, r_s, term_s, trunc_s, info_s = sync.step(a)
         _same(f"step {t} obs", obs, obs_s)
         _same(f"step {t} reward", r, r_s)
@@ -64,6 +71,14 @@ def test_motorway_task_identical_to_single_env() -> None:
     lane keeper meets a motorway car at the merge, which ends the episode): bit for bit."""
     seen = run_lockstep(n=3, steps=320, seed=7)
     assert seen["episodes"] >= 3 and seen["collisions"] >= 3 and seen["stimuli"] >= 3 and seen["cars_seen"] > 0
+    assert seen["following"] > 0 and seen["own"] > 0  # (worlds left the shared traffic when a car saw their ego car)
+
+
+def test_worlds_past_the_traffic_history_step_their_own_cars() -> None:
+    """A world whose episode outlasts the kept history (here 100 physics steps) takes the state
+    of its last entry and steps its cars itself: still bit for bit."""
+    seen = run_lockstep(n=2, steps=60, seed=5, history_steps=100, terminate_on_collision=False)
+    assert seen["own"] > 0 and seen["following"] > 0
 
 
 def test_motorway_task_long_drives_identical_to_single_env() -> None:

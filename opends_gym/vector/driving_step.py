@@ -16,9 +16,10 @@ import math
 import numpy as np
 from numba import prange
 
-from ..jit import borrowing_kernel, kernel, parallel_kernel
+from ..jit import borrowing_kernel, inline, kernel, parallel_kernel
 from ..sim.geometry2d import boxes_overlap
-from ..sim.traffic.motion import NOTHING_LIVE, step_rows
+from ..sim.traffic.motion import NOTHING_LIVE, _sees, step_rows
+from ..sim.traffic.state import B_BRAKING, B_ENABLED, F_SPEED, F_YAW, I_BRAKE_PATH, I_OV_BRAKE, I_OV_TURN, I_TURN_PATH
 from .kernels import chunk_count
 
 
@@ -96,3 +97,121 @@ def contacts(live: np.ndarray, cx: np.ndarray, cz: np.ndarray, yaw: np.ndarray, 
                 if not obs_hitting[e, j]:
                     new[e] += 1
             obs_hitting[e, j] = hit
+
+
+# rows of `TrafficHistory.obs` (one column per car): what an undisturbed world's step k tests
+# against its ego car, as `motion._obstacles` does: the car checks (a live car, not under
+# external control), its position then, heading, direction to its next waypoint, safety box
+O_CHECK, O_X, O_Z, O_FX, O_FZ, O_UX, O_UZ, O_FSAFE, O_LAT = range(9)
+N_OBS = 9
+TIME_MISMATCH = -9  # codes[w]: an undisturbed world's time is not its history step's (a bug: raised)
+
+
+@borrowing_kernel
+def _shared_range(lo: int, hi: int, f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray,
+                  light_xz: np.ndarray, ext_cmd: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray,
+                  t: np.ndarray, ego: np.ndarray, dt: float, work: np.ndarray, flags: np.ndarray, stop_mask: np.ndarray,
+                  brake_light: np.ndarray, turn_signal: np.ndarray, net: np.ndarray, quiet: np.ndarray, c: int, live: np.ndarray,
+                  codes: np.ndarray, rows: np.ndarray, shared: np.ndarray, kw: np.ndarray, h_len: int, hf: np.ndarray, hi_: np.ndarray,
+                  hb: np.ndarray, hpos: np.ndarray, hend: np.ndarray, hlight: np.ndarray, hext: np.ndarray, hobs: np.ndarray,
+                  ht: np.ndarray) -> int:  # fmt: skip
+    """`_worlds_range`, with undisturbed worlds (`shared`, at step kw[w] of the history) taken
+    from the history: a world whose ego car no car's safety box holds at this step moves its
+    cars exactly as the history's world did (the step's only input from the ego car is that
+    test, `motion._obstacles`; time and state are the history's), so it takes the next
+    entry's positions, headings, speeds and enabled flags; a world whose ego car is seen
+    (or that reached the history's end) gets the full state of its step from the history and
+    steps itself from now on. Returns how many worlds stopped for Python."""
+    left = 0
+    for w in range(lo, hi):
+        a, z = w * c, (w + 1) * c
+        if not live[w]:
+            codes[w] = NOTHING_LIVE
+            for k in range(a, z):
+                flags[k] = 0
+            continue
+        if shared[w]:
+            k = kw[w]
+            if t[w] != ht[k]:
+                codes[w] = TIME_MISMATCH
+                left += 1
+                continue
+            seen = k + 1 >= h_len
+            ex, ez = ego[0, w], ego[1, w]
+            for j in range(c):
+                if seen:
+                    break
+                if hobs[k, O_CHECK, j] != 0.0:
+                    seen = _sees(hobs[k, O_X, j], hobs[k, O_Z, j], hobs[k, O_FX, j], hobs[k, O_FZ, j], hobs[k, O_UX, j], hobs[k, O_UZ, j],
+                                 hobs[k, O_FSAFE, j], hobs[k, O_LAT, j], ex, ez)  # fmt: skip
+            if not seen:
+                n1 = k + 1
+                for j in range(c):
+                    r = a + j
+                    pos[r, 0], pos[r, 1], pos[r, 2] = hpos[n1, j, 0], hpos[n1, j, 1], hpos[n1, j, 2]
+                    f[F_YAW, r], f[F_SPEED, r], b[B_ENABLED, r] = hf[n1, F_YAW, j], hf[n1, F_SPEED, j], hb[n1, B_ENABLED, j]
+                    flags[r] = 0
+                kw[w] = n1
+                codes[w] = 0
+                continue
+            shared[w] = False
+            _history_rows(f, i, b, pos, end_xz, light_xz, ext_cmd, a, c, k, hf, hi_, hb, hpos, hend, hlight, hext, True)
+        code, _ = step_rows(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, t, ego, dt, work, flags, stop_mask, brake_light,
+                            turn_signal, net, quiet, c, rows, a, z)  # fmt: skip
+        codes[w] = code
+        if code != 0 and code != NOTHING_LIVE:
+            left += 1
+    return left
+
+
+@inline
+def _history_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray,
+                  ext_cmd: np.ndarray, a: int, c: int, k: int, hf: np.ndarray, hi_: np.ndarray, hb: np.ndarray, hpos: np.ndarray,
+                  hend: np.ndarray, hlight: np.ndarray, hext: np.ndarray, whole: bool) -> None:  # fmt: skip
+    """Rows a..a+c-1 of the state := history entry k: all of it (`whole`), or what the
+    nearby-vehicle slots read besides the rows `_shared_range` keeps (`motion.outputs`'s)."""
+    for j in range(c):
+        r = a + j
+        if not whole:
+            for q in (I_TURN_PATH, I_BRAKE_PATH, I_OV_BRAKE, I_OV_TURN):
+                i[q, r] = hi_[k, q, j]
+            b[B_BRAKING, r] = hb[k, B_BRAKING, j]
+        else:
+            for q in range(hi_.shape[1]):
+                i[q, r] = hi_[k, q, j]
+            for q in range(hb.shape[1]):
+                b[q, r] = hb[k, q, j]
+            for q in range(hf.shape[1]):
+                f[q, r] = hf[k, q, j]
+            for q in range(3):
+                pos[r, q], ext_cmd[r, q] = hpos[k, j, q], hext[k, j, q]
+            for q in range(2):
+                end_xz[r, q], light_xz[r, q] = hend[k, j, q], hlight[k, j, q]
+
+
+@borrowing_kernel
+def history_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray,
+                 ext_cmd: np.ndarray, c: int, shared: np.ndarray, kw: np.ndarray, hf: np.ndarray, hi_: np.ndarray, hb: np.ndarray,
+                 hpos: np.ndarray, hend: np.ndarray, hlight: np.ndarray, hext: np.ndarray, whole: bool) -> None:  # fmt: skip
+    """`_history_rows` for every `shared` world, each at its own entry kw[w]."""
+    for w in range(len(shared)):
+        if shared[w]:
+            _history_rows(f, i, b, pos, end_xz, light_xz, ext_cmd, w * c, c, kw[w], hf, hi_, hb, hpos, hend, hlight, hext, whole)
+
+
+@parallel_kernel
+def step_shared(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray,
+                ext_cmd: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray, t: np.ndarray, ego: np.ndarray,
+                dt: float, work: np.ndarray, flags: np.ndarray, stop_mask: np.ndarray, brake_light: np.ndarray, turn_signal: np.ndarray,
+                net: np.ndarray, quiet: np.ndarray, c: int, live: np.ndarray, codes: np.ndarray, rows: np.ndarray, shared: np.ndarray,
+                kw: np.ndarray, h_len: int, hf: np.ndarray, hi_: np.ndarray, hb: np.ndarray, hpos: np.ndarray, hend: np.ndarray,
+                hlight: np.ndarray, hext: np.ndarray, hobs: np.ndarray, ht: np.ndarray) -> int:  # fmt: skip
+    """`_shared_range` over all worlds, chunks on numba's threads."""
+    n = len(live)
+    chunks = chunk_count(n)
+    left = np.zeros(chunks, dtype=np.int64)
+    for k in prange(chunks):
+        left[k] = _shared_range(k * n // chunks, (k + 1) * n // chunks, f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, t, ego,
+                                dt, work, flags, stop_mask, brake_light, turn_signal, net, quiet, c, live, codes, rows, shared, kw, h_len,
+                                hf, hi_, hb, hpos, hend, hlight, hext, hobs, ht)  # fmt: skip
+    return int(left.sum())

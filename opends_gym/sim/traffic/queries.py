@@ -57,21 +57,23 @@ def nearest_slots(pos: np.ndarray, yaw: np.ndarray, speed: np.ndarray, enabled: 
     """The kinematics observation's K nearest-vehicle slots of each world (`group` objects
     each; `ego` rows x, z, yaw, speed per world) into out[world, col:col + 6K]: present,
     ahead m, left m (ego frame), speed along the ego's heading relative to it m/s, brake
-    light, turn signal. Nearest first (ties: the lower index); empty slots are zeros."""
+    light, turn signal. Nearest first (ties: the lower index); empty slots are zeros. (Each
+    world's distances are taken once, then its K nearest picked from them.)"""
+    taken = np.zeros(group, dtype=np.bool_)
+    dist = np.empty(group)
     for g in range(ego.shape[1]):
         x, z, eyaw, u = ego[0, g], ego[1, g], ego[2, g], ego[3, g]
         fx, fz = -math.sin(eyaw), -math.cos(eyaw)
         lx, lz = -math.cos(eyaw), math.sin(eyaw)
         lo = g * group
-        taken = np.zeros(group, dtype=np.bool_)
+        for j in range(group):
+            taken[j] = not enabled[lo + j]
+            dist[j] = math.hypot(pos[lo + j, 0] - x, pos[lo + j, 2] - z) if enabled[lo + j] else math.inf
         for slot in range(k):
             best, best_d = -1, math.inf
             for j in range(group):
-                if taken[j] or not enabled[lo + j]:
-                    continue
-                d = math.hypot(pos[lo + j, 0] - x, pos[lo + j, 2] - z)
-                if d < best_d:
-                    best, best_d = j, d
+                if not taken[j] and dist[j] < best_d:
+                    best, best_d = j, dist[j]
             base = col + 6 * slot
             if best < 0:  # (a disabled car ends the list)
                 for c in range(base, col + 6 * k):
