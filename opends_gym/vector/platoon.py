@@ -20,6 +20,7 @@ import numpy as np
 
 from ..envs.base import LANE_KEEPING_OFFSET_M, OpenDSEnv
 from ..envs.brake import brake_metrics
+from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from ..envs.platoon import ThreeVehiclePlatoonEnv
 from ..envs.platoon_core import (
     BAND_GAIN,
@@ -39,6 +40,7 @@ from ..sim.triggers.core import CompiledAction
 from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore
 from .kernels import CHUNK_ENVS
+from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
 from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
 from .platoon_step import _lead_range, lead_measures
 from .trace import TraceRing, lane_columns
@@ -65,6 +67,11 @@ _BASE_KEYS = (
     "reset_time_s",
     *episode_scores.KEYS[9:],
 )  # (`OpenDSEnv.episode_metrics`' keys in its order, before the task's own)
+# the info keys of a step, in `BatchCore.info`'s order
+INFO_KEYS = ("sim_time_s", "speed_kmh", "lateral_offset_m", "lane_index", "fuel_used_l", "collisions", "reaction_result", "reaction_time_s",
+             "mean_deviation_m", "sdlp_m", "headway_s", "ttc_s", "lanes_known", "resets", "reset_time_s", "progress_m",
+             "new_collisions")  # fmt: skip
+StepArrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray], list[int]]
 BL, LT, FT, SR, EB = range(5)
 SLOTS = 4  # simultaneous stimuli per env (a stimulus lasts <= 5 s; triggers lie >= 250 m apart)
 
@@ -150,6 +157,9 @@ class PlatoonBatch(BatchCore):
         self._net, self._quiet = np.zeros((1, N_COLUMNS)), np.zeros(n * tr.c, dtype=bool)  # (no road network: every leg end is Python's)
         self._car_rows = np.ones(n * tr.c, dtype=bool)
         self._codes = np.zeros(n, dtype=np.int64)  # each world's traffic code (`motion.step_rows`)
+        self._ego4 = np.zeros((4, n))  # `platoon_finish`'s scratch: each ego car's x, z, yaw, speed for the vehicle slots
+        self._bonus, self._n_bonus = np.zeros((n, 2 * SLOTS)), np.zeros(n, dtype=np.int64)  # (`_bonuses`)
+        self._no_signs, self._no_sign_z = np.zeros((n, 0), dtype=bool), np.zeros(0)
         sr_spec = self.spec.speed_reduction
         self._stim_consts = np.array([BRAKE_THRESHOLD, REGULAR_SPEED_TOLERANCE_MPS, sr_spec.min_time_all_conditions_met_s if sr_spec else
                                       math.inf, self.spec.max_reaction_time_s, SR])  # fmt: skip
@@ -334,6 +344,71 @@ class PlatoonBatch(BatchCore):
             self._changed[e, slot] = 0
 
     # ------------------------------------------------------------------ outputs
+    def step_and_reset(self, actions: np.ndarray, resetting: np.ndarray, size: int) -> StepArrays:
+        """`shards.step_shard`'s step with NEXT_STEP autoreset: the envs not `resetting` step
+        (one compiled pass, `_physics_steps`), the others reset, then one compiled pass
+        (`platoon_finish`) writes every env's reward, flags, observation and info (a reset
+        env's are those of its fresh state). The info arrays are rows of two blocks allocated
+        per step (the caller may keep them). Returns (obs, reward, terminated, truncated,
+        info, envs whose episode ended)."""
+        stepping = ~resetting
+        c = self.actions.convert(actions, stepping)
+        self._physics_steps(stepping.copy(), c)
+        if resetting.any():
+            self.reset_rows(np.flatnonzero(resetting), None)
+        n, s, st, tm, g = self.n, self.s, self.traffic.st, self.timers, self.guide
+        k = int(self.template.config.nearby_vehicles)
+        stim_width = 7 if isinstance(self, BrakeBatch) else 6
+        if size != len(EGO_NAMES) + k * len(VEHICLE_NAMES) + stim_width:
+            raise ValueError(f"this observation has 7 ego features, {k} vehicle slots and {stim_width} stimulus values, not {size} values")
+        reward, terminated, truncated = np.empty(n), np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        out = np.empty((n, size), dtype=np.float32)
+        info_f, info_i, known = np.empty((len(INFO_F), n)), np.empty((len(INFO_I), n), dtype=np.int64), np.empty(n, dtype=bool)
+        rl = self.rl
+        outcome = (stepping, g.sign, g.start_xz[1], s.x, s.z, s.yaw, s.u, self.last_s, self.progress, self.collisions, self.collisions_seen,
+                   self.new_collisions, tm.n_results, self.reaction_cursor, tm.last_result, tm.last_rt, rl["n"], rl["m2"], rl["dist"],
+                   rl["area"], self.t, s.fuel_used, self.offset, self.lane, self.headway, self.ttc, self.lat, self.trig.paused,
+                   bool(self.config.terminate_on_collision), float(self.config.max_episode_s), reward, terminated, truncated)  # fmt: skip
+        brake_test = isinstance(self, BrakeBatch)
+        reward_t = (self.reward_acc, float(self.progress_per_m), float(self.off_road_limit), float(self.off_road_penalty),
+                    self.end_past_lead, float(self.collision_penalty), *self._bonuses(), brake_test,
+                    float(self.template.config.reward_sign_reaction) if brake_test else 0.0)  # fmt: skip
+        obs = (out, g.road_heading, self.offset, self.lat, self.lane, s.steer_in, s.r, k, self._ego4)
+        tr = self.traffic
+        stim = (st.pos, st.yaw, st.speed, st.enabled, st.i, st.b, self._brake_out, self._turn_out, tr.c, self.lead_i, self.follow_i,
+                bool(self.with_follower), self.lead_j, self.lead_gap, self.lead_v, *self._signs())  # fmt: skip
+        args = (outcome, reward_t, obs, stim, info_f, info_i, known, bool(g.lanes_known))
+        if self.parallel:
+            with numba.parallel_chunksize(1):
+                platoon_finish(*args)
+        else:
+            _finish_range(0, n, *args)
+        info = dict(zip(INFO_F, info_f)) | dict(zip(INFO_I, info_i))
+        info["lanes_known"] = known
+        info = {key: info[key] for key in INFO_KEYS}
+        return out, reward, terminated, truncated, info, np.flatnonzero(terminated | truncated).tolist()
+
+    def _bonuses(self) -> tuple[np.ndarray, np.ndarray]:
+        """The stimulus results each env's reward adds this step (+1 correct, -1 otherwise), in
+        the order of its stimuli (`_reward`'s loop), and their number per env."""
+        self._n_bonus[:] = 0
+        for e in np.flatnonzero(self.dirty).tolist():
+            results = [st.result for st in self.stimuli[e] if st.result != 0]
+            new = results[int(self.seen[e]) :]
+            if len(new) > self._bonus.shape[1]:
+                grown = np.zeros((self.n, 2 * len(new)))
+                grown[:, : self._bonus.shape[1]] = self._bonus
+                self._bonus = grown
+            self._bonus[e, : len(new)] = [1.0 if res == 1 else -1.0 for res in new]
+            self._n_bonus[e] = len(new)
+            self.seen[e] = len(results)
+        self.dirty[:] = False
+        return self._bonus, self._n_bonus
+
+    def _signs(self) -> tuple[np.ndarray, np.ndarray]:
+        """The brake test's signs for the observation: (revealed per env, their z); none here."""
+        return self._no_signs, self._no_sign_z
+
     def _stimulus(self) -> np.ndarray:
         c = self.traffic.c
         brake, turn = self.traffic.outputs()
@@ -503,6 +578,9 @@ class BrakeBatch(PlatoonBatch):
         if not reactions and not any(st.kind in BRAKE_KINDS for st in self.stimuli[e]):  # (most episodes: no trial, no timer)
             return self._no_trials | {"BrakeSign_unscored": float(shown)}
         return brake_metrics(t, columns[col("accelerator")], columns[col("brake")], self.stimuli[e], reactions, reset_t, shown)
+
+    def _signs(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.revealed, self.sign_z
 
     def _stimulus(self) -> np.ndarray:
         visible = np.any(self.revealed & (self.sign_z[None, :] < self.s.z[:, None]), axis=1)
