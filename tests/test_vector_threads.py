@@ -23,7 +23,7 @@ import opends_gym  # noqa: F401 (registers the ids)
 from opends_gym.vector.kernels import CHUNK_ENVS
 
 digest = hashlib.sha256()
-n = 3 * CHUNK_ENVS + 5
+n = 2 * CHUNK_ENVS + 3
 for env_id, kw in (("OpenDS/BrakeReaction-v0", {"stimuli": 3, "track_seed": 3, "max_episode_s": 10.0}),
                    ("OpenDS/ThreeVehiclePlatoon-v0", {"stimuli": 5, "lead_in_m": 100.0, "spacing_min_m": 200.0,
                                                       "spacing_max_m": 220.0, "max_episode_s": 10.0})):
@@ -31,7 +31,7 @@ for env_id, kw in (("OpenDS/BrakeReaction-v0", {"stimuli": 3, "track_seed": 3, "
     obs, _ = vec.reset(seed=11)
     rng = np.random.default_rng(3)
     ends = 0
-    for t in range(70):
+    for t in range(30):
         a = rng.uniform(-1.0, 1.0, vec.action_space.shape).astype(np.float32)
         a[:, 1] = np.where(obs[:, 0] > 15.0, -0.5, 0.6)  # (around 54 km/h, so the stimuli come)
         obs, r, term, trunc, info = vec.step(a)

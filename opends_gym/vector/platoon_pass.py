@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from numba import prange
 
-from ..jit import kernel, parallel_kernel
+from ..jit import borrowing_kernel, parallel_kernel
 from ..sim.ego.kernels import wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from ..sim.traffic.motion import ARRIVED, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, advance_carrots, drive, step_rows
@@ -58,7 +58,7 @@ def platoon_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.n
     return parked.sum(), ran.max(), changed.sum()
 
 
-@kernel
+@borrowing_kernel
 def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarray, park: np.ndarray,
                     stage: np.ndarray, step_count: np.ndarray, controls: tuple, ego: tuple, traffic: tuple, trig: tuple, timers: tuple,
                     a: tuple, lead: tuple, lanes: tuple, ring: tuple, hook: tuple, band: tuple, stim: tuple, hits: tuple,
@@ -80,7 +80,9 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
     volumes, their triggers, locks, the search hints, contact); `timers` (any timer spec, then
     `kernels.update_timers`' arrays); `ring` (block a, block b, row of step 0, ring steps, with
     pedals, recording: trace row k goes to row `row0 + k` of the two blocks); the others
-    `after_one`'s (its `a` with t, sin_y, cos_y)."""
+    `after_one`'s (its `a` with t, sin_y, cos_y). Compiled without reference counting
+    (`jit.borrowing_kernel`: the inlined helpers take arrays at every physics step, whose
+    counts would otherwise be updated atomically each time); it allocates nothing."""
     steer, gas, brake = controls
     car, engine_on, suppress_cruise_off, min_speed, x, z, yaw, u, v, r, gear, rpm, prev_v, fuel_used, fuel_left, steer_in, gas_in, \
         brake_in, cruise_on, cruise_target, cruise_int = ego  # fmt: skip
@@ -110,13 +112,12 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
                 u0 = u[e]
                 steer_in[e] = steer[e]
                 x[e], z[e], yaw[e], u[e], v[e], r[e], gear[e], rpm[e], fuel_used[e], fuel_left[e], cruise_on[e], cruise_int[e], \
-                    gas_in[e], brake_in[e], _, _ = ego_step_wheels(
+                    gas_in[e], brake_in[e], sin_y[e], cos_y[e] = ego_step_wheels(
                         car, wc, engine_on, suppress_cruise_off, min_speed, dt, x[e], z[e], yaw[e], u[e], v[e], r[e], gear[e], rpm[e],
                         prev_v[e], fuel_used[e], fuel_left[e], cruise_on[e], cruise_target[e], cruise_int[e], cos_a, sin_a, gas[e],
                         brake[e],
                     )  # fmt: skip
-                prev_v[e] = u0
-                sin_y[e], cos_y[e] = math.sin(yaw[e]), math.cos(yaw[e])
+                prev_v[e] = u0  # (sin_y, cos_y: `math.sin` and `math.cos` of the new yaw, from the body step)
                 ego3[0, e], ego3[1, e] = x[e], z[e]
                 code, _ = step_rows(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, t, ego3, dt, work, flags, stop_mask,
                                     brake_out, turn_out, net, quiet, c, rows, e * c, (e + 1) * c)  # fmt: skip
