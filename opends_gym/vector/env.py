@@ -20,11 +20,11 @@ per-step event log) is not produced, nor rendering.
 
 Options: `record_metrics=False` skips the per-step traces (and `episode_metrics`); they
 take ~0.5 MB per env for the LCT's 300 s limit, and a batch whose traces would not fit in
-memory is refused. Parallelism: the Lane Change Test's step kernels run chunks of envs on
-numba's thread pool (`NUMBA_NUM_THREADS`, one per core by default; `numba.set_num_threads`),
-so one process uses every core with no Python per chunk. `threads` splits the envs into
-shards stepped in Python threads as well (the kernels release the GIL; the brake and
-platoon batches step much of their physics step in numpy, which holds it between calls).
+memory is refused. Parallelism: the Lane Change Test's, brake test's and platoon test's step
+kernels run chunks of envs on numba's thread pool (`NUMBA_NUM_THREADS`, one per core by
+default; `numba.set_num_threads`), so one process uses every core with no Python per chunk.
+`threads` splits the envs into shards stepped in Python threads as well (the kernels release
+the GIL).
 `processes=N` runs N shards in separate processes instead (`opends_gym.vector.shards`): the
 first in the calling process, each other one in a worker process of its own (spawned), each
 with its share of numba's threads, at the price of a pipe round trip per step for the

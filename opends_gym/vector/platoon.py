@@ -1,11 +1,12 @@
 """The platoon and brake-reaction tests for a native batch (`envs.platoon_core` over N envs).
 
 Why: the lead/follower band control, the stimuli (`setTVPTStimulus`) and their reaction
-rules run every physics step, so they run in the compiled pass that follows each physics
-step (`platoon_step.platoon_after`): each env has a few stimulus slots (onset, end, target,
-result, hold time); starting a stimulus (a trigger's action) and recording a result are
-rare and keep the single env's `Stimulus` records per env. Ended episodes are scored in
-two compiled passes over all of them (`metrics.episode_scores`, `metrics.platoon_scores`),
+rules run every physics step, so they run in the compiled pass of the policy step
+(`platoon_pass.platoon_substeps`: ego car, traffic, triggers, timers, then
+`platoon_step.after_one`): each env has a few stimulus slots (onset, end, target, result,
+hold time); starting a stimulus (a trigger's action) and recording a result are rare and
+keep the single env's `Stimulus` records per env. Ended episodes are scored in two
+compiled passes over all of them (`metrics.episode_scores`, `metrics.platoon_scores`),
 with the single env's floats.
 """
 
@@ -14,10 +15,12 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numba
 import numpy as np
 
 from ..envs.base import LANE_KEEPING_OFFSET_M, OpenDSEnv
 from ..envs.brake import brake_metrics
+from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from ..envs.platoon import ThreeVehiclePlatoonEnv
 from ..envs.platoon_core import (
     BAND_GAIN,
@@ -32,12 +35,15 @@ from ..metrics import episode_scores
 from ..metrics import platoon_scores as scores
 from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..sim.traffic.routes import TURN_CODES
+from ..sim.traffic.state import N_COLUMNS
 from ..sim.triggers.core import CompiledAction
 from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore
 from .kernels import CHUNK_ENVS
-from .platoon_step import _after_range, _lead_range, lead_measures, platoon_after
-from .trace import lane_columns
+from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
+from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
+from .platoon_step import _lead_range, lead_measures
+from .trace import TraceRing, lane_columns
 from .traffic import FlatTraffic
 
 KINDS = scores.KINDS
@@ -61,8 +67,23 @@ _BASE_KEYS = (
     "reset_time_s",
     *episode_scores.KEYS[9:],
 )  # (`OpenDSEnv.episode_metrics`' keys in its order, before the task's own)
+# the info keys of a step, in `BatchCore.info`'s order
+INFO_KEYS = ("sim_time_s", "speed_kmh", "lateral_offset_m", "lane_index", "fuel_used_l", "collisions", "reaction_result", "reaction_time_s",
+             "mean_deviation_m", "sdlp_m", "headway_s", "ttc_s", "lanes_known", "resets", "reset_time_s", "progress_m",
+             "new_collisions")  # fmt: skip
+StepArrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray], list[int]]
 BL, LT, FT, SR, EB = range(5)
 SLOTS = 4  # simultaneous stimuli per env (a stimulus lasts <= 5 s; triggers lie >= 250 m apart)
+
+
+def _rows_with_nan(a: np.ndarray) -> list[list[float]]:
+    """`a.tolist()` with each NaN as `math.nan` (as the single env's metrics hold them), the
+    NaNs found by numpy (a comparison per value in Python took ~20 us per platoon episode
+    under cProfile)."""
+    rows = a.tolist()
+    for j, k in np.argwhere(a != a).tolist():
+        rows[j][k] = math.nan
+    return rows
 
 
 class PlatoonBatch(BatchCore):
@@ -70,6 +91,7 @@ class PlatoonBatch(BatchCore):
     trace_columns: tuple[str, ...] = ("x_m", "z_m", "speed_mps", "steering", "headway_s", "ttc_s", "gap_m", "lead_speed_mps", "lon_dev")
     needs_distance = True
     has_traffic = True
+    parallel_kernels = True  # its step pass runs chunks of envs on numba's threads (`parallel`)
 
     def __init__(self, template: ThreeVehiclePlatoonEnv, n: int, record_metrics: bool = True) -> None:
         template.reset(seed=0)  # the cars as the task's reset leaves them (the same for every seed)
@@ -134,14 +156,26 @@ class PlatoonBatch(BatchCore):
         )  # fmt: skip
         # chunks on numba's threads (False: the serial twins, for thread shards and batches of one chunk)
         self.parallel = n > CHUNK_ENVS
-        self._changed = np.zeros(shape, dtype=np.int64)  # platoon_after's stimuli that changed result (1 missed, 2 reacted)
+        self._changed = np.zeros(shape, dtype=np.int64)  # the pass's stimuli that changed result (1 missed, 2 reacted)
         self._react = np.zeros(shape)  # and their reaction times
+        self._held = np.zeros(shape)  # and their hold clocks then
+        self._park = np.full(n, -1, dtype=np.int64)  # the physics step where an env waits for Python (-1: none) ...
+        self._stage = np.zeros(n, dtype=np.int64)  # ... to finish its traffic or fire its triggers (`platoon_pass`)
+        tr = self.traffic
+        self._ego3 = np.zeros((3, n))  # each world's ego car for its traffic: x, z, speed (no car here watches the ego's speed)
+        self._brake_out, self._turn_out = np.zeros(n * tr.c, dtype=bool), np.zeros(n * tr.c, dtype=np.int64)  # (scratch)
+        self._net, self._quiet = np.zeros((1, N_COLUMNS)), np.zeros(n * tr.c, dtype=bool)  # (no road network: every leg end is Python's)
+        self._car_rows = np.ones(n * tr.c, dtype=bool)
+        self._codes = np.zeros(n, dtype=np.int64)  # each world's traffic code (`motion.step_rows`)
+        self._ego4 = np.zeros((4, n))  # `platoon_finish`'s scratch: each ego car's x, z, yaw, speed for the vehicle slots
+        self._bonus, self._n_bonus = np.zeros((n, 2 * SLOTS)), np.zeros(n, dtype=np.int64)  # (`_bonuses`)
+        self._no_signs, self._no_sign_z = np.zeros((n, 0), dtype=bool), np.zeros(0)
         sr_spec = self.spec.speed_reduction
         self._stim_consts = np.array([BRAKE_THRESHOLD, REGULAR_SPEED_TOLERANCE_MPS, sr_spec.min_time_all_conditions_met_s if sr_spec else
                                       math.inf, self.spec.max_reaction_time_s, SR])  # fmt: skip
         self._pedals = self.trace_columns[9:] == ("accelerator", "brake")
         if self.trace_columns[:9] != PlatoonBatch.trace_columns or len(self.trace_columns) not in (9, 11) or SIGNAL_OFF != 0:
-            raise TypeError("platoon_after writes these trace columns; change it with them")
+            raise TypeError("platoon_step.after_one writes these trace columns; change it with them")
         self._no_block = np.empty((1, 1, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
         self._no_hits = np.zeros(n, dtype=np.int64)
@@ -168,12 +202,6 @@ class PlatoonBatch(BatchCore):
         self.dirty[idx] = False
 
     # ------------------------------------------------------------------ world
-    def _traffic_step(self, rows: np.ndarray) -> None:
-        self.traffic.step(rows, self.dt, self.t, self.s.x, self.s.z)
-
-    def _traffic_hits(self, box: tuple[np.ndarray, ...], rows: np.ndarray) -> np.ndarray:
-        return self._no_hits  # (`platoon_after` counts them)
-
     def _lead_measures(self) -> None:
         s, st = self.s, self.traffic.st
         args = (s.x, s.z, s.yaw, s.u, st.pos, st.yaw, st.speed, st.enabled, self._half_len, self.traffic.c, self.traffic.ego_length,
@@ -248,53 +276,149 @@ class PlatoonBatch(BatchCore):
         self.result[e, slot], self.hold[e, slot] = 0, np.nan
 
     def _physics_steps(self, live: np.ndarray, c: BatchControls) -> None:
-        """`BatchCore._physics_steps` with what follows each physics step's ego, traffic,
-        trigger and timer part (trace row, band control, stimuli, early stop) in one compiled
-        pass over the envs (`platoon_after`)."""
-        for k in range(self.repeat):
-            self._physics_step(live, c)
-            self._after_step(live, k, c)
-            if not live.any():
-                break
+        """`BatchCore._physics_steps` as one compiled pass (`platoon_pass.platoon_substeps`),
+        back in Python only for the envs whose traffic or triggers need it (parked there),
+        to score ended timers and to copy stimulus results into their records. A policy step
+        of more physics steps than a ring block holds runs a block at a time."""
+        with numba.parallel_chunksize(1):  # threads take the chunks one at a time: a busy core holds up one chunk, not half
+            self._substeps(live, c)
 
-    def _after_step(self, live: np.ndarray, k: int, c: BatchControls) -> None:
-        s, st, tr, ring, g = self.s, self.traffic.st, self.traffic, self.ring, self.guide
+    def _substeps(self, live: np.ndarray, c: BatchControls) -> None:
+        s, st, tr, trig, timers, ring, g, p = self.s, self.traffic.st, self.traffic, self.trig, self.timers, self.ring, self.guide, self.p
         rl = self.rl
-        if ring is not None:
-            block, row, steps = ring.reserve(1)[0], ring.g % ring.BLOCK, ring.steps
-        else:
-            block, row, steps = self._no_block, 0, self._no_steps
-        args = (
-            live, k, (s.x, s.z, s.yaw, s.u, s.steer_in, s.gas_in, s.brake_in, self.t, self._sin, self._cos),
-            (st.pos, st.yaw, st.speed, st.enabled, self._half_len, tr.c, tr.ego_length, self.lead_j, self.lead_gap, self.lead_v,
-             self.headway, self.ttc, self.gap_m, self.lead_speed_mps),
-            (g.sign, self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, rl["n"], rl["mean"],
-             rl["m2"], self.prev_x, self.prev_z, rl["dist"], rl["area"]),
-            (block, row, steps, self._pedals, ring is not None),
-            (st.ov_speed, st.ov_decel, self.on, self.kind, self.car, self.lead_i, self.follow_i, bool(self.with_follower), self.lon_dev,
-             self.reward_acc),
-            self._band,
-            (self.kind, self.onset, self.end, self.target, self.result, self.hold, self.reset_on, c.pressed, c.signal, st.ov_brake,
-             st.ov_turn, self._changed, self._react, self._stim_consts),
-            (self.car_shift, self.car_half[0], self.car_half[1], tr.reach, tr.half, tr.hitting),
-            (self.off_road_limit, self.end_past_lead, bool(self.config.terminate_on_collision), self.trig.paused, self.collisions,
-             self.collisions_seen),
-        )  # fmt: skip
-        changed = platoon_after(*args) if self.parallel else _after_range(0, self.n, *args)
-        if ring is not None:
-            ring.g += 1
-        if changed:
-            for e, slot in zip(*np.nonzero(self._changed), strict=True):
-                obj = self.objs[e][slot]
-                assert obj is not None
-                if self._changed[e, slot] == 2:
-                    obj.reaction_s = float(self._react[e, slot])
-                obj.result = int(self.result[e, slot])
-                if self.kind[e, slot] == SR:
-                    obj.hold_since_s = float(self.hold[e, slot])
-                self.dirty[e] = True
+        controls = (c.steer, c.gas, c.brake)
+        ego = (p.car, p.engine_on, p.suppress_cruise_off, p.min_speed, s.x, s.z, s.yaw, s.u, s.v, s.r, s.gear, s.rpm, s.prev_v, s.fuel_used,
+               s.fuel_left, s.steer_in, s.gas_in, s.brake_in, s.cruise_on, s.cruise_target, s.cruise_int)  # fmt: skip
+        trig_t = (trig.paused, self.car_shift, self.car_half[0], self.car_half[1], trig.vols, trig.vol_triggers, trig.locks, trig.near,
+                  trig.contact)  # fmt: skip
+        timer_t = (bool(timers.specs), timers.active, timers.spec, timers.start_t, timers.start_x, timers.start_z, timers.tlim, timers.dlim,
+                   timers.peak, timers.hold_since, timers.braked, timers.start_lane, timers.table, timers.band_table, timers.done,
+                   timers.done_t)  # fmt: skip
+        a = (s.x, s.z, s.yaw, s.u, s.steer_in, s.gas_in, s.brake_in, self.t, self._sin, self._cos)
+        lead = (st.pos, st.yaw, st.speed, st.enabled, self._half_len, tr.c, tr.ego_length, self.lead_j, self.lead_gap, self.lead_v,
+                self.headway, self.ttc, self.gap_m, self.lead_speed_mps)  # fmt: skip
+        lanes = (g.sign, self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, rl["n"], rl["mean"],
+                 rl["m2"], self.prev_x, self.prev_z, rl["dist"], rl["area"])  # fmt: skip
+        hook = (st.ov_speed, st.ov_decel, self.on, self.kind, self.car, self.lead_i, self.follow_i, bool(self.with_follower), self.lon_dev,
+                self.reward_acc)  # fmt: skip
+        stim = (self.kind, self.onset, self.end, self.target, self.result, self.hold, self.reset_on, c.pressed, c.signal, st.ov_brake,
+                st.ov_turn, self._changed, self._react, self._held, self._stim_consts)  # fmt: skip
+        hits = (self.car_shift, self.car_half[0], self.car_half[1], tr.reach, tr.half, tr.hitting)
+        stop = (self.off_road_limit, self.end_past_lead, bool(self.config.terminate_on_collision), trig.paused, self.collisions,
+                self.collisions_seen)  # fmt: skip
+        k_from = 0
+        while k_from < self.repeat:
+            k_to = min(self.repeat, k_from + TraceRing.BLOCK)
+            block_a, block_b = ring.reserve(k_to - k_from) if ring is not None else (self._no_block, self._no_block)
+            ring_t = (block_a, block_b, ring.g % ring.BLOCK - k_from if ring is not None else 0,
+                      ring.steps if ring is not None else self._no_steps, self._pedals, ring is not None)  # fmt: skip
+            steps, resume = k_from, False
+            while True:
+                pf, pp, pi = tr.paths.arrays()  # (afresh: a leg event in Python may rebuild them)
+                traffic = (st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, self._ego3, tr.work,
+                           tr.flags, tr.no_lights, self._brake_out, self._turn_out, self._net, self._quiet, tr.c, self._car_rows,
+                           self._codes)  # fmt: skip
+                args = (resume, k_from, k_to, self.dt, live, self._park, self._stage, self.step_count, controls, ego, traffic, trig_t,
+                        timer_t, a, lead, lanes, ring_t, hook, self._band, stim, hits, stop)  # fmt: skip
+                parked, ran, changed = platoon_substeps(*args) if self.parallel else _substeps_range(0, self.n, *args)
+                steps = max(steps, int(ran))
+                if timers.done.any():  # (before firing: a timer a trigger re-arms is scored first)
+                    timers.score_ended(trig.started_at)
+                if changed:
+                    self._copy_changes()
+                if not parked:
+                    break
+                for e in np.flatnonzero((self._park >= 0) & (self._stage == TRAFFIC)).tolist():
+                    traffic_events(tr, e, int(self._codes[e]), self.dt, self.t, self._ego3)
+                env = np.flatnonzero(trig.contact >= 0)
+                if env.size:
+                    trig.fire(self.t, env, trig.contact[env], self._run_action)
+                resume = True
+            if ring is not None:
+                ring.g += steps - k_from
+            if steps < k_to:  # every env stopped early
+                break
+            k_from = k_to
+
+    def _copy_changes(self) -> None:
+        """The stimulus results the pass changed, into their `Stimulus` records (flags cleared)."""
+        for e, slot in zip(*np.nonzero(self._changed), strict=True):
+            obj = self.objs[e][slot]
+            assert obj is not None
+            if self._changed[e, slot] == 2:
+                obj.reaction_s = float(self._react[e, slot])
+            obj.result = int(self.result[e, slot])
+            if self.kind[e, slot] == SR:
+                obj.hold_since_s = float(self._held[e, slot])
+            self.dirty[e] = True
+            self._changed[e, slot] = 0
 
     # ------------------------------------------------------------------ outputs
+    def step_and_reset(self, actions: np.ndarray, resetting: np.ndarray, size: int) -> StepArrays:
+        """`shards.step_shard`'s step with NEXT_STEP autoreset: the envs not `resetting` step
+        (one compiled pass, `_physics_steps`), the others reset, then one compiled pass
+        (`platoon_finish`) writes every env's reward, flags, observation and info (a reset
+        env's are those of its fresh state). The info arrays are rows of two blocks allocated
+        per step (the caller may keep them). Returns (obs, reward, terminated, truncated,
+        info, envs whose episode ended)."""
+        stepping = ~resetting
+        c = self.actions.convert(actions, stepping)
+        self._physics_steps(stepping.copy(), c)
+        if resetting.any():
+            self.reset_rows(np.flatnonzero(resetting), None)
+        n, s, st, tm, g = self.n, self.s, self.traffic.st, self.timers, self.guide
+        k = int(self.template.config.nearby_vehicles)
+        stim_width = 7 if isinstance(self, BrakeBatch) else 6
+        if size != len(EGO_NAMES) + k * len(VEHICLE_NAMES) + stim_width:
+            raise ValueError(f"this observation has 7 ego features, {k} vehicle slots and {stim_width} stimulus values, not {size} values")
+        reward, terminated, truncated = np.empty(n), np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        out = np.empty((n, size), dtype=np.float32)
+        info_f, info_i, known = np.empty((len(INFO_F), n)), np.empty((len(INFO_I), n), dtype=np.int64), np.empty(n, dtype=bool)
+        rl = self.rl
+        outcome = (stepping, g.sign, g.start_xz[1], s.x, s.z, s.yaw, s.u, self.last_s, self.progress, self.collisions, self.collisions_seen,
+                   self.new_collisions, tm.n_results, self.reaction_cursor, tm.last_result, tm.last_rt, rl["n"], rl["m2"], rl["dist"],
+                   rl["area"], self.t, s.fuel_used, self.offset, self.lane, self.headway, self.ttc, self.lat, self.trig.paused,
+                   bool(self.config.terminate_on_collision), float(self.config.max_episode_s), reward, terminated, truncated)  # fmt: skip
+        brake_test = isinstance(self, BrakeBatch)
+        reward_t = (self.reward_acc, float(self.progress_per_m), float(self.off_road_limit), float(self.off_road_penalty),
+                    self.end_past_lead, float(self.collision_penalty), *self._bonuses(), brake_test,
+                    float(self.template.config.reward_sign_reaction) if brake_test else 0.0)  # fmt: skip
+        obs = (out, g.road_heading, self.offset, self.lat, self.lane, s.steer_in, s.r, k, self._ego4)
+        tr = self.traffic
+        stim = (st.pos, st.yaw, st.speed, st.enabled, st.i, st.b, self._brake_out, self._turn_out, tr.c, self.lead_i, self.follow_i,
+                bool(self.with_follower), self.lead_j, self.lead_gap, self.lead_v, *self._signs())  # fmt: skip
+        args = (outcome, reward_t, obs, stim, info_f, info_i, known, bool(g.lanes_known))
+        if self.parallel:
+            with numba.parallel_chunksize(1):
+                platoon_finish(*args)
+        else:
+            _finish_range(0, n, *args)
+        info = dict(zip(INFO_F, info_f)) | dict(zip(INFO_I, info_i))
+        info["lanes_known"] = known
+        info = {key: info[key] for key in INFO_KEYS}
+        return out, reward, terminated, truncated, info, np.flatnonzero(terminated | truncated).tolist()
+
+    def _bonuses(self) -> tuple[np.ndarray, np.ndarray]:
+        """The stimulus results each env's reward adds this step (+1 correct, -1 otherwise), in
+        the order of its stimuli (`_reward`'s loop), and their number per env."""
+        self._n_bonus[:] = 0
+        for e in np.flatnonzero(self.dirty).tolist():
+            results = [st.result for st in self.stimuli[e] if st.result != 0]
+            new = results[int(self.seen[e]) :]
+            if len(new) > self._bonus.shape[1]:
+                grown = np.zeros((self.n, 2 * len(new)))
+                grown[:, : self._bonus.shape[1]] = self._bonus
+                self._bonus = grown
+            self._bonus[e, : len(new)] = [1.0 if res == 1 else -1.0 for res in new]
+            self._n_bonus[e] = len(new)
+            self.seen[e] = len(results)
+        self.dirty[:] = False
+        return self._bonus, self._n_bonus
+
+    def _signs(self) -> tuple[np.ndarray, np.ndarray]:
+        """The brake test's signs for the observation: (revealed per env, their z); none here."""
+        return self._no_signs, self._no_sign_z
+
     def _stimulus(self) -> np.ndarray:
         c = self.traffic.c
         brake, turn = self.traffic.outputs()
@@ -355,7 +479,7 @@ class PlatoonBatch(BatchCore):
                                       data[col("steering")] * STEERING_WHEEL_MAX_DEG, data[col("gap_m")], data[col("lead_speed_mps")],
                                       data[col("headway_s")], data[col("ttc_s")], lat, lane.astype(np.float64), off, *self._score_params,
                                       base)  # fmt: skip
-        rows = [[math.nan if v != v else v for v in row] for row in base.tolist()]  # (NaNs as math.nan)
+        rows = _rows_with_nan(base)
         return [(e, self._assemble(e, row, platoon[e], columns[e])) for e, row in zip(es, rows, strict=True)]
 
     def _assemble(self, e: int, row: list[float], platoon: dict[str, float], columns: np.ndarray) -> dict[str, float]:
@@ -404,7 +528,7 @@ class PlatoonBatch(BatchCore):
         out = np.empty((len(es), len(scores.KEYS)))
         scores.platoon_scores(lon, off, starts, float(lat_lo), float(lat_hi), lb is not None, kind, result, rt, onset, stim_starts,
                               self.t[es], float(self.spec.max_reaction_time_s), out)  # fmt: skip
-        return {e: {k: math.nan if v != v else v for k, v in zip(scores.KEYS, row)} for e, row in zip(es, out.tolist())}  # (as math.nan)
+        return {e: dict(zip(scores.KEYS, row)) for e, row in zip(es, _rows_with_nan(out))}
 
     def _load_episode(self, e: int, columns: np.ndarray | None) -> None:
         assert self.ring is not None
@@ -464,6 +588,9 @@ class BrakeBatch(PlatoonBatch):
         if not reactions and not any(st.kind in BRAKE_KINDS for st in self.stimuli[e]):  # (most episodes: no trial, no timer)
             return self._no_trials | {"BrakeSign_unscored": float(shown)}
         return brake_metrics(t, columns[col("accelerator")], columns[col("brake")], self.stimuli[e], reactions, reset_t, shown)
+
+    def _signs(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.revealed, self.sign_z
 
     def _stimulus(self) -> np.ndarray:
         visible = np.any(self.revealed & (self.sign_z[None, :] < self.s.z[:, None]), axis=1)

@@ -101,13 +101,12 @@ def _lead_one(e: int, x: np.ndarray, z: np.ndarray, sy: float, cy: float, u: np.
     ttc[e] = _max(gap, 0.0) / closing if ok and closing > 0.0 else math.inf
 
 
-@kernel
-def _hook_range(lo: int, hi: int, rows: np.ndarray, x: np.ndarray, z: np.ndarray, sin_y: np.ndarray, cos_y: np.ndarray, u: np.ndarray,
-                pos: np.ndarray,
-                ov_speed: np.ndarray, ov_decel: np.ndarray, c: int, on: np.ndarray, kind: np.ndarray, car: np.ndarray, lead_i: int,
-                follow_i: int, with_follower: bool, band: tuple, offset: np.ndarray, ttc: np.ndarray, lon_dev: np.ndarray,
-                reward_acc: np.ndarray) -> None:  # fmt: skip
-    """For the envs lo..hi-1 that step (`rows`; a part of `_after_range`): the lead car's speed held in its distance band
+@inline
+def _hook_one(e: int, x: np.ndarray, z: np.ndarray, sy: float, cy: float, u: np.ndarray, pos: np.ndarray, ov_speed: np.ndarray,
+              ov_decel: np.ndarray, c: int, on: np.ndarray, kind: np.ndarray, car: np.ndarray, lead_i: int, follow_i: int,
+              with_follower: bool, band: tuple, offset: np.ndarray, ttc: np.ndarray, lon_dev: np.ndarray,
+              reward_acc: np.ndarray) -> None:  # fmt: skip
+    """For env e (its yaw's sine sy and cosine cy; a part of `after_one`): the lead car's speed held in its distance band
     and the follower's at the middle of its band unless a speed stimulus drives that car
     (`PlatoonCore._band_control`), then the longitudinal and lateral band deviations and the
     step's share of the deviation and TTC penalties (`ThreeVehiclePlatoonEnv._on_physics_step`).
@@ -117,176 +116,143 @@ def _hook_range(lo: int, hi: int, rows: np.ndarray, x: np.ndarray, z: np.ndarray
     kind (the first kind >= it drives a car's speed)."""
     (nominal, gain, lead_min, lead_max, f_gain, catch_up, f_min, f_max, lon_lo, lon_hi, lat_lo, lat_hi, cap, per_m, ttc_w, ttc_thr,
      repeat, speed_kind) = band  # fmt: skip
-    slots = on.shape[1]
-    for e in range(lo, hi):
-        if not rows[e]:
-            continue
-        busy, busy_f = False, False
-        for s in range(slots):
-            if on[e, s] and kind[e, s] >= speed_kind:
-                busy = busy or car[e, s] == lead_i
-                busy_f = busy_f or car[e, s] == follow_i
-        sy, cy = sin_y[e], cos_y[e]
-        r = e * c + lead_i
-        gap = (pos[r, 0] - x[e]) * -sy + (pos[r, 2] - z[e]) * -cy  # (`PlatoonBatch._distance_to`)
-        if not busy:
-            if gap > lead_max:
-                ov_speed[r] = _max(0.0, _max(0.0, nominal - gain * (gap - lead_max)))
-            elif gap < lead_min:
-                ov_speed[r] = _max(0.0, nominal + gain * (lead_min - gap))
-            else:
-                ov_speed[r] = math.nan
-            ov_decel[r] = math.nan
-        if with_follower and not busy_f:
-            f = e * c + follow_i
-            d = (pos[f, 0] - x[e]) * -sy + (pos[f, 2] - z[e]) * -cy
-            ft = u[e] + f_gain * (-d - 0.5 * (f_min + f_max))
-            ov_speed[f] = _max(0.0, _min(_max(0.0, ft), nominal + catch_up))
-            ov_decel[f] = math.nan
-        lon = _max(_max(0.0, lon_lo - gap), gap - lon_hi)
-        lon_dev[e] = lon
-        lat = _max(_max(0.0, lat_lo - offset[e]), offset[e] - lat_hi)
-        acc = reward_acc[e] - per_m * _min(lon + lat, cap) / repeat
-        if ttc_w > 0.0:
-            acc = acc - ttc_w * _max(0.0, 1.0 - ttc[e] / ttc_thr) / repeat
-        reward_acc[e] = acc
+    busy, busy_f = False, False
+    for s in range(on.shape[1]):
+        if on[e, s] and kind[e, s] >= speed_kind:
+            busy = busy or car[e, s] == lead_i
+            busy_f = busy_f or car[e, s] == follow_i
+    r = e * c + lead_i
+    gap = (pos[r, 0] - x[e]) * -sy + (pos[r, 2] - z[e]) * -cy  # (`PlatoonBatch._distance_to`)
+    if not busy:
+        if gap > lead_max:
+            ov_speed[r] = _max(0.0, _max(0.0, nominal - gain * (gap - lead_max)))
+        elif gap < lead_min:
+            ov_speed[r] = _max(0.0, nominal + gain * (lead_min - gap))
+        else:
+            ov_speed[r] = math.nan
+        ov_decel[r] = math.nan
+    if with_follower and not busy_f:
+        f = e * c + follow_i
+        d = (pos[f, 0] - x[e]) * -sy + (pos[f, 2] - z[e]) * -cy
+        ft = u[e] + f_gain * (-d - 0.5 * (f_min + f_max))
+        ov_speed[f] = _max(0.0, _min(_max(0.0, ft), nominal + catch_up))
+        ov_decel[f] = math.nan
+    lon = _max(_max(0.0, lon_lo - gap), gap - lon_hi)
+    lon_dev[e] = lon
+    lat = _max(_max(0.0, lat_lo - offset[e]), offset[e] - lat_hi)
+    acc = reward_acc[e] - per_m * _min(lon + lat, cap) / repeat
+    if ttc_w > 0.0:
+        acc = acc - ttc_w * _max(0.0, 1.0 - ttc[e] / ttc_thr) / repeat
+    reward_acc[e] = acc
 
 
-@parallel_kernel
-def platoon_after(live: np.ndarray, k: int, a: tuple, lead: tuple, lanes: tuple, ring: tuple, hook: tuple, band: tuple, stim: tuple,
-                  hits: tuple, stop: tuple) -> int:  # fmt: skip
-    """What follows the ego, traffic, trigger and timer part of each physics step of the
-    platoon and brake batches (`PlatoonBatch._after_step`), in one pass over every env:
-    the lead car measures, the lane measures, the trace row, the band control and
-    deviations, the stimuli, the new contacts with traffic cars and the early stop (see
-    `_after_range`). Returns how many
-    stimuli changed result (their `Stimulus` records are Python's)."""
-    n = len(live)
-    chunks = chunk_count(n)
-    changed = np.zeros(chunks, dtype=np.int64)
-    for j in prange(chunks):
-        changed[j] = _after_range(j * n // chunks, (j + 1) * n // chunks, live, k, a, lead, lanes, ring, hook, band, stim, hits, stop)
-    return changed.sum()
+@inline
+def after_one(e: int, k: int, live: np.ndarray, a: tuple, lead: tuple, lanes: tuple, ring: tuple, hook: tuple, band: tuple, stim: tuple,
+              hits: tuple, stop: tuple) -> int:  # fmt: skip
+    """What follows the ego, traffic, trigger and timer part of physics step k of live env e
+    (the platoon and brake batches' `_physics_steps`), in the order of
+    `BatchCore._physics_steps`: `_record_row` (`_lead_measures`, `record_lanes` and the trace
+    row), `_on_physics_step` (`_hook_one`, the lon_dev column, the stimuli), the contacts with
+    traffic cars that begin (`FlatTraffic.new_hits`, counted here: no trigger action or timer
+    reads them) and `_stop_early` (`_terminated`: env e stops, `live[e] = False`). Returns
+    how many stimuli changed result (flagged in `changed`, 1 missed, 2 reacted, with the
+    reaction time in `react` and the hold clock in `held`; the caller clears the flags once
+    Python has copied them into its `Stimulus` records).
 
-
-@kernel
-def _after_range(lo: int, hi: int, live: np.ndarray, k: int, a: tuple, lead: tuple, lanes: tuple, ring: tuple, hook: tuple, band: tuple,
-                 stim: tuple, hits: tuple, stop: tuple) -> int:  # fmt: skip
-    """`platoon_after` for the envs lo..hi-1, in the order of `BatchCore._physics_steps`:
-    `_record_row` (`_lead_measures` of every env, then for the envs `live`: `record_lanes`
-    and the trace row), `_on_physics_step` (`_hook_range`, the lon_dev column, the stimuli
-    of the former `_stimuli_step`), the contacts with traffic cars that begin (`FlatTraffic.new_hits`,
-    counted here: no trigger action or timer reads them) and `_stop_early` (`_terminated`:
-    live envs that end stop).
-
-    The tuples: `a` the ego arrays (x, z, yaw, u, steer_in, gas_in, brake_in, t) and two
-    scratch arrays (the sine and cosine of each yaw); `lead`
-    `_lead_range`'s arguments after the ego's and `gap_m`, `lead_speed_mps`; `lanes`
-    `lane_measures`' constants and arrays; `ring` (block, row, ring steps, with pedals, recording);
-    `hook` `_hook_range`'s arguments after the ego's but `band` (a separate argument: numba's
-    parallel loops take no tuple nested in a tuple); `stim` the stimulus slots and
-    constants, `changed` (1 missed, 2 reacted) and `react` out; `hits` the ego box (shift of
-    its centre, half width, half length), each car's reach and half extents and the cars
-    touching the ego; `stop` the early-stop arguments."""
+    The tuples: `a` the ego arrays (x, z, yaw, u, steer_in, gas_in, brake_in, t) and the sine
+    and cosine of each yaw (taken after the ego step); `lead` `_lead_one`'s arguments after
+    the ego's and `gap_m`, `lead_speed_mps`; `lanes` `lane_measures`' constants and arrays;
+    `ring` (block, row, ring steps, with pedals, recording); `hook` `_hook_one`'s arguments
+    after the ego's but `band`; `stim` the stimulus slots and constants, `changed`, `react`,
+    `held`; `hits` the ego box (shift of its centre, half width, half length), each car's
+    reach and half extents and the cars touching the ego; `stop` the early-stop arguments."""
     x, z, yaw, u, steer_in, gas_in, brake_in, t, sin_y, cos_y = a
     pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap, lead_v, headway, ttc, gap_m, lead_speed = lead
     sign, centres, half_width, keep_m, lat, lane, offset, sd_n, sd_mean, sd_m2, prev_x, prev_z, dist, area = lanes
     block, row, steps, pedals, rec = ring
     ov_speed, ov_decel, on, kind, car, lead_i, follow_i, with_follower, lon_dev, reward_acc = hook
-    (s_kind, s_onset, s_end, s_target, s_result, s_hold, reset_on, pressed, signal, ov_brake, ov_turn, changed, react, consts) = stim
+    (s_kind, s_onset, s_end, s_target, s_result, s_hold, reset_on, pressed, signal, ov_brake, ov_turn, changed, react, held,
+     consts) = stim  # fmt: skip
     brake_threshold, tolerance, sr_hold, max_rt, speed_kind = consts[0], consts[1], consts[2], consts[3], int(consts[4])
     car_shift, ehx, ehz, reach, half, hitting = hits
     off_road, past_lead, terminate_on_collision, paused, collisions, collisions_seen = stop
-    _sin_cos(lo, hi, yaw, sin_y, cos_y)  # (each once per env: they cost more than the rest of the pass)
-    for e in range(lo, hi):
-        _lead_one(e, x, z, sin_y[e], cos_y[e], u, pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap, lead_v, headway,
-                  ttc)  # fmt: skip
-    for e in range(lo, hi):
-        fin = lead_j[e] >= 0 and math.isfinite(lead_gap[e])
-        gap_m[e] = lead_gap[e] if fin else math.inf
-        lead_speed[e] = lead_v[e] if fin else math.nan
-        if not live[e]:
-            continue
-        lat[e], lane[e], offset[e], sd_n[e], sd_mean[e], sd_m2[e], dist[e], area[e] = lane_measures(
-            x[e], z[e], False, sign, centres, half_width, keep_m, offset[e], sd_n[e], sd_mean[e], sd_m2[e], True, prev_x[e], prev_z[e],
-            dist[e], area[e],
-        )  # fmt: skip
-        prev_x[e], prev_z[e] = x[e], z[e]
-        if not rec:
-            continue
+    sy, cy = sin_y[e], cos_y[e]
+    _lead_one(e, x, z, sy, cy, u, pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap, lead_v, headway, ttc)
+    fin = lead_j[e] >= 0 and math.isfinite(lead_gap[e])
+    gap_m[e] = lead_gap[e] if fin else math.inf
+    lead_speed[e] = lead_v[e] if fin else math.nan
+    lat[e], lane[e], offset[e], sd_n[e], sd_mean[e], sd_m2[e], dist[e], area[e] = lane_measures(
+        x[e], z[e], False, sign, centres, half_width, keep_m, offset[e], sd_n[e], sd_mean[e], sd_m2[e], True, prev_x[e], prev_z[e],
+        dist[e], area[e],
+    )  # fmt: skip
+    prev_x[e], prev_z[e] = x[e], z[e]
+    if rec:
         block[row, e, 0], block[row, e, 1], block[row, e, 2], block[row, e, 3] = x[e], z[e], u[e], steer_in[e]
         block[row, e, 4], block[row, e, 5], block[row, e, 6], block[row, e, 7] = headway[e], ttc[e], gap_m[e], lead_speed[e]
         if pedals:
             block[row, e, 9], block[row, e, 10] = gas_in[e], brake_in[e]
         steps[e] += 1
-    _hook_range(lo, hi, live, x, z, sin_y, cos_y, u, pos, ov_speed, ov_decel, c, on, kind, car, lead_i, follow_i, with_follower, band,
-                offset, ttc, lon_dev, reward_acc)  # fmt: skip
+    _hook_one(e, x, z, sy, cy, u, pos, ov_speed, ov_decel, c, on, kind, car, lead_i, follow_i, with_follower, band, offset, ttc, lon_dev,
+              reward_acc)  # fmt: skip
+    if rec:
+        block[row, e, 8] = lon_dev[e]
     count = 0
-    slots = on.shape[1]
-    for e in range(lo, hi):
-        for s in range(slots):
-            changed[e, s] = 0
-        if not live[e]:
+    te = t[e]
+    brake_hit = brake_in[e] >= brake_threshold
+    turn_hit = (pressed[e] and k == 0) or signal[e] != 0
+    for s in range(on.shape[1]):
+        if not on[e, s]:
             continue
-        if rec:
-            block[row, e, 8] = lon_dev[e]
-        te = t[e]
-        brake_hit = brake_in[e] >= brake_threshold
-        turn_hit = (pressed[e] and k == 0) or signal[e] != 0
-        for s in range(slots):
-            if not on[e, s]:
-                continue
-            kd = s_kind[e, s]
-            is_sr = kd == speed_kind
-            ok = is_sr and u[e] <= s_target[e, s] + tolerance
-            if is_sr and not ok:
-                s_hold[e, s] = math.nan
-            if ok and math.isnan(s_hold[e, s]):
-                s_hold[e, s] = te
-            sr_done = ok and te - s_hold[e, s] >= sr_hold - 1e-9
-            if kd == 0 or kd == 4:  # brake light, emergency brake
-                reacted = brake_hit
-            elif is_sr:
-                reacted = sr_done
-            else:
-                reacted = turn_hit
-            new = reacted and s_result[e, s] == 0
-            react_s = s_hold[e, s] if is_sr else te
-            if new:
-                s_result[e, s] = 1 if react_s - s_onset[e, s] <= max_rt + 1e-9 else -2
-                changed[e, s], react[e, s] = 2, react_s
-                count += 1
-            ends_now = new and reset_on[kd]
-            if not ends_now and s_result[e, s] == 0 and te - s_onset[e, s] > max_rt:
-                s_result[e, s] = -2
-                changed[e, s] = 1
-                count += 1
-            if ends_now or (not ends_now and te >= s_end[e, s]):
-                r = e * c + car[e, s]
-                if kd == 0:
-                    ov_brake[r] = -1
-                if kd == 1 or kd == 2:
-                    ov_turn[r] = -1
-                if kd >= speed_kind:
-                    ov_speed[r] = math.nan
-                    ov_decel[r] = math.nan
-                on[e, s] = False
-        sy, cy = sin_y[e], cos_y[e]
-        bx, bz = x[e] - car_shift * sy, z[e] - car_shift * cy  # (the box is centred half a wheelbase ahead)
-        for i in range(c):
-            r = e * c + i
-            hit = False
-            dx, dz, far = pos[r, 0] - bx, pos[r, 2] - bz, 1.000001 * reach[r]
-            # (a car beyond 1.000001 x its reach by the squared distance is beyond it by `np.hypot` too: no hypot for it)
-            if enabled[r] and dx * dx + dz * dz < far * far and np.hypot(dx, dz) < reach[r]:
-                hit = boxes_overlap(bx, bz, yaw[e], ehx, ehz, pos[r, 0], pos[r, 2], car_yaw[r], half[r, 0], half[r, 1])
-            if hit and not hitting[r]:
-                collisions[e] += 1
-            hitting[r] = hit
-        task_end = abs(lat[e]) > off_road
-        if past_lead and not task_end:
-            r = e * c + lead_i
-            task_end = (pos[r, 0] - x[e]) * -sy + (pos[r, 2] - z[e]) * -cy < 0.0
-        if paused[e] or task_end or (terminate_on_collision and collisions[e] - collisions_seen[e] > 0):
-            live[e] = False
+        kd = s_kind[e, s]
+        is_sr = kd == speed_kind
+        ok = is_sr and u[e] <= s_target[e, s] + tolerance
+        if is_sr and not ok:
+            s_hold[e, s] = math.nan
+        if ok and math.isnan(s_hold[e, s]):
+            s_hold[e, s] = te
+        sr_done = ok and te - s_hold[e, s] >= sr_hold - 1e-9
+        if kd == 0 or kd == 4:  # brake light, emergency brake
+            reacted = brake_hit
+        elif is_sr:
+            reacted = sr_done
+        else:
+            reacted = turn_hit
+        new = reacted and s_result[e, s] == 0
+        react_s = s_hold[e, s] if is_sr else te
+        if new:
+            s_result[e, s] = 1 if react_s - s_onset[e, s] <= max_rt + 1e-9 else -2
+            changed[e, s], react[e, s], held[e, s] = 2, react_s, s_hold[e, s]
+            count += 1
+        ends_now = new and reset_on[kd]
+        if not ends_now and s_result[e, s] == 0 and te - s_onset[e, s] > max_rt:
+            s_result[e, s] = -2
+            changed[e, s], held[e, s] = 1, s_hold[e, s]
+            count += 1
+        if ends_now or (not ends_now and te >= s_end[e, s]):
+            r = e * c + car[e, s]
+            if kd == 0:
+                ov_brake[r] = -1
+            if kd == 1 or kd == 2:
+                ov_turn[r] = -1
+            if kd >= speed_kind:
+                ov_speed[r] = math.nan
+                ov_decel[r] = math.nan
+            on[e, s] = False
+    bx, bz = x[e] - car_shift * sy, z[e] - car_shift * cy  # (the box is centred half a wheelbase ahead)
+    for i in range(c):
+        r = e * c + i
+        hit = False
+        dx, dz, far = pos[r, 0] - bx, pos[r, 2] - bz, 1.000001 * reach[r]
+        # (a car beyond 1.000001 x its reach by the squared distance is beyond it by `np.hypot` too: no hypot for it)
+        if enabled[r] and dx * dx + dz * dz < far * far and np.hypot(dx, dz) < reach[r]:
+            hit = boxes_overlap(bx, bz, yaw[e], ehx, ehz, pos[r, 0], pos[r, 2], car_yaw[r], half[r, 0], half[r, 1])
+        if hit and not hitting[r]:
+            collisions[e] += 1
+        hitting[r] = hit
+    task_end = abs(lat[e]) > off_road
+    if past_lead and not task_end:
+        r = e * c + lead_i
+        task_end = (pos[r, 0] - x[e]) * -sy + (pos[r, 2] - z[e]) * -cy < 0.0
+    if paused[e] or task_end or (terminate_on_collision and collisions[e] - collisions_seen[e] > 0):
+        live[e] = False
     return count
