@@ -1,0 +1,45 @@
+"""Cold first step of a native batch: import, make_vec+reset and the first steps of one native
+batch, in this process. Run it with an empty numba cache to see what a fresh install pays:
+
+    NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/cold_native.py OpenDS/LaneChangeTest-v0 4096
+
+The native batch's kernels compile in their first call (`opends_gym.jit`: a batch of thousands
+of envs run as Python would take longer than the compile), so this measures their compile.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import gymnasium as gym
+import numpy as np
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("env_id")
+    ap.add_argument("num_envs", type=int)
+    ap.add_argument("--task", help="DrivingTask-v0: the task folder")
+    ap.add_argument("--steps", type=int, default=20)
+    args = ap.parse_args()
+    t0 = time.perf_counter()
+    import opends_gym  # noqa: F401  (registers the envs)
+
+    t1 = time.perf_counter()
+    kwargs = {"task": args.task} if args.task else {}
+    env = gym.make_vec(args.env_id, num_envs=args.num_envs, vectorization_mode="vector_entry_point", **kwargs)
+    env.reset(seed=0)
+    t2 = time.perf_counter()
+    rng = np.random.default_rng(0)
+    times = []
+    for _ in range(args.steps):
+        action = rng.uniform(-1, 1, size=env.action_space.shape).astype(np.float32)
+        start = time.perf_counter()
+        env.step(action)
+        times.append(time.perf_counter() - start)
+    print(f"| {args.env_id} | {args.num_envs} | {t1 - t0:.2f} | {t2 - t1:.2f} | {times[0]:.2f} | {max(times[1:]):.2f} |")
+
+
+if __name__ == "__main__":
+    main()
