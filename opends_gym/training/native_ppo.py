@@ -313,8 +313,9 @@ class _Run:
                 obs, actions = np.concatenate([obs, more_obs]), np.concatenate([actions, more_actions])
             if cfg.normalize_observations and r == 0:
                 self.norm.obs_rms.update(obs)
-            loss = clone(self.policy, self._obs(obs, update=False), actions, w, cfg.seed + r)
+            loss = self._clone(self._obs(obs, update=False), actions, w, cfg.seed + r)
         self.frozen_obs = True
+        self._cloned(obs, actions)
         checkpoint = self.out / "checkpoints" / f"model_{self.model.num_timesteps}_steps.zip"
         self._save(checkpoint, checkpoint=True)
         wall = time.perf_counter() - self.t0
@@ -325,6 +326,14 @@ class _Run:
         row["wall_s"] = round(time.perf_counter() - self.t0, 2)
         self.curve.append(row)
         self._write_curve()
+
+    def _clone(self, obs: np.ndarray, actions: np.ndarray, w: WarmStart, seed: int) -> float:
+        """One warm-start fit of the policy to the driver's actions (normalised `obs`)."""
+        return clone(self.policy, obs, actions, w, seed)
+
+    def _cloned(self, raw_obs: np.ndarray, actions: np.ndarray) -> None:
+        """After the last DAgger round, before the clone is saved and scored (a learner that
+        keeps the demonstrations takes them here)."""
 
     # ---------------------------------------------------------------- loop
     def learn(self) -> dict[str, Any]:

@@ -43,7 +43,7 @@ import numpy as np
 from ..extras import require
 from .config import TrainConfig
 from .native_ppo import NativePpoSettings, Progress, _normalizer, _Run, _Spaces, desync
-from .warm_start import WarmStart, demonstrations
+from .warm_start import WarmStart, fit_mean
 
 CURVE_EVERY = 8192  # env steps between the curve's rows
 
@@ -115,25 +115,16 @@ def clone_actor(actor: Any, obs: np.ndarray, actions: np.ndarray, w: WarmStart, 
     error. `w.log_std` then sets the actor's exploration noise (its log-std head's output)."""
     import torch
 
-    x, y = torch.as_tensor(obs, dtype=torch.float32), torch.as_tensor(actions, dtype=torch.float32)
     params = [*actor.features_extractor.parameters(), *actor.latent_pi.parameters(), *actor.mu.parameters()]
-    optimizer = torch.optim.Adam(params, lr=w.learning_rate)
-    rng = np.random.default_rng(seed)
-    actor.set_training_mode(True)
-    loss_sum = 0.0
-    for _ in range(w.epochs):
-        order = rng.permutation(len(x))
-        loss_sum, batches = 0.0, 0
-        for start in range(0, len(x), w.batch_size):
-            idx = torch.as_tensor(order[start : start + w.batch_size])
-            mean = torch.tanh(actor.mu(actor.latent_pi(actor.extract_features(x[idx], actor.features_extractor))))
-            loss = torch.nn.functional.mse_loss(mean, y[idx])
-            optimizer.zero_grad()
-            loss.backward()
-            optimizer.step()
-            loss_sum, batches = loss_sum + float(loss.detach()), batches + 1
-        loss_sum /= max(1, batches)
-    actor.set_training_mode(False)
+    loss_sum = fit_mean(
+        actor,
+        params,
+        lambda x: torch.tanh(actor.mu(actor.latent_pi(actor.extract_features(x, actor.features_extractor)))),
+        obs,
+        actions,
+        w,
+        seed,
+    )
     if w.log_std is not None:
         with torch.no_grad():
             head = actor.log_std
@@ -219,33 +210,14 @@ class _SacRun(_Run):
             obs = torch.as_tensor(self._obs(raw_obs[None], update=False))
             return self.model.actor(obs, deterministic=True).numpy()[0]  # type: ignore[no-any-return]
 
-    def warm_start(self, w: WarmStart) -> None:
-        """Clone `w.driver` into the actor (DAgger rounds as `_Run.warm_start`) and score the
-        clone: the curve's first row (steps 0)."""
-        cfg = self.cfg
-        env_id = cfg.env.split(":", 1)[-1]
-        obs, actions, returns = demonstrations(env_id, dict(cfg.env_kwargs), w, cfg.seed)
-        first_return = float(np.mean(returns))
-        loss = math.nan
-        for r in range(w.dagger + 1):
-            if r > 0:
-                more_obs, more_actions, returns = demonstrations(env_id, dict(cfg.env_kwargs), w, cfg.seed + 100 * r, act=self._mean_action)
-                obs, actions = np.concatenate([obs, more_obs]), np.concatenate([actions, more_actions])
-            if cfg.normalize_observations and r == 0:
-                self.norm.obs_rms.update(obs)
-            loss = clone_actor(self.model.actor, self._obs(obs, update=False), actions, w, cfg.seed + r)
-        self.frozen_obs = self.warm = True
-        self.demo_obs, self.demo_act = self._obs(obs, update=False), actions.astype(np.float32)
-        checkpoint = self.out / "checkpoints" / f"model_{self.model.num_timesteps}_steps.zip"
-        self._save(checkpoint, checkpoint=True)
-        wall = time.perf_counter() - self.t0
-        row: dict[str, Any] = {"steps": self.model.num_timesteps, "wall_s": round(wall, 2), "train_s": round(wall, 2), "update_s": 0.0}
-        row.update(mean_return_last_10=first_return, warm_start_steps=len(obs), warm_start_clone_return=float(np.mean(returns)))
-        row["warm_start_loss"] = round(loss, 5)
-        row.update(self._evaluate(checkpoint))
-        row["wall_s"] = round(time.perf_counter() - self.t0, 2)
-        self.curve.append(row)
-        self._write_curve()
+    def _clone(self, obs: np.ndarray, actions: np.ndarray, w: WarmStart, seed: int) -> float:
+        """One warm-start fit of the actor (the DAgger rounds are `_Run.warm_start`'s)."""
+        return clone_actor(self.model.actor, obs, actions, w, seed)
+
+    def _cloned(self, raw_obs: np.ndarray, actions: np.ndarray) -> None:
+        """Keep the demonstrations for the actor's behaviour-cloning term (`bc_coef`)."""
+        self.warm = True
+        self.demo_obs, self.demo_act = self._obs(raw_obs, update=False), actions.astype(np.float32)
 
     # ---------------------------------------------------------------- loop
     def learn(self) -> dict[str, Any]:

@@ -97,31 +97,49 @@ def demonstrations(
     return np.stack(obs_out), np.stack(act_out), returns
 
 
-def clone(policy: Any, obs: np.ndarray, actions: np.ndarray, w: WarmStart, seed: int) -> float:
-    """Regress `policy`'s mean action onto `actions` for the (already normalised) `obs`;
-    returns the final epoch's mean squared error."""
+def fit_mean(
+    module: Any, params: list[Any], mean_of: Callable[[Any], Any], obs: np.ndarray, actions: np.ndarray, w: WarmStart, seed: int
+) -> float:
+    """Regress `mean_of(obs batch)` (a policy's mean action) onto `actions` by Adam over
+    `params`, `w.epochs` shuffled epochs; returns the final epoch's mean squared error. Shared
+    by PPO's `clone` and SAC's `native_sac.clone_actor`."""
     import torch
 
     x, y = torch.as_tensor(obs, dtype=torch.float32), torch.as_tensor(actions, dtype=torch.float32)
-    params = [p for name, p in policy.named_parameters() if not name.startswith(("value_net", "mlp_extractor.value_net", "log_std"))]
     optimizer = torch.optim.Adam(params, lr=w.learning_rate)
     rng = np.random.default_rng(seed)
-    policy.set_training_mode(True)
+    module.set_training_mode(True)
     loss_sum = 0.0
     for _ in range(w.epochs):
         order = rng.permutation(len(x))
         loss_sum, batches = 0.0, 0
         for start in range(0, len(x), w.batch_size):
             idx = torch.as_tensor(order[start : start + w.batch_size])
-            features = policy.extract_features(x[idx], policy.pi_features_extractor)
-            mean = policy.action_net(policy.mlp_extractor.forward_actor(features))
-            loss = torch.nn.functional.mse_loss(mean, y[idx])
+            loss = torch.nn.functional.mse_loss(mean_of(x[idx]), y[idx])
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
             loss_sum, batches = loss_sum + float(loss.detach()), batches + 1
         loss_sum /= max(1, batches)
-    policy.set_training_mode(False)
+    module.set_training_mode(False)
+    return loss_sum
+
+
+def clone(policy: Any, obs: np.ndarray, actions: np.ndarray, w: WarmStart, seed: int) -> float:
+    """Regress `policy`'s mean action onto `actions` for the (already normalised) `obs`;
+    returns the final epoch's mean squared error."""
+    import torch
+
+    params = [p for name, p in policy.named_parameters() if not name.startswith(("value_net", "mlp_extractor.value_net", "log_std"))]
+    loss_sum = fit_mean(
+        policy,
+        params,
+        lambda x: policy.action_net(policy.mlp_extractor.forward_actor(policy.extract_features(x, policy.pi_features_extractor))),
+        obs,
+        actions,
+        w,
+        seed,
+    )
     if w.log_std is not None:
         with torch.no_grad():
             policy.log_std.copy_(torch.as_tensor(np.broadcast_to(np.asarray(w.log_std, dtype=np.float32), policy.log_std.shape).copy()))
