@@ -114,6 +114,29 @@ def _register_cache_stamp() -> None:
 _register_cache_stamp()
 
 
+def _keep_sys_stdout() -> None:
+    """Stop numba from swapping `sys.stdout` behind the program's back.
+
+    Why: where colorama is installed (mkdocs-material brings it), numba colours the text of
+    the typing errors it formats, and a compile formats such errors routinely while it tries
+    overloads. Each colouring enters colorama's `init`/`deinit`, which replace `sys.stdout`
+    and `sys.stderr` process-wide, from whichever thread compiles (our background compile
+    thread included), and put back the streams they saw on entry. A program that redirected
+    its output meanwhile (a test's capture, a notebook cell, a human session's transcript)
+    then writes to the old stream. numba's own switch, `NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING`,
+    is read only when numba is imported, and numba's modules keep the colour scheme they got
+    then; so this makes that one shared scheme return its text unchanged (no colour codes in
+    error messages, which also keeps them readable in logs).
+    """
+    errors: Any = numba.core.errors
+    scheme = errors.termcolor()
+    if hasattr(scheme, "_markup"):
+        scheme._markup = lambda msg, color=None, style=None: msg
+
+
+_keep_sys_stdout()
+
+
 def _choose_threading_layer() -> None:
     """`workqueue` unless the user chose a layer (see the module docstring)."""
     config: Any = numba.config

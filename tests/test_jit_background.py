@@ -116,3 +116,39 @@ def test_background_off_compiles_in_the_first_call(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout) == {"python_calls": 0, "compiled": 0, "pending": 0}
     assert list(tmp_path.rglob("*.nbi"))
+
+
+STDOUT_KEPT = r"""
+import io, json, sys, threading
+import numba
+import opends_gym.jit
+
+def bad(x):
+    return x + "a"
+
+def compile_bad():  # numba formats a typing error for each: where colorama is installed it coloured them
+    for _ in range(12):
+        try:
+            numba.njit(bad)(1)
+        except numba.core.errors.TypingError:
+            pass
+
+mine = io.StringIO()
+sys.stdout = mine
+seen = set()
+worker = threading.Thread(target=compile_bad)
+worker.start()
+while worker.is_alive():
+    seen.add(type(sys.stdout).__name__)
+worker.join()
+seen.add(type(sys.stdout).__name__)
+sys.stdout = sys.__stdout__
+print(json.dumps({"seen": sorted(seen)}))
+"""
+
+
+def test_a_compile_in_another_thread_leaves_the_programs_stdout_alone(tmp_path: Path) -> None:
+    # numba's colouring of error text went through colorama's init/deinit, which swapped
+    # sys.stdout process-wide from the compiling thread: output redirected meanwhile (a capture,
+    # a session transcript) went to the old stream. Importing opends_gym.jit switches that off.
+    assert _child(STDOUT_KEPT, tmp_path / "cache")["seen"] == ["StringIO"]
