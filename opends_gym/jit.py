@@ -297,7 +297,24 @@ def compile_status() -> dict[str, int]:
 _COMPILE_IN_CALL = ("opends_gym.vector",)
 
 
+_KERNELS: list[Any] = []  # every kernel this module made, for `cache_stats`
+
+
+def cache_stats() -> dict[str, int]:
+    """What numba did for this package's kernels in this process: `loaded` (machine code
+    taken from the machine's cache) and `compiled` (compiled here: not in the cache), counted
+    per kernel and argument types. After `opends-gym compile`, a first step compiles nothing."""
+    loaded = compiled = 0
+    for dispatcher in _KERNELS:
+        stats = getattr(dispatcher, "stats", None)  # (NUMBA_DISABLE_JIT: a plain function)
+        if stats is not None:
+            loaded += sum(stats.cache_hits.values())
+            compiled += sum(stats.cache_misses.values())
+    return {"loaded": loaded, "compiled": compiled}
+
+
 def _background(dispatcher: Any) -> Any:
+    _KERNELS.append(dispatcher)
     module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
     if hasattr(dispatcher, "_compile_for_args") and not module.startswith(_COMPILE_IN_CALL):  # (NUMBA_DISABLE_JIT: a function)
         _BACKGROUND.hook(dispatcher)
@@ -311,7 +328,9 @@ def kernel(fn: F) -> F:
 
 def parallel_kernel(fn: F) -> F:
     """A `kernel` whose `prange` loops run in parallel (see the module docstring)."""
-    return cast(F, njit(cache=True, nogil=True, parallel=True)(fn))
+    dispatcher = njit(cache=True, nogil=True, parallel=True)(fn)
+    _KERNELS.append(dispatcher)
+    return cast(F, dispatcher)
 
 
 def borrowing_kernel(fn: F) -> F:

@@ -32,6 +32,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("export", "opends_gym.cli.export", "turn recordings and OpenDS carData.txt logs into a Minari dataset"),
     ("study", "opends_gym.cli.study", "run a study (participants x conditions x tasks) on virtual participants or a person"),
     ("train", "opends_gym.cli.train", "train a baseline policy from a YAML config or a bundled one by name"),
+    ("compile", "opends_gym.cli.compile", "compile the envs' kernels into this machine's numba cache, so first steps wait for none"),
 )
 
 LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL")

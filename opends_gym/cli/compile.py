@@ -1,0 +1,201 @@
+"""`opends-gym compile`: compile every kernel a first step needs into this machine's numba cache.
+
+Why: numba's machine code is specific to the machine's CPU, so it cannot ship in the wheel;
+without this, the first native batch of each kind on a machine waits for its kernels'
+compile (36-75 s for 4,096 envs, docs/performance.md "Cold start"), and single envs run
+their kernels as Python until the background compile is done. This drives each registered
+env and each native batch a few steps (with short episodes, so episode ends and autoresets
+run too) in worker processes, one group per process and one process per core (a compile
+is CPU bound and holds the GIL), waits for the background compiles, and so leaves every
+kernel they call in the cache where later processes look (numba's cache locators:
+`NUMBA_CACHE_DIR` if set, else the `__pycache__` folders next to the package when they are
+writable, else numba's user-wide cache). Run it as the user who will run the envs. With a
+warm cache it only loads the kernels (a few seconds).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..errors import UserError
+from ..hints import did_you_mean
+
+SHORT_EPISODE_S = 1.0  # episodes this long end within a few policy steps (episode end and autoreset get compiled too)
+MAX_STEPS = 40  # policy steps per env or batch at most
+
+
+@dataclass(frozen=True)
+class Group:
+    """One env id as a single env or as a native batch: what one worker process compiles."""
+
+    env_id: str
+    native: bool
+    kwargs: dict[str, Any] = field(default_factory=dict, hash=False)
+
+    @property
+    def label(self) -> str:
+        task = f" ({self.kwargs['task']})" if "task" in self.kwargs else ""
+        return f"{self.env_id}{task} {'native batch' if self.native else 'single env'}"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--only", nargs="+", metavar="ENV_ID", help="only these env ids (or short names: LaneChangeTest)")
+    p.add_argument("--kind", choices=("all", "single", "native"), default="all", help="single envs, native batches or both (all)")
+    p.add_argument("--task", nargs="+", default=[], metavar="FOLDER", help="also your own tasks on OpenDS/DrivingTask-v0 (single env and native batch)")
+    p.add_argument("--jobs", type=int, default=None, help="worker processes (default: one per core)")
+
+
+def run(args: argparse.Namespace) -> int:
+    groups = plan(args.only, args.kind, args.task)
+    jobs = args.jobs or os.cpu_count() or 1
+    if jobs < 1:
+        raise UserError(f"--jobs must be at least 1, not {jobs}")
+    return compile_groups(groups, jobs)
+
+
+def plan(only: list[str] | None, kind: str, tasks: list[str]) -> list[Group]:
+    """The groups to compile, the native batches first (the longest compiles start first)."""
+    from ..envs.registration import ENVS, VECTOR_ENVS, lookup_env_id
+
+    ids = list(ENVS)
+    if only:
+        ids = []
+        for name in only:
+            env_id = lookup_env_id(name)
+            if env_id is None or env_id not in ENVS:
+                raise UserError(f"unknown environment id {name!r}{did_you_mean(name, list(ENVS))} (opends-gym list --envs shows them)")
+            ids.append(env_id)
+    groups: list[Group] = []
+    if kind in ("all", "native"):
+        groups += [Group(i, True) for i in ids if i in VECTOR_ENVS]
+        groups += [Group("OpenDS/DrivingTask-v0", True, {"task": t}) for t in tasks]
+    if kind in ("all", "single"):
+        groups += [Group(i, False) for i in ids]
+        groups += [Group("OpenDS/DrivingTask-v0", False, {"task": t}) for t in tasks]
+    return groups
+
+
+def compile_groups(groups: list[Group], jobs: int) -> int:
+    """Compile the groups in `jobs` spawned worker processes, a line per group as it ends."""
+    import multiprocessing
+
+    start = time.perf_counter()
+    failed = 0
+    width = max((len(g.label) for g in groups), default=0)
+    workers = max(1, min(jobs, len(groups)))
+    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures: dict[Future[dict[str, Any]], Group] = {pool.submit(compile_group, g): g for g in groups}
+        pending = set(futures)
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                group = futures[future]
+                try:
+                    r = future.result()
+                except Exception as e:  # one group's failure does not stop the others
+                    failed += 1
+                    message = "; ".join(line.strip() for line in str(e).splitlines() if line.strip()) or type(e).__name__
+                    print(f"{group.label:<{width}}  failed: {message}", flush=True)
+                    continue
+                print(
+                    f"{group.label:<{width}}  {r['seconds']:6.1f} s  {r['compiled']:4d} compiled  {r['loaded']:4d} loaded from the cache",
+                    flush=True,
+                )
+    print(f"{len(groups) - failed} of {len(groups)} groups in {time.perf_counter() - start:.1f} s ({workers} worker processes)")
+    if failed:
+        print(f"opends-gym compile: error: {failed} group(s) failed (see above)", file=sys.stderr)
+        return 1
+    return 0
+
+
+def compile_group(group: Group) -> dict[str, Any]:
+    """In a worker process: drive the group's env, wait for its compiles, count what numba did."""
+    import logging
+    import warnings
+
+    start = time.perf_counter()
+    from .. import jit
+
+    warnings.simplefilter("ignore")  # a task's warnings belong to the runs that use it, not to this
+    logging.getLogger("opends_gym").setLevel(logging.ERROR)
+    if group.native:
+        _drive_native(group)
+    else:
+        _drive_single(group)
+    jit.wait_compiled()
+    return {"seconds": time.perf_counter() - start, **jit.cache_stats()}
+
+
+def _drive_single(group: Group) -> None:
+    """Reset, step past an episode end, reset and step again; then again once compiled (the
+    kernels now run compiled, which calls those that ran inside Python ones as compiled code)."""
+    import gymnasium as gym
+
+    from .. import jit
+
+    env = gym.make(group.env_id, max_episode_s=SHORT_EPISODE_S, disable_env_checker=True, **group.kwargs)
+    try:
+        for _ in range(2):
+            env.action_space.seed(0)
+            env.reset(seed=0)
+            ended = 0
+            for _ in range(MAX_STEPS):
+                _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+                if terminated or truncated:
+                    ended += 1
+                    env.reset(seed=ended)
+                    if ended == 2:
+                        break
+            jit.wait_compiled()
+    finally:
+        env.close()
+
+
+def _drive_native(group: Group) -> None:
+    """A batch of one chunk (serial kernels) and one of more (numba-parallel kernels), each
+    stepped until every env has ended an episode and been reset."""
+    import gymnasium as gym
+    import numpy as np
+
+    from ..vector.kernels import CHUNK_ENVS
+
+    kwargs = dict(group.kwargs)
+    if group.env_id == "OpenDS/DrivingTask-v0" and "task" not in kwargs:
+        kwargs["task"] = str(_traffic_task())
+    for n in (2, CHUNK_ENVS + 1):
+        env = gym.make_vec(group.env_id, num_envs=n, vectorization_mode="vector_entry_point", max_episode_s=SHORT_EPISODE_S, **kwargs)
+        try:
+            env.action_space.seed(0)
+            env.reset(seed=0)
+            ended = np.zeros(n, dtype=bool)
+            for _ in range(MAX_STEPS):
+                _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+                if ended.all():  # this step autoreset them
+                    break
+                ended |= terminated | truncated
+        finally:
+            env.close()
+
+
+def _traffic_task() -> Any:
+    """A task with traffic for the native DrivingTask batch (no bundled task has one it runs):
+    the bundled platoon task's road and cars without its triggers, saved to a temporary folder."""
+    import atexit
+    import shutil
+    import tempfile
+    from dataclasses import replace
+    from pathlib import Path
+
+    from ..task import load_task, save_task
+    from ..task.model_interaction import Interaction
+
+    task = load_task("ThreeVehiclePlatoon")
+    folder = Path(tempfile.mkdtemp(prefix="opends-gym-compile-"))
+    atexit.register(shutil.rmtree, folder, True)
+    return save_task(replace(task, interaction=Interaction()), folder / "TrafficTask")
