@@ -4,7 +4,11 @@ batch, in this process. Run it with an empty numba cache to see what a fresh ins
     NUMBA_CACHE_DIR=$(mktemp -d) python benchmarks/cold_native.py OpenDS/LaneChangeTest-v0 4096
 
 The native batch's kernels compile in their first call (`opends_gym.jit`: a batch of thousands
-of envs run as Python would take longer than the compile), so this measures their compile.
+of envs run as Python would take longer than the compile), so this measures their compile;
+after `opends-gym compile` into the same cache it measures loading them instead
+(`benchmarks/cold_compile.py` runs both). Printed as a table row: id, envs, import s,
+make_vec+reset s, first step s, the slowest of the next steps s, and how many kernels this
+process compiled and loaded from the cache (`opends_gym.jit.cache_stats`).
 """
 
 from __future__ import annotations
@@ -38,7 +42,13 @@ def main() -> None:
         start = time.perf_counter()
         env.step(action)
         times.append(time.perf_counter() - start)
-    print(f"| {args.env_id} | {args.num_envs} | {t1 - t0:.2f} | {t2 - t1:.2f} | {times[0]:.2f} | {max(times[1:]):.2f} |")
+    from opends_gym import jit
+
+    stats = jit.cache_stats()
+    print(
+        f"| {args.env_id} | {args.num_envs} | {t1 - t0:.2f} | {t2 - t1:.2f} | {times[0]:.2f} | {max(times[1:]):.2f} "
+        f"| {stats['compiled']} | {stats['loaded']} |"
+    )
 
 
 if __name__ == "__main__":

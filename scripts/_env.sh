@@ -71,3 +71,21 @@ if ! satisfied; then
   printf '%s\n%s\n' "$HASH" "$EXTRAS" > "$VENV/.install-stamp-${EXTRAS:-base}"
 fi
 export PATH="$VENV/bin:$PATH"
+
+# Compile the kernels into this machine's numba cache (`opends-gym compile`), so that no first
+# step waits for a compile later; again only when the package's sources (or NUMBA_CACHE_DIR)
+# changed since (a warm cache takes seconds). Never fatal: on failure the kernels compile on
+# first use, as without this step. OPENDS_GYM_SKIP_COMPILE=1 skips it.
+compile_kernels() {
+  local stamp="$VENV/.compile-stamp" log="$VENV/compile.log" want
+  want="$( (cd "$ROOT" && find opends_gym -name '*.py' -print0 | LC_ALL=C sort -z | xargs -0 cat; echo "${NUMBA_CACHE_DIR:-}") | sha256sum | cut -c1-16)"
+  [ "$(cat "$stamp" 2>/dev/null)" = "$want" ] && return 0
+  echo "compiling the kernels into this machine's numba cache (opends-gym compile; log: $log)" >&2
+  if "$VENV/bin/opends-gym" compile >"$log" 2>&1; then
+    echo "$want" > "$stamp"
+    echo "  $(tail -n 1 "$log")" >&2
+  else
+    echo "opends-gym compile failed (see $log); the kernels will compile on first use instead" >&2
+  fi
+}
+[ "${OPENDS_GYM_SKIP_COMPILE:-0}" = 1 ] || compile_kernels

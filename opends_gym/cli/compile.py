@@ -47,7 +47,9 @@ class Group:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--only", nargs="+", metavar="ENV_ID", help="only these env ids (or short names: LaneChangeTest)")
     p.add_argument("--kind", choices=("all", "single", "native"), default="all", help="single envs, native batches or both (all)")
-    p.add_argument("--task", nargs="+", default=[], metavar="FOLDER", help="also your own tasks on OpenDS/DrivingTask-v0 (single env and native batch)")
+    p.add_argument(
+        "--task", nargs="+", default=[], metavar="FOLDER", help="also your own tasks on OpenDS/DrivingTask-v0 (single env and native batch)"
+    )
     p.add_argument("--jobs", type=int, default=None, help="worker processes (default: one per core)")
 
 
@@ -65,12 +67,14 @@ def plan(only: list[str] | None, kind: str, tasks: list[str]) -> list[Group]:
 
     ids = list(ENVS)
     if only:
+        names = ids + [i.removeprefix("OpenDS/").removesuffix("-v0") for i in ids]
         ids = []
         for name in only:
             env_id = lookup_env_id(name)
             if env_id is None or env_id not in ENVS:
-                raise UserError(f"unknown environment id {name!r}{did_you_mean(name, list(ENVS))} (opends-gym list --envs shows them)")
-            ids.append(env_id)
+                raise UserError(f"unknown environment id {name!r}{did_you_mean(name, names)} (opends-gym list --envs shows them)")
+            if env_id not in ids:
+                ids.append(env_id)
     groups: list[Group] = []
     if kind in ("all", "native"):
         groups += [Group(i, True) for i in ids if i in VECTOR_ENVS]
@@ -124,12 +128,14 @@ def compile_group(group: Group) -> dict[str, Any]:
 
     warnings.simplefilter("ignore")  # a task's warnings belong to the runs that use it, not to this
     logging.getLogger("opends_gym").setLevel(logging.ERROR)
+    before = jit.cache_stats()  # (a worker runs several groups: kernels an earlier one got are counted there)
     if group.native:
         _drive_native(group)
     else:
         _drive_single(group)
     jit.wait_compiled()
-    return {"seconds": time.perf_counter() - start, **jit.cache_stats()}
+    after = jit.cache_stats()
+    return {"seconds": time.perf_counter() - start, **{k: after[k] - before[k] for k in after}}
 
 
 def _drive_single(group: Group) -> None:
