@@ -165,33 +165,37 @@ def _drive_single(group: Group) -> None:
 
 def _drive_native(group: Group) -> None:
     """A batch of one chunk (serial kernels) and one of more (numba-parallel kernels), each
-    stepped until every env has ended an episode and been reset."""
+    stepped until every env has ended an episode and been reset (or MAX_STEPS)."""
     import gymnasium as gym
     import numpy as np
 
     from ..vector.kernels import CHUNK_ENVS
 
-    kwargs = dict(group.kwargs)
-    if group.env_id == "OpenDS/DrivingTask-v0" and "task" not in kwargs:
-        kwargs["task"] = str(_traffic_task())
-    for n in (2, CHUNK_ENVS + 1):
-        env = gym.make_vec(group.env_id, num_envs=n, vectorization_mode="vector_entry_point", max_episode_s=SHORT_EPISODE_S, **kwargs)
-        try:
-            env.action_space.seed(0)
-            env.reset(seed=0)
-            ended = np.zeros(n, dtype=bool)
-            for _ in range(MAX_STEPS):
-                _, _, terminated, truncated, _ = env.step(env.action_space.sample())
-                if ended.all():  # this step autoreset them
-                    break
-                ended |= terminated | truncated
-        finally:
-            env.close()
+    tasks: list[dict[str, Any]] = [dict(group.kwargs)]
+    if group.env_id == "OpenDS/DrivingTask-v0" and "task" not in group.kwargs:
+        tasks = [{"task": str(t)} for t in _traffic_tasks()]
+    for kwargs in tasks:
+        for n in (2, CHUNK_ENVS + 1):
+            env = gym.make_vec(group.env_id, num_envs=n, vectorization_mode="vector_entry_point", max_episode_s=SHORT_EPISODE_S, **kwargs)
+            try:
+                env.action_space.seed(0)
+                env.reset(seed=0)
+                ended = np.zeros(n, dtype=bool)
+                for _ in range(MAX_STEPS):
+                    _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+                    if ended.all():  # this step autoreset them
+                        break
+                    ended |= terminated | truncated
+            finally:
+                env.close()
 
 
-def _traffic_task() -> Any:
-    """A task with traffic for the native DrivingTask batch (no bundled task has one it runs):
-    the bundled platoon task's road and cars without its triggers, saved to a temporary folder."""
+def _traffic_tasks() -> list[Any]:
+    """Tasks with traffic for the native DrivingTask batch (no bundled task is one it runs): the
+    bundled platoon task's road, cars and trigger boxes, its triggers starting a recording
+    instead of the platoon's stimuli (which the batch does not run), saved to a temporary folder; once with its
+    lanes, once without (the ego car then follows a route along the cars' paths). Between
+    them they call every kernel of the batch: lanes, routes and trigger-box contacts."""
     import atexit
     import shutil
     import tempfile
@@ -199,9 +203,15 @@ def _traffic_task() -> Any:
     from pathlib import Path
 
     from ..task import load_task, save_task
-    from ..task.model_interaction import Interaction
+    from ..task.model_interaction import Action, Activity, Interaction, Parameter
+    from ..task.model_road import Road
 
     task = load_task("ThreeVehiclePlatoon")
+    record = Activity(actions=(Action(name="startRecording", params=(Parameter(name="track", value="1"),)),))
+    task = replace(task, interaction=Interaction(triggers=tuple(replace(t, activities=(record,)) for t in task.interaction.triggers)))
     folder = Path(tempfile.mkdtemp(prefix="opends-gym-compile-"))
     atexit.register(shutil.rmtree, folder, True)
-    return save_task(replace(task, interaction=Interaction()), folder / "TrafficTask")
+    return [
+        save_task(task, folder / "Lanes"),
+        save_task(replace(task, scenario=replace(task.scenario, road=Road())), folder / "Route"),
+    ]
