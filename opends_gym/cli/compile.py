@@ -91,6 +91,7 @@ def compile_groups(groups: list[Group], jobs: int) -> int:
 
     start = time.perf_counter()
     failed = 0
+    caches: set[str] = set()
     width = max((len(g.label) for g in groups), default=0)
     workers = max(1, min(jobs, len(groups)))
     with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
@@ -107,10 +108,13 @@ def compile_groups(groups: list[Group], jobs: int) -> int:
                     message = "; ".join(line.strip() for line in str(e).splitlines() if line.strip()) or type(e).__name__
                     print(f"{group.label:<{width}}  failed: {message}", flush=True)
                     continue
+                caches.add(r["cache"] or "none (NUMBA_DISABLE_JIT)")
                 print(
                     f"{group.label:<{width}}  {r['seconds']:6.1f} s  {r['compiled']:4d} compiled  {r['loaded']:4d} loaded from the cache",
                     flush=True,
                 )
+    for cache in sorted(caches):
+        print(f"numba cache (of opends_gym/jit.py's kernels; other modules' alike): {cache}")
     print(f"{len(groups) - failed} of {len(groups)} groups in {time.perf_counter() - start:.1f} s ({workers} worker processes)")
     if failed:
         print(f"opends-gym compile: error: {failed} group(s) failed (see above)", file=sys.stderr)
@@ -135,7 +139,8 @@ def compile_group(group: Group) -> dict[str, Any]:
         _drive_single(group)
     jit.wait_compiled()
     after = jit.cache_stats()
-    return {"seconds": time.perf_counter() - start, **{k: after[k] - before[k] for k in after}}
+    cache = str(jit.py_hypot.stats.cache_path) if hasattr(jit.py_hypot, "stats") else None  # (one kernel's folder: where they all go)
+    return {"seconds": time.perf_counter() - start, "cache": cache, **{k: after[k] - before[k] for k in after}}
 
 
 def _drive_single(group: Group) -> None:
