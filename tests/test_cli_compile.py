@@ -59,3 +59,11 @@ def test_unknown_env_id_is_one_line_with_a_suggestion(capsys: pytest.CaptureFixt
     err = capsys.readouterr().err
     assert err.count("\n") == 1, err
     assert "unknown environment id 'LaneChangeTset'; did you mean LaneChangeTest?" in err
+
+
+def test_missing_task_folder_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    missing = tmp_path / "NoSuchTask"
+    assert main(["compile", "--task", str(missing)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert err.startswith(f"opends-gym compile: error: {missing}: no such task folder or file, nor a bundled task")

@@ -5,8 +5,8 @@ without this, the first native batch of each kind on a machine waits for its ker
 compile (36-75 s for 4,096 envs, docs/performance.md "Cold start"), and single envs run
 their kernels as Python until the background compile is done. This drives each registered
 env and each native batch a few steps (with short episodes, so episode ends and autoresets
-run too) in worker processes, one group per process and one process per core (a compile
-is CPU bound and holds the GIL), waits for the background compiles, and so leaves every
+run too) in worker processes, one per core, each taking the next group (a compile is CPU
+bound and holds the GIL), waits for the background compiles, and so leaves every
 kernel they call in the cache where later processes look (numba's cache locators:
 `NUMBA_CACHE_DIR` if set, else the `__pycache__` folders next to the package when they are
 writable, else numba's user-wide cache). Run it as the user who will run the envs. With a
@@ -19,8 +19,10 @@ import argparse
 import os
 import sys
 import time
+from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from ..errors import UserError
@@ -55,7 +57,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     groups = plan(args.only, args.kind, args.task)
-    jobs = args.jobs or os.cpu_count() or 1
+    jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     if jobs < 1:
         raise UserError(f"--jobs must be at least 1, not {jobs}")
     return compile_groups(groups, jobs)
@@ -64,6 +66,7 @@ def run(args: argparse.Namespace) -> int:
 def plan(only: list[str] | None, kind: str, tasks: list[str]) -> list[Group]:
     """The groups to compile, the native batches first (the longest compiles start first)."""
     from ..envs.registration import ENVS, VECTOR_ENVS, lookup_env_id
+    from ..task.bundled import bundled_task_names
 
     ids = list(ENVS)
     if only:
@@ -75,6 +78,9 @@ def plan(only: list[str] | None, kind: str, tasks: list[str]) -> list[Group]:
                 raise UserError(f"unknown environment id {name!r}{did_you_mean(name, names)} (opends-gym list --envs shows them)")
             if env_id not in ids:
                 ids.append(env_id)
+    for t in tasks:
+        if not Path(t).exists() and t not in bundled_task_names():
+            raise UserError(f"{t}: no such task folder or file, nor a bundled task (opends-gym list --tasks shows them)")
     groups: list[Group] = []
     if kind in ("all", "native"):
         groups += [Group(i, True) for i in ids if i in VECTOR_ENVS]
@@ -108,6 +114,9 @@ def compile_groups(groups: list[Group], jobs: int) -> int:
                     message = "; ".join(line.strip() for line in str(e).splitlines() if line.strip()) or type(e).__name__
                     print(f"{group.label:<{width}}  failed: {message}", flush=True)
                     continue
+                if "skipped" in r:
+                    print(f"{group.label:<{width}}  skipped: {r['skipped']}", flush=True)
+                    continue
                 caches.add(r["cache"] or "none (NUMBA_DISABLE_JIT)")
                 print(
                     f"{group.label:<{width}}  {r['seconds']:6.1f} s  {r['compiled']:4d} compiled  {r['loaded']:4d} loaded from the cache",
@@ -133,10 +142,13 @@ def compile_group(group: Group) -> dict[str, Any]:
     warnings.simplefilter("ignore")  # a task's warnings belong to the runs that use it, not to this
     logging.getLogger("opends_gym").setLevel(logging.ERROR)
     before = jit.cache_stats()  # (a worker runs several groups: kernels an earlier one got are counted there)
-    if group.native:
-        _drive_native(group)
-    else:
-        _drive_single(group)
+    drive: Callable[[Group], None] = _drive_native if group.native else _drive_single
+    try:
+        drive(group)
+    except ValueError as e:  # your task's native batch refused it (no traffic, a feature it does not model)
+        if not (group.native and "task" in group.kwargs):
+            raise
+        return {"skipped": str(e).split("; ")[0]}
     jit.wait_compiled()
     after = jit.cache_stats()
     cache = str(jit.py_hypot.stats.cache_path) if hasattr(jit.py_hypot, "stats") else None  # (one kernel's folder: where they all go)
