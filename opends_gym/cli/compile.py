@@ -34,7 +34,7 @@ MAX_STEPS = 40  # policy steps per env or batch at most
 
 @dataclass(frozen=True)
 class Group:
-    """One env id as a single env or as a native batch: what one worker process compiles."""
+    """One env id as a single env or as a native batch: one line of the output."""
 
     env_id: str
     native: bool
@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def plan(only: list[str] | None, kind: str, tasks: list[str]) -> list[Group]:
-    """The groups to compile, the native batches first (the longest compiles start first)."""
+    """The groups to compile."""
     from ..envs.registration import ENVS, VECTOR_ENVS, lookup_env_id
     from ..task.bundled import bundled_task_names
 
@@ -91,37 +91,68 @@ def plan(only: list[str] | None, kind: str, tasks: list[str]) -> list[Group]:
     return groups
 
 
+# groups that compile many of the same kernels: one worker runs them one after the other, so
+# the later ones load what the first compiled instead of compiling it again at the same time
+_TRAFFIC_IDS = ("OpenDS/BrakeReaction-v0", "OpenDS/ThreeVehiclePlatoon-v0")
+_FAMILIES = {(i, True): "platoon batches" for i in _TRAFFIC_IDS} | {(i, False): "traffic envs" for i in _TRAFFIC_IDS}
+
+
+def chains(groups: list[Group]) -> list[list[Group]]:
+    """The groups as the worker tasks that run them: a family (`_FAMILIES`, the other single
+    envs without a task of yours) in one task, in the given order; any other group alone.
+    The longest first: tasks with traffic (sim.traffic, vector.platoon*, vector.driving*)."""
+    out: list[list[Group]] = []
+    where: dict[str, list[Group]] = {}
+    for g in groups:
+        family = _FAMILIES.get((g.env_id, g.native)) or ("single envs" if not g.native and not g.kwargs else None)
+        if family is None:
+            out.append([g])
+        elif family in where:
+            where[family].append(g)
+        else:
+            where[family] = [g]
+            out.append(where[family])
+    return sorted(out, key=lambda c: (not c[0].native, not any(_with_traffic(g) for g in c)))
+
+
+def _with_traffic(g: Group) -> bool:
+    return not g.kwargs and (g.env_id in _TRAFFIC_IDS or (g.native and g.env_id == "OpenDS/DrivingTask-v0"))
+
+
 def compile_groups(groups: list[Group], jobs: int) -> int:
-    """Compile the groups in `jobs` spawned worker processes, a line per group as it ends."""
+    """Compile the groups in `jobs` spawned worker processes, lines per chain of groups as it ends."""
     import multiprocessing
 
     start = time.perf_counter()
     failed = 0
     caches: set[str] = set()
     width = max((len(g.label) for g in groups), default=0)
-    workers = max(1, min(jobs, len(groups)))
+    tasks = chains(groups)
+    workers = max(1, min(jobs, len(tasks)))
     with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures: dict[Future[dict[str, Any]], Group] = {pool.submit(compile_group, g): g for g in groups}
+        futures: dict[Future[list[dict[str, Any]]], list[Group]] = {pool.submit(compile_chain, c): c for c in tasks}
         pending = set(futures)
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
-                group = futures[future]
+                chain = futures[future]
                 try:
-                    r = future.result()
-                except Exception as e:  # one group's failure does not stop the others
-                    failed += 1
-                    message = "; ".join(line.strip() for line in str(e).splitlines() if line.strip()) or type(e).__name__
-                    print(f"{group.label:<{width}}  failed: {message}", flush=True)
-                    continue
-                if "skipped" in r:
-                    print(f"{group.label:<{width}}  skipped: {r['skipped']}", flush=True)
-                    continue
-                caches.add(r["cache"] or "none (NUMBA_DISABLE_JIT)")
-                print(
-                    f"{group.label:<{width}}  {r['seconds']:6.1f} s  {r['compiled']:4d} compiled  {r['loaded']:4d} loaded from the cache",
-                    flush=True,
-                )
+                    results = future.result()
+                except Exception as e:  # the worker died: its groups failed, the others go on
+                    results = [{"failed": _one_line(e)}] * len(chain)
+                for group, r in zip(chain, results):
+                    if "failed" in r:
+                        failed += 1
+                        print(f"{group.label:<{width}}  failed: {r['failed']}", flush=True)
+                    elif "skipped" in r:
+                        print(f"{group.label:<{width}}  skipped: {r['skipped']}", flush=True)
+                    else:
+                        caches.add(r["cache"] or "none (NUMBA_DISABLE_JIT)")
+                        print(
+                            f"{group.label:<{width}}  {r['seconds']:6.1f} s  {r['compiled']:4d} compiled  "
+                            f"{r['loaded']:4d} loaded from the cache",
+                            flush=True,
+                        )
     for cache in sorted(caches):
         print(f"numba cache (of opends_gym/jit.py's kernels; other modules' alike): {cache}")
     print(f"{len(groups) - failed} of {len(groups)} groups in {time.perf_counter() - start:.1f} s ({workers} worker processes)")
@@ -129,6 +160,22 @@ def compile_groups(groups: list[Group], jobs: int) -> int:
         print(f"opends-gym compile: error: {failed} group(s) failed (see above)", file=sys.stderr)
         return 1
     return 0
+
+
+def _one_line(e: BaseException) -> str:
+    return "; ".join(line.strip() for line in str(e).splitlines() if line.strip()) or type(e).__name__
+
+
+def compile_chain(chain: list[Group]) -> list[dict[str, Any]]:
+    """In a worker process: `compile_group` for each group in turn; a failure is reported and
+    the next group goes on."""
+    results: list[dict[str, Any]] = []
+    for group in chain:
+        try:
+            results.append(compile_group(group))
+        except Exception as e:
+            results.append({"failed": _one_line(e)})
+    return results
 
 
 def compile_group(group: Group) -> dict[str, Any]:
