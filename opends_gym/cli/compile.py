@@ -5,8 +5,8 @@ without this, the first native batch of each kind on a machine waits for its ker
 compile (36-75 s for 4,096 envs, docs/performance.md "Cold start"), and single envs run
 their kernels as Python until the background compile is done. This drives each registered
 env and each native batch a few steps (with short episodes, so episode ends and autoresets
-run too) in worker processes, one per core, each taking the next group (a compile is CPU
-bound and holds the GIL), waits for the background compiles, and so leaves every
+run too) in worker processes, one per core (a compile is CPU bound and holds the GIL;
+groups that share kernels go to one worker, see `chains`), waits for the background compiles, and so leaves every
 kernel they call in the cache where later processes look (numba's cache locators:
 `NUMBA_CACHE_DIR` if set, else the `__pycache__` folders next to the package when they are
 writable, else numba's user-wide cache). Run it as the user who will run the envs. With a
