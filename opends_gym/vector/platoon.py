@@ -92,6 +92,7 @@ class PlatoonBatch(BatchCore):
     needs_distance = True
     has_traffic = True
     parallel_kernels = True  # its step pass runs chunks of envs on numba's threads (`parallel`)
+    has_extra_metrics = False  # the task adds its own metrics (`_extra_metrics`)
 
     def __init__(self, template: ThreeVehiclePlatoonEnv, n: int, record_metrics: bool = True) -> None:
         template.reset(seed=0)  # the cars as the task's reset leaves them (the same for every seed)
@@ -189,10 +190,10 @@ class PlatoonBatch(BatchCore):
         rng = self.rngs[e]
         assert rng is not None
         # `World.reset(seed=...)`'s draw (unused: the batch's worlds use no randomness), then the seed of the env's
-        # stimulus generator (the single env seeds it at reset); one call draws both, the same two integers.
-        # Building the generator costs ~10x the draw and most episodes under random actions end before their first
-        # stimulus, so it is built on first use (`_prng`).
-        self.prng_seed[e] = rng.integers(0, 2**31 - 1, size=2)[1]
+        # stimulus generator (the single env seeds it at reset). Building the generator costs ~10x the draw and most
+        # episodes under random actions end before their first stimulus, so it is built on first use (`_prng`).
+        rng.integers(0, 2**31 - 1)
+        self.prng_seed[e] = rng.integers(0, 2**31 - 1)
 
     def _reset_task(self, idx: np.ndarray) -> None:
         stimuli, objs, prng = self.stimuli, self.objs, self.prng
@@ -518,13 +519,10 @@ class PlatoonBatch(BatchCore):
             at += a.shape[1]
         assert at == nb, "the columns above are `_BASE_KEYS`"
         keys = _BASE_KEYS + scores.KEYS
-        out = []
-        for j, (e, row) in enumerate(zip(es, _rows_with_nan(table), strict=True)):
-            d = dict(zip(keys, row))
-            extra = self._extra_metrics(e, reactions.get(e, []), data[:, starts[j] : starts[j + 1]])
-            if extra:
-                d.update(extra)
-            out.append((e, d))
+        out = [(e, dict(zip(keys, row))) for e, row in zip(es, _rows_with_nan(table), strict=True)]
+        if self.has_extra_metrics:
+            for j, (e, d) in enumerate(out):
+                d.update(self._extra_metrics(e, reactions.get(e, []), data[:, starts[j] : starts[j + 1]]))
         return out
 
     def _presented_rows(self, es: list[int]) -> np.ndarray:
@@ -575,6 +573,7 @@ BRAKE_KINDS = ("brakeLight", "emergencyBrake")  # the stimuli `brake_metrics` sc
 class BrakeBatch(PlatoonBatch):
     handled_actions = frozenset({"setTVPTStimulus", "manipulateObject", "setupBrakeReactionTimer"})
     trace_columns = PlatoonBatch.trace_columns + ("accelerator", "brake")
+    has_extra_metrics = True
 
     def __init__(self, template: Any, n: int, record_metrics: bool = True) -> None:
         super().__init__(template, n, record_metrics)
