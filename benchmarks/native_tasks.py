@@ -8,6 +8,13 @@ With `--profile`, one cProfile'd run per task: the episodes that end per env-ste
 of them that ended with a collision, and the share of the step spent scoring ended episodes (`BatchCore.episodes_metrics`, the single
 env's own metric code per episode).
 
+`--parts` (best with `NUMBA_NUM_THREADS=1`) splits the brake and platoon batches' step, without
+and with metrics, into CPU ns per env-step by part: the Python-level parts timed by wrappers
+around their calls (the compiled physics pass, the finishing pass, resets, trigger firing,
+timers, action conversion, episode scoring, the episode-metrics arrays, the rest), and the
+compiled pass's pieces each run alone on a copy of the batch's state (ego cars, traffic cars,
+`platoon_step.after_one`, the trigger search), with the episodes ended per 1,000 env-steps.
+
 `--motorway N` adds the corpus MotorwayTask (41 road-network traffic cars, trigger boxes) as a
 native `OpenDS/DrivingTask-v0` batch of N envs (`opends_gym.vector.driving`), random actions
 with resets, without and with metrics (metrics with `max_episode_s=120`, so the traces of
@@ -17,7 +24,8 @@ kernel alone for 64, 256 and N worlds (a world's own step and its two halves, `a
 and `drive`; and the step of the worlds that follow the shared traffic history,
 `vector.traffic_history`); `--motorway-only` skips the other tasks.
 
-    python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile] [--motorway 1024 [--motorway-only]]
+    python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile] [--parts [--parts-steps 60]]
+                                      [--motorway 1024 [--motorway-only]]
 """
 
 from __future__ import annotations
