@@ -8,6 +8,13 @@ With `--profile`, one cProfile'd run per task: the episodes that end per env-ste
 of them that ended with a collision, and the share of the step spent scoring ended episodes (`BatchCore.episodes_metrics`, the single
 env's own metric code per episode).
 
+`--parts` (best with `NUMBA_NUM_THREADS=1`) splits the brake and platoon batches' step, without
+and with metrics, into CPU ns per env-step by part: the Python-level parts timed by wrappers
+around their calls (the compiled physics pass, the finishing pass, resets, trigger firing,
+timers, action conversion, episode scoring, the episode-metrics arrays, the rest), and the
+compiled pass's pieces each run alone on a copy of the batch's state (ego cars, traffic cars,
+`platoon_step.after_one`, the trigger search), with the episodes ended per 1,000 env-steps.
+
 `--motorway N` adds the corpus MotorwayTask (41 road-network traffic cars, trigger boxes) as a
 native `OpenDS/DrivingTask-v0` batch of N envs (`opends_gym.vector.driving`), random actions
 with resets, without and with metrics (metrics with `max_episode_s=120`, so the traces of
@@ -17,7 +24,8 @@ kernel alone for 64, 256 and N worlds (a world's own step and its two halves, `a
 and `drive`; and the step of the worlds that follow the shared traffic history,
 `vector.traffic_history`); `--motorway-only` skips the other tasks.
 
-    python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile] [--motorway 1024 [--motorway-only]]
+    python benchmarks/native_tasks.py [--envs 4096] [--seconds 3] [--rounds 3] [--profile] [--parts [--parts-steps 60]]
+                                      [--motorway 1024 [--motorway-only]]
 """
 
 from __future__ import annotations
@@ -25,17 +33,24 @@ from __future__ import annotations
 import argparse
 import cProfile
 import logging
+import math
+import os
 import pstats
 import statistics
 import sys
 import time
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import gymnasium as gym
+import numba
 import numpy as np
 
-from opends_gym.jit import wait_compiled
+from opends_gym.jit import borrowing_kernel, wait_compiled
+from opends_gym.sim.traffic.motion import step_rows
+from opends_gym.vector.kernels import nearest_volume, volume_fires
+from opends_gym.vector.platoon_step import after_one
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import throughput as tp
@@ -223,6 +238,173 @@ def motorway_table(n: int, seconds: float, rounds: int) -> None:
               f"{statistics.median(c):,.0f} | {statistics.median(busy):.2f} |", flush=True)  # fmt: skip
 
 
+@borrowing_kernel
+def _traffic_only(n: int, repeat: int, dt: float, traffic: tuple, t: np.ndarray) -> None:
+    """`repeat` traffic steps of every world (`motion.step_rows`, as `platoon_pass` runs them)."""
+    f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, ego3, work, flags, stop_mask, brake_out, turn_out, net, quiet, c, rows, \
+        codes = traffic  # fmt: skip
+    for e in range(n):
+        for _ in range(repeat):
+            code, _ = step_rows(f, i, b, pos, end_xz, light_xz, ext_cmd, sp, pf, pp, pi, t, ego3, dt, work, flags, stop_mask, brake_out,
+                                turn_out, net, quiet, c, rows, e * c, (e + 1) * c)  # fmt: skip
+            codes[e] = code
+
+
+@borrowing_kernel
+def _after_only(n: int, repeat: int, live: np.ndarray, a: tuple, lead: tuple, lanes: tuple, ring: tuple, hook: tuple, band: tuple,
+                stim: tuple, hits: tuple, stop: tuple) -> None:  # fmt: skip
+    """`platoon_step.after_one` of every env, `repeat` times (lead car, lanes, trace row, band
+    control, stimuli, contacts, early stop), every env live."""
+    for e in range(n):
+        for k in range(repeat):
+            live[e] = True
+            after_one(e, k, live, a, lead, lanes, ring, hook, band, stim, hits, stop)
+
+
+@borrowing_kernel
+def _triggers_only(n: int, repeat: int, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, t: np.ndarray, trig: tuple) -> int:
+    """`repeat` trigger searches and contact tests of every env (as `platoon_pass`)."""
+    paused, shift, hx, hz, vols, vol_triggers, locks, near, _ = trig
+    hits = 0
+    for e in range(n):
+        for _ in range(repeat):
+            if not paused[e]:
+                bx, bz = x[e] - shift * math.sin(yaw[e]), z[e] - shift * math.cos(yaw[e])
+                j, near[e] = nearest_volume(bx, bz, vols, near[e])
+                if j >= 0 and volume_fires(e, j, bx, bz, yaw[e], hx, hz, vols, vol_triggers, t[e], locks):
+                    hits += 1
+    return hits
+
+
+def _cpu_ns(fn: Callable[[], object], restore: Callable[[], None], per: int, seconds: float) -> float:
+    """CPU ns of fn() per `per` units, repeated for `seconds` of CPU, `restore()` (untimed) before each call."""
+    k, spent = 0, 0.0
+    while spent < seconds:
+        restore()
+        c0 = time.process_time()
+        fn()
+        spent += time.process_time() - c0
+        k += 1
+    return 1e9 * spent / (k * per)
+
+
+def task_parts(env_id: str, n: int, steps: int, metrics: bool) -> dict[str, float]:
+    """CPU ns per env-step of the native brake or platoon batch's step by part (random actions
+    with resets, after warm-up steps): the Python-level parts timed by wrappers around their
+    calls, the compiled physics pass split by running its pieces alone on a copy of the batch's
+    state (ego cars, traffic cars, `after_one`, trigger search; each as many physics steps as a
+    policy step has; the pass's rest is its loop, the reaction timers and the envs it skips)."""
+    from opends_gym.vector import actions, env, platoon
+    from opends_gym.vector.timers import TimerBatch
+    from opends_gym.vector.triggers import TriggerBatch
+
+    threads = os.environ.get("NUMBA_NUM_THREADS")
+    from native_profile import physics_only  # (it sets NUMBA_NUM_THREADS for its own runs when unset: put back)
+
+    if threads is None:
+        os.environ.pop("NUMBA_NUM_THREADS", None)
+    spent: dict[str, float] = {}
+    pass_label = "physics pass (platoon_substeps)"
+    named = [(platoon, "platoon_substeps", pass_label), (platoon, "_substeps_range", pass_label),
+             (platoon, "traffic_events", "traffic events (Python: leg ends)"), (TriggerBatch, "fire", "trigger firing (Python)"),
+             (TimerBatch, "score_ended", "timers scored (Python)"), (platoon, "platoon_finish", "finishing pass (platoon_finish)"),
+             (platoon, "_finish_range", "finishing pass (platoon_finish)"),
+             (actions.BatchActions, "convert", "action checks and conversion"),
+             (env, "_check_actions", "action checks and conversion"), (platoon.PlatoonBatch, "reset_rows", "resets (reset_rows)"),
+             (platoon.PlatoonBatch, "episodes_metrics", "episode scoring (episodes_metrics)"),
+             (env, "_metrics_arrays", "episode_metrics arrays")]  # fmt: skip
+    saved = [(o, name, getattr(o, name)) for o, name, _ in named]
+    captured: list[tuple[object, ...]] = []
+
+    def wrap(owner: object, name: str, label: str) -> None:
+        fn = getattr(owner, name)
+
+        def timed(*a: object, **kw: object) -> object:
+            if name in ("platoon_substeps", "_substeps_range") and not a[0 if name == "platoon_substeps" else 2]:
+                captured[:] = [a]
+            c0 = time.process_time()
+            try:
+                return fn(*a, **kw)
+            finally:
+                spent[label] = spent.get(label, 0.0) + time.process_time() - c0
+
+        setattr(owner, name, timed)
+
+    for owner, name, label in named:
+        wrap(owner, name, label)
+    try:
+        vec = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", record_metrics=metrics)
+        vec.reset(seed=0)
+        vec.action_space.seed(0)
+        acts = [vec.action_space.sample() for _ in range(16)]
+        for i in range(20):
+            vec.step(acts[i % 16])
+        wait_compiled()
+        ends = 0
+        spent.clear()
+        c0 = time.process_time()
+        for i in range(steps):
+            _, _, term, trunc, _ = vec.step(acts[i % 16])
+            ends += int(np.count_nonzero(term | trunc))
+        total = time.process_time() - c0
+    finally:
+        for owner, name, fn in saved:
+            setattr(owner, name, fn)
+    out = {"whole step": 1e9 * total / (steps * n)}
+    out |= {label: 1e9 * v / (steps * n) for label, v in sorted(spent.items(), key=lambda kv: -kv[1])}
+    out["the rest (Python: step glue, info dict)"] = out["whole step"] - sum(1e9 * v / (steps * n) for v in spent.values())
+    out["episodes ended per 1,000 env-steps"] = 1000 * ends / (steps * n)
+    # the compiled pass's pieces alone, on copies of the batch's state
+    core = vec.unwrapped.shards[0].core  # type: ignore[attr-defined]
+    a = captured[0]
+    off = 0 if len(a) == 22 else 2
+    dt, controls, ego_t, traffic_t, trig_t = a[off + 3], a[off + 8], a[off + 9], a[off + 10], a[off + 11]
+    at, lead_t, lanes_t, hook_t, band_t, stim_t, hits_t, stop_t = (a[off + i] for i in (13, 14, 15, 17, 18, 19, 20, 21))
+    repeat = core.repeat
+    state = [x for x in (*ego_t, *traffic_t, *trig_t, *at, *lead_t, *lanes_t, *hook_t, *stim_t, *hits_t, *stop_t)
+             if isinstance(x, np.ndarray) and x.size]  # fmt: skip
+    uniq = list({id(x): x for x in state}.values())
+    saved_state = [x.copy() for x in uniq]
+
+    def restore() -> None:
+        for x, v in zip(uniq, saved_state):
+            np.copyto(x, v)
+
+    s = core.s
+    p = core.p
+    steer, gas, brake = (np.ascontiguousarray(x, dtype=np.float64) for x in controls)
+    block = np.zeros((repeat, n, len(core.trace_columns)))
+    ring_t = (block, 0, np.zeros(n, dtype=np.int64), core._pedals, True)
+    ones = np.ones(n, dtype=bool)
+    t = core.t.copy()
+    pieces = {
+        "  ego cars alone (vector.ego)": lambda: physics_only(p.car, dt, repeat, s.x, s.z, s.yaw, s.u, steer, gas, brake),
+        "  traffic cars alone (motion.step_rows)": lambda: _traffic_only(n, repeat, dt, traffic_t, t),
+        "  after_one alone (lead, lanes, trace, band, stimuli, contacts)": lambda: _after_only(n, repeat, ones, at, lead_t, lanes_t, ring_t,
+                                                                                           hook_t, band_t, stim_t, hits_t, stop_t),
+        "  trigger search alone": lambda: _triggers_only(n, repeat, s.x, s.z, s.yaw, t, trig_t),
+    }  # fmt: skip
+    for fn in pieces.values():
+        restore()
+        fn()
+    wait_compiled()
+    for label, fn in pieces.items():
+        out[label] = _cpu_ns(fn, restore, n, 1.0)
+    restore()
+    vec.close()
+    return out
+
+
+def parts_table(n: int, steps: int) -> None:
+    print(f"\n| part ({n} envs, {steps} policy steps, NUMBA_NUM_THREADS={numba.get_num_threads()}) | "
+          + " | ".join(f"{t} {'with' if m else 'no'} metrics" for t in TASKS[1:] for m in (False, True)) + " |")  # fmt: skip
+    print("|---|" + "---:|" * 4)
+    cols = [task_parts(f"OpenDS/{t}-v0", n, steps, m) for t in TASKS[1:] for m in (False, True)]
+    keys = list(dict.fromkeys(k for c in cols for k in c))
+    for k in keys:
+        print(f"| {k} | " + " | ".join(f"{c[k]:,.0f}" if k in c else "-" for c in cols) + " |")
+
+
 def profile(env_id: str, n: int, steps: int) -> tuple[float, float, float]:
     """(episodes ended per env-step, the share of them that ended with a collision, share of
     step time in episode scoring) over `steps` steps."""
@@ -266,6 +448,8 @@ def main() -> None:
     ap.add_argument("--profile", action="store_true")
     ap.add_argument("--motorway", type=int, default=0, help="also MotorwayTask as a native batch of this many envs")
     ap.add_argument("--motorway-only", action="store_true")
+    ap.add_argument("--parts", action="store_true", help="the brake and platoon batches' step by part (CPU ns per env-step)")
+    ap.add_argument("--parts-steps", type=int, default=60)
     ap.add_argument("--motorway-parts", action="store_true", help="also a per-part CPU profile of the MotorwayTask batch")
     args = ap.parse_args()
     logging.disable(logging.WARNING)
@@ -281,6 +465,9 @@ def main() -> None:
         if args.motorway_parts:
             motorway_parts(args.motorway, 40)
     if args.motorway_only:
+        return
+    if args.parts:
+        parts_table(args.envs, args.parts_steps)
         return
     cases = {c.label: c for c in tp.opends_cases()}
     rates: dict[str, list[float]] = {t: [] for t in TASKS}

@@ -109,6 +109,11 @@ class BatchCore:
     def _lead_measures(self) -> None:
         """Fill `headway` and `ttc` for the current positions (no traffic: inf)."""
 
+    def _lead_measures_of(self, rows: np.ndarray | None) -> None:
+        """`_lead_measures` when only the envs `rows` (a mask; None: any) moved since the last
+        call (a reset: the others' measures stand)."""
+        self._lead_measures()
+
     def _on_action(self, e: int, act: CompiledAction, trigger: int) -> None:
         raise ValueError(f"action {act.name} is not handled by {type(self).__name__}")
 
@@ -240,7 +245,7 @@ class BatchCore:
     def _record_row(self, rows: np.ndarray, first: bool) -> None:
         """`OpenDSEnv._record_row` for the envs `rows` (trace row, running lateral measures)."""
         s = self.s
-        self._lead_measures()
+        self._lead_measures_of(rows if first else None)
         rl, g = self.rl, self.guide
         record_lanes(s.x, s.z, rows, first, g.sign, self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane,
                      self.offset, rl["n"], rl["mean"], rl["m2"], self.needs_distance, self.prev_x, self.prev_z, rl["dist"],

@@ -42,7 +42,7 @@ from .core import BatchCore
 from .kernels import CHUNK_ENVS
 from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
 from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
-from .platoon_step import _lead_range, lead_measures
+from .platoon_step import _lead_range, lead_measures, lead_rows
 from .trace import TraceRing, lane_columns
 from .traffic import FlatTraffic
 
@@ -77,12 +77,12 @@ SLOTS = 4  # simultaneous stimuli per env (a stimulus lasts <= 5 s; triggers lie
 
 
 def _rows_with_nan(a: np.ndarray) -> list[list[float]]:
-    """`a.tolist()` with each NaN as `math.nan` (as the single env's metrics hold them), the
-    NaNs found by numpy (a comparison per value in Python took ~20 us per platoon episode
-    under cProfile)."""
-    rows = a.tolist()
-    for j, k in np.argwhere(a != a).tolist():
-        rows[j][k] = math.nan
+    """`a.tolist()` with each NaN as `math.nan` (as the single env's metrics hold them): the
+    floats made once (an object array), the NaNs replaced by numpy (a platoon episode has
+    a dozen or more; a Python loop over them cost more than the rest of its scoring)."""
+    values = a.astype(object)
+    values[np.isnan(a)] = math.nan
+    rows: list[list[float]] = values.tolist()
     return rows
 
 
@@ -92,6 +92,7 @@ class PlatoonBatch(BatchCore):
     needs_distance = True
     has_traffic = True
     parallel_kernels = True  # its step pass runs chunks of envs on numba's threads (`parallel`)
+    has_extra_metrics = False  # the task adds its own metrics (`_extra_metrics`)
 
     def __init__(self, template: ThreeVehiclePlatoonEnv, n: int, record_metrics: bool = True) -> None:
         template.reset(seed=0)  # the cars as the task's reset leaves them (the same for every seed)
@@ -185,16 +186,22 @@ class PlatoonBatch(BatchCore):
         self._score_params = episode_scores.scoring_params(cfg.physics_hz, self.off_road_limit, self.guide.road_edges_m)
 
     # ------------------------------------------------------------------ reset
+    def _world_seed(self, e: int) -> None:
+        rng = self.rngs[e]
+        assert rng is not None
+        # `World.reset(seed=...)`'s draw (unused: the batch's worlds use no randomness), then the seed of the env's
+        # stimulus generator (the single env seeds it at reset). Building the generator costs ~10x the draw and most
+        # episodes under random actions end before their first stimulus, so it is built on first use (`_prng`).
+        rng.integers(0, 2**31 - 1)
+        self.prng_seed[e] = rng.integers(0, 2**31 - 1)
+
     def _reset_task(self, idx: np.ndarray) -> None:
-        for e in idx.tolist():
-            rng = self.rngs[e]
-            assert rng is not None
-            # the single env seeds its stimulus generator here; building one costs ~10x the draw and most
-            # episodes under random actions end before their first stimulus, so it is built on first use (`_prng`)
-            self.prng_seed[e] = rng.integers(0, 2**31 - 1)
-            self.prng[e] = None
-            self.stimuli[e] = []
-            self.objs[e] = [None] * SLOTS
+        stimuli, objs, prng = self.stimuli, self.objs, self.prng
+        for e in idx.tolist():  # (lists replaced only when used: fewer objects for Python's garbage collector)
+            prng[e] = None
+            if stimuli[e]:
+                stimuli[e] = []
+                objs[e] = [None] * SLOTS
         self.traffic.reset_rows(idx, self.traffic.st0)
         self.on[idx] = False
         self.reward_acc[idx] = 0.0
@@ -213,6 +220,15 @@ class PlatoonBatch(BatchCore):
         fin = (self.lead_j >= 0) & np.isfinite(self.lead_gap)
         self.gap_m = np.where(fin, self.lead_gap, np.inf)  # (trace columns, read by name)
         self.lead_speed_mps = np.where(fin, self.lead_v, np.nan)
+
+    def _lead_measures_of(self, rows: np.ndarray | None) -> None:
+        if rows is None or rows.all():
+            self._lead_measures()
+            return
+        s, st = self.s, self.traffic.st  # (a reset: the other envs' measures are those their last physics step left)
+        lead_rows(np.flatnonzero(rows), s.x, s.z, s.yaw, s.u, st.pos, st.yaw, st.speed, st.enabled, self._half_len, self.traffic.c,
+                  self.traffic.ego_length, self.lead_j, self.lead_gap, self.lead_v, self.headway, self.ttc, self.gap_m,
+                  self.lead_speed_mps)  # fmt: skip
 
     def vehicle_slots(self, k: int) -> np.ndarray | None:
         s = self.s
@@ -296,7 +312,7 @@ class PlatoonBatch(BatchCore):
                    timers.done_t)  # fmt: skip
         a = (s.x, s.z, s.yaw, s.u, s.steer_in, s.gas_in, s.brake_in, self.t, self._sin, self._cos)
         lead = (st.pos, st.yaw, st.speed, st.enabled, self._half_len, tr.c, tr.ego_length, self.lead_j, self.lead_gap, self.lead_v,
-                self.headway, self.ttc, self.gap_m, self.lead_speed_mps)  # fmt: skip
+                self.headway, self.ttc, self.gap_m, self.lead_speed_mps, tr.work)  # fmt: skip
         lanes = (g.sign, self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, rl["n"], rl["mean"],
                  rl["m2"], self.prev_x, self.prev_z, rl["dist"], rl["area"])  # fmt: skip
         hook = (st.ov_speed, st.ov_decel, self.on, self.kind, self.car, self.lead_i, self.follow_i, bool(self.with_follower), self.lon_dev,
@@ -456,66 +472,71 @@ class PlatoonBatch(BatchCore):
     def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
         """`episode_metrics` of the envs `es`, the same floats, in two compiled passes over all
         of them: the generic trace metrics (`metrics.episode_scores`) and the platoon metrics
-        (`PlatoonCore.metrics`, `metrics.platoon_scores`); the reaction counts and the task's
-        own extras (`_extra_metrics`) are Python."""
+        (`PlatoonCore.metrics`, `metrics.platoon_scores`). Every episode's values are one row of
+        one table, turned into Python floats at once (NaNs as `math.nan`, as the single env's
+        metrics hold them); only the reaction counts of episodes with reactions and the task's
+        own extras (`_extra_metrics`) are per-episode Python."""
         if self.ring is None:
             raise RuntimeError("episode metrics were switched off (record_metrics=False)")
         if not es:
             return []
-        columns = self.ring.columns_of(es)
-        counts = np.array([columns[e].shape[1] for e in es], dtype=np.int64)
-        starts = np.zeros(len(es) + 1, dtype=np.int64)
-        np.cumsum(counts, out=starts[1:])
-        data = np.concatenate([columns[e] for e in es], axis=1)  # (column, row): the episodes one after another, reset rows first
+        m = len(es)
+        starts, data = self.ring.gather(es)  # (column, row): the episodes one after another, reset rows first
         col = self.trace_columns.index
         x, z = data[col("x_m")], data[col("z_m")]
         lat, lane, off = lane_columns(self.guide, x, z)
         steps = np.ones(len(x), dtype=bool)
         steps[starts[:-1]] = False  # (the reset row is no step of the platoon metrics)
-        platoon = self._platoon_scores(es, data[col("lon_dev")][steps], off[steps], starts - np.arange(len(es) + 1))
-        t = (np.arange(len(x)) - np.repeat(starts[:-1], counts)) * self.dt  # (`TraceRing.to_trace`'s clock)
-        base = np.empty((len(es), len(episode_scores.KEYS)))
+        nb = len(_BASE_KEYS)
+        table = np.empty((m, nb + len(scores.KEYS)))
+        self._platoon_scores(es, data[col("lon_dev")][steps], off[steps], starts - np.arange(m + 1), table[:, nb:])
+        t = (np.arange(len(x)) - np.repeat(starts[:-1], np.diff(starts))) * self.dt  # (`TraceRing.to_trace`'s clock)
+        base = np.empty((m, len(episode_scores.KEYS)))
         episode_scores.episode_scores(starts, t, np.hypot(np.diff(x), np.diff(z)), data[col("speed_mps")],
                                       data[col("steering")] * STEERING_WHEEL_MAX_DEG, data[col("gap_m")], data[col("lead_speed_mps")],
                                       data[col("headway_s")], data[col("ttc_s")], lat, lane.astype(np.float64), off, *self._score_params,
                                       base)  # fmt: skip
-        rows = _rows_with_nan(base)
-        return [(e, self._assemble(e, row, platoon[e], columns[e])) for e, row in zip(es, rows, strict=True)]
-
-    def _assemble(self, e: int, row: list[float], platoon: dict[str, float], columns: np.ndarray) -> dict[str, float]:
-        """Env e's `OpenDSEnv.episode_metrics` dict (its keys in order) from its scores."""
-        reactions = self.timers.results_of(e) if self.timers.results[e] else []
-        n_correct = n_failed = n_missed = 0
-        mean_rt = math.nan
-        if reactions:
-            correct = [r for r in reactions if r.result == 1]
-            n_correct, n_failed = len(correct), sum(1 for r in reactions if r.result == -1)
-            n_missed = sum(1 for r in reactions if r.result == -2)
-            mean_rt = float(np.mean([r.reaction_time_s for r in correct])) if correct else math.nan
+        idx = np.asarray(es, dtype=np.int64)
+        reactions: dict[int, list[Any]] = {}
+        counts = np.zeros((m, 5))  # reactions, correct, failed, missed, mean reaction time
+        counts[:, 4] = math.nan
+        for j, e in enumerate(es):
+            if self.timers.results[e]:  # (rare: an episode with reaction timers scored)
+                rs = reactions[e] = self.timers.results_of(e)
+                correct = [r for r in rs if r.result == 1]
+                counts[j, :4] = len(rs), len(correct), sum(1 for r in rs if r.result == -1), sum(1 for r in rs if r.result == -2)
+                counts[j, 4] = float(np.mean([r.reaction_time_s for r in correct])) if correct else math.nan
         tpl = self.template
-        values = [
-            float(self.t[e]), row[0], row[1], float(self.s.fuel_used[e]), float(self.collisions[e]), *row[2:6], float(len(reactions)),
-            float(n_correct), float(n_failed), float(n_missed), mean_rt, float(self.guide.lanes_known), row[6], row[7],
-            float(self._presented(e)), row[8], float(tpl.resets), float(tpl.collision_resets), tpl.reset_time_s, *row[9:],
-        ]  # fmt: skip
-        out = dict(zip(_BASE_KEYS, values, strict=True))
-        out.update(platoon)
-        extra = self._extra_metrics(e, reactions, columns)
-        if extra:
-            out.update(extra)
+        # `OpenDSEnv.episode_metrics`' keys in order (`_BASE_KEYS`), then `PlatoonCore.metrics`'
+        parts = (self.t[idx], base[:, 0:2], self.s.fuel_used[idx], self.collisions[idx], base[:, 2:6], counts,
+                 float(self.guide.lanes_known), base[:, 6:8], self._presented_rows(es), base[:, 8], float(tpl.resets),
+                 float(tpl.collision_resets), float(tpl.reset_time_s), base[:, 9:])  # fmt: skip
+        at = 0
+        for v in parts:
+            a = np.asarray(v, dtype=np.float64)
+            a = a.reshape(m, -1) if a.ndim else np.full((m, 1), a)
+            table[:, at : at + a.shape[1]] = a
+            at += a.shape[1]
+        assert at == nb, "the columns above are `_BASE_KEYS`"
+        keys = _BASE_KEYS + scores.KEYS
+        out = [(e, dict(zip(keys, row))) for e, row in zip(es, _rows_with_nan(table), strict=True)]
+        if self.has_extra_metrics:
+            for j, (e, d) in enumerate(out):
+                d.update(self._extra_metrics(e, reactions.get(e, []), data[:, starts[j] : starts[j + 1]]))
         return out
 
-    def _presented(self, e: int) -> int:
-        """`_stimuli_presented` of env e's episode."""
-        return len(self.stimuli[e])
+    def _presented_rows(self, es: list[int]) -> np.ndarray:
+        """`_stimuli_presented` of the episodes of the envs `es`."""
+        return np.array([len(self.stimuli[e]) for e in es], dtype=np.float64)
 
     def _extra_metrics(self, e: int, reactions: list[Any], columns: np.ndarray) -> dict[str, float]:
         """The task's own metrics after `PlatoonCore.metrics` (none for the platoon test)."""
         return {}
 
-    def _platoon_scores(self, es: list[int], lon: np.ndarray, off: np.ndarray, starts: np.ndarray) -> dict[int, dict[str, float]]:
-        """`PlatoonCore.metrics` of the envs `es`: lon[starts[j]:starts[j+1]] and off[...] are
-        the longitudinal band deviations and lane offsets of env es[j]'s steps."""
+    def _platoon_scores(self, es: list[int], lon: np.ndarray, off: np.ndarray, starts: np.ndarray, out: np.ndarray) -> None:
+        """`PlatoonCore.metrics` of the envs `es` into the rows of `out` (`scores.KEYS`' columns):
+        lon[starts[j]:starts[j+1]] and off[...] are the longitudinal band deviations and lane
+        offsets of env es[j]'s steps."""
         stims = [s for e in es for s in self.stimuli[e]]
         stim_starts = np.zeros(len(es) + 1, dtype=np.int64)
         np.cumsum([len(self.stimuli[e]) for e in es], out=stim_starts[1:])
@@ -525,10 +546,10 @@ class PlatoonBatch(BatchCore):
         onset = np.array([s.onset_s for s in stims], dtype=np.float64)
         lb = self.spec.lateral_tolerance
         lat_lo, lat_hi = (lb.lower_bound_m, lb.upper_bound_m) if lb is not None else (0.0, 0.0)
-        out = np.empty((len(es), len(scores.KEYS)))
+        block = np.empty((len(es), len(scores.KEYS)))
         scores.platoon_scores(lon, off, starts, float(lat_lo), float(lat_hi), lb is not None, kind, result, rt, onset, stim_starts,
-                              self.t[es], float(self.spec.max_reaction_time_s), out)  # fmt: skip
-        return {e: dict(zip(scores.KEYS, row)) for e, row in zip(es, _rows_with_nan(out))}
+                              self.t[np.asarray(es, dtype=np.int64)], float(self.spec.max_reaction_time_s), block)  # fmt: skip
+        out[:] = block
 
     def _load_episode(self, e: int, columns: np.ndarray | None) -> None:
         assert self.ring is not None
@@ -552,6 +573,7 @@ BRAKE_KINDS = ("brakeLight", "emergencyBrake")  # the stimuli `brake_metrics` sc
 class BrakeBatch(PlatoonBatch):
     handled_actions = frozenset({"setTVPTStimulus", "manipulateObject", "setupBrakeReactionTimer"})
     trace_columns = PlatoonBatch.trace_columns + ("accelerator", "brake")
+    has_extra_metrics = True
 
     def __init__(self, template: Any, n: int, record_metrics: bool = True) -> None:
         super().__init__(template, n, record_metrics)
@@ -576,8 +598,8 @@ class BrakeBatch(PlatoonBatch):
             return
         super()._on_action(e, act, trigger)
 
-    def _presented(self, e: int) -> int:
-        return super()._presented(e) + int(np.count_nonzero(self.revealed[e]))
+    def _presented_rows(self, es: list[int]) -> np.ndarray:
+        return super()._presented_rows(es) + np.count_nonzero(self.revealed[np.asarray(es, dtype=np.int64)], axis=1)
 
     def _extra_metrics(self, e: int, reactions: list[Any], columns: np.ndarray) -> dict[str, float]:
         """`BrakeReactionEnv`'s own metrics (`envs.brake.brake_metrics`, Python)."""

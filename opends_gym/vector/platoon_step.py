@@ -20,7 +20,10 @@ from numba import prange
 
 from ..jit import inline, kernel, parallel_kernel
 from ..sim.geometry2d import boxes_overlap
+from ..sim.traffic.motion import N_WORK, W_COS, W_SIN, W_TRIG_OK, W_TRIG_YAW
 from .kernels import chunk_count, lane_measures
+
+_NO_WORK = np.zeros((N_WORK, 0))  # (no traffic work rows: `_lead_one` takes the lead car's sine and cosine itself)
 
 
 @inline
@@ -48,6 +51,21 @@ def lead_measures(x: np.ndarray, z: np.ndarray, yaw: np.ndarray, u: np.ndarray, 
 
 
 @kernel
+def lead_rows(idx: np.ndarray, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, u: np.ndarray, pos: np.ndarray, car_yaw: np.ndarray,
+              speed: np.ndarray, enabled: np.ndarray, half_len: np.ndarray, c: int, ego_length: float, lead_j: np.ndarray,
+              lead_gap: np.ndarray, lead_v: np.ndarray, headway: np.ndarray, ttc: np.ndarray, gap_m: np.ndarray,
+              lead_speed: np.ndarray) -> None:  # fmt: skip
+    """`_lead_range` of the envs `idx` (those reset), with their trace columns `gap_m` and
+    `lead_speed_mps` (inf and NaN without a lead car)."""
+    for e in idx:
+        _lead_one(e, x, z, math.sin(yaw[e]), math.cos(yaw[e]), u, pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap,
+                  lead_v, headway, ttc, _NO_WORK)  # fmt: skip
+        fin = lead_j[e] >= 0 and math.isfinite(lead_gap[e])
+        gap_m[e] = lead_gap[e] if fin else math.inf
+        lead_speed[e] = lead_v[e] if fin else math.nan
+
+
+@kernel
 def _sin_cos(lo: int, hi: int, yaw: np.ndarray, sin_y: np.ndarray, cos_y: np.ndarray) -> None:
     """The sine and cosine of the yaws of the envs lo..hi-1 (`math`'s: numpy's may differ in the last bit)."""
     for e in range(lo, hi):
@@ -65,14 +83,17 @@ def _lead_range(lo: int, hi: int, x: np.ndarray, z: np.ndarray, yaw: np.ndarray,
     not defined)."""
     for e in range(lo, hi):
         _lead_one(e, x, z, math.sin(yaw[e]), math.cos(yaw[e]), u, pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap,
-                  lead_v, headway, ttc)  # fmt: skip
+                  lead_v, headway, ttc, _NO_WORK)  # fmt: skip
 
 
 @inline
 def _lead_one(e: int, x: np.ndarray, z: np.ndarray, sy: float, cy: float, u: np.ndarray, pos: np.ndarray, car_yaw: np.ndarray,
               speed: np.ndarray, enabled: np.ndarray, half_len: np.ndarray, c: int, ego_length: float, lead_j: np.ndarray,
-              lead_gap: np.ndarray, lead_v: np.ndarray, headway: np.ndarray, ttc: np.ndarray) -> None:  # fmt: skip
-    """`_lead_range` of env e, whose yaw has sine sy and cosine cy."""
+              lead_gap: np.ndarray, lead_v: np.ndarray, headway: np.ndarray, ttc: np.ndarray, work: np.ndarray) -> None:  # fmt: skip
+    """`_lead_range` of env e, whose yaw has sine sy and cosine cy; the lead car's sine and
+    cosine are those its traffic step kept in `work` (`motion._move`) when they belong to its
+    yaw (as `motion._carrot` reuses them), else taken here: the same floats, one `sincos`
+    less per physics step."""
     fx, fz = -sy, -cy
     lx, lz = -cy, sy
     best, j, found = math.inf, 0, False
@@ -93,7 +114,11 @@ def _lead_one(e: int, x: np.ndarray, z: np.ndarray, sy: float, cy: float, u: np.
     hl = half_len[r]
     gap = ahead_j - hl - 0.5 * ego_length
     vyaw = car_yaw[r]
-    v = speed[r] * (-math.sin(vyaw) * fx - math.cos(vyaw) * fz)
+    if r < work.shape[1] and work[W_TRIG_OK, r] != 0.0 and vyaw != 0.0 and work[W_TRIG_YAW, r] == vyaw:
+        vs, vc = work[W_SIN, r], work[W_COS, r]
+    else:
+        vs, vc = math.sin(vyaw), math.cos(vyaw)
+    v = speed[r] * (-vs * fx - vc * fz)
     lead_j[e], lead_gap[e], lead_v[e] = j if found else -1, gap, v
     ok = found and math.isfinite(gap)
     headway[e] = (gap + 2.0 * hl) / u[e] if ok and u[e] > 0.0 else math.inf
@@ -161,13 +186,14 @@ def after_one(e: int, k: int, live: np.ndarray, a: tuple, lead: tuple, lanes: tu
 
     The tuples: `a` the ego arrays (x, z, yaw, u, steer_in, gas_in, brake_in, t) and the sine
     and cosine of each yaw (taken after the ego step); `lead` `_lead_one`'s arguments after
-    the ego's and `gap_m`, `lead_speed_mps`; `lanes` `lane_measures`' constants and arrays;
+    the ego's, `gap_m` and `lead_speed_mps` before its last (the traffic's work rows); `lanes`
+    `lane_measures`' constants and arrays;
     `ring` (block, row, ring steps, with pedals, recording); `hook` `_hook_one`'s arguments
     after the ego's but `band`; `stim` the stimulus slots and constants, `changed`, `react`,
     `held`; `hits` the ego box (shift of its centre, half width, half length), each car's
     reach and half extents and the cars touching the ego; `stop` the early-stop arguments."""
     x, z, yaw, u, steer_in, gas_in, brake_in, t, sin_y, cos_y = a
-    pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap, lead_v, headway, ttc, gap_m, lead_speed = lead
+    pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap, lead_v, headway, ttc, gap_m, lead_speed, work = lead
     sign, centres, half_width, keep_m, lat, lane, offset, sd_n, sd_mean, sd_m2, prev_x, prev_z, dist, area = lanes
     block, row, steps, pedals, rec = ring
     ov_speed, ov_decel, on, kind, car, lead_i, follow_i, with_follower, lon_dev, reward_acc = hook
@@ -177,7 +203,7 @@ def after_one(e: int, k: int, live: np.ndarray, a: tuple, lead: tuple, lanes: tu
     car_shift, ehx, ehz, reach, half, hitting = hits
     off_road, past_lead, terminate_on_collision, paused, collisions, collisions_seen = stop
     sy, cy = sin_y[e], cos_y[e]
-    _lead_one(e, x, z, sy, cy, u, pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap, lead_v, headway, ttc)
+    _lead_one(e, x, z, sy, cy, u, pos, car_yaw, speed, enabled, half_len, c, ego_length, lead_j, lead_gap, lead_v, headway, ttc, work)
     fin = lead_j[e] >= 0 and math.isfinite(lead_gap[e])
     gap_m[e] = lead_gap[e] if fin else math.inf
     lead_speed[e] = lead_v[e] if fin else math.nan

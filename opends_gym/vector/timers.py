@@ -129,8 +129,10 @@ class TimerBatch:
         """A new episode: a new ReactionCenter, no timer objects."""
         self.active[idx] = False
         self.kind[idx] = -1
+        results = self.results
         for i in np.atleast_1d(idx).tolist():
-            self.results[i] = []
+            if results[i]:  # (replaced only when used: fewer objects for Python's garbage collector)
+                results[i] = []
         self.n_results[idx] = 0
 
     # ------------------------------------------------------------------ arming (rare)

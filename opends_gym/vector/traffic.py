@@ -71,8 +71,10 @@ class FlatTraffic:
     def reset_rows(self, idx: np.ndarray, st0: MotionState) -> None:
         rows = self.rows_of(idx)
         self.st.assign_rows(rows, st0, np.tile(np.arange(self.c), len(idx)))
+        queue = self.legs.light_queue
         for r in rows.tolist():
-            self.legs.light_queue[r] = []
+            if queue[r]:  # (replaced only when used: fewer objects for Python's garbage collector)
+                queue[r] = []
         self.hitting[rows] = False
 
     # ------------------------------------------------------------------ step
