@@ -30,4 +30,6 @@ def test_episodes_with_different_keys_give_the_one_by_one_arrays() -> None:
     for key, want in slow.items():
         assert fast[key].dtype == want.dtype, key
         np.testing.assert_array_equal(fast[key], want, err_msg=key)
+    one = _metrics_arrays(ended[1:2], 7)
+    assert list(one) == list(_one_by_one(ended[1:2], 7)) and one["sign00_latency_s"][1] == 1.5 and one["_duration_s"].sum() == 1
     assert fast["_sign01_latency_s"].tolist() == [False, False, False, True, False, False, False]

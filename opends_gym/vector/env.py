@@ -215,11 +215,8 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
     def _info_dict(self, values: dict[str, np.ndarray], ended_metrics: list[list[tuple[int, dict[str, float]]]]) -> dict[str, Any]:
         """Info arrays with their `_key` masks, plus `episode_metrics` of the episodes that
         ended (each shard's list of (env in the shard, metrics))."""
-        info: dict[str, Any] = {}
         full = np.ones(self.num_envs, dtype=bool)
-        for k, v in values.items():
-            info[k] = v
-            info[f"_{k}"] = full
+        info: dict[str, Any] = {name: item for k, v in values.items() for name, item in ((k, v), (f"_{k}", full))}
         if any(ended_metrics):
             ended = [(sl.start + e, values_e) for sl, shard_metrics in zip(self._slices, ended_metrics) for e, values_e in shard_metrics]
             mask = np.zeros(self.num_envs, dtype=bool)
@@ -234,8 +231,8 @@ def _metrics_arrays(ended: list[tuple[int, dict[str, float]]], n: int) -> dict[s
     (the usual case; episodes of one task may differ in keys, e.g. the LCT's per-sign keys)."""
     first = ended[0][1]
     keys = tuple(first)
-    floats = (float, np.float64)
-    if len(ended) < 2 or any(type(v) not in floats for _, m in ended for v in m.values()):
+    floats = {float, np.float64}
+    if not all(set(map(type, m.values())) <= floats for _, m in ended):
         out: dict[str, Any] = {}
         for e, values in ended:
             _add_numbers(out, values, e, n)
@@ -296,6 +293,8 @@ def _join(parts: list[np.ndarray]) -> np.ndarray:
 
 
 def _concat(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    if len(parts) == 1:  # (a single shard's info arrays are fresh each step, as `_join` takes them)
+        return parts[0]
     return {k: _join([p[k] for p in parts]) for k in parts[0]}
 
 

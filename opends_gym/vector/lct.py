@@ -157,7 +157,7 @@ class LctBatch(BatchCore):
         if size != len(EGO_NAMES) + self.template.config.nearby_vehicles * len(VEHICLE_NAMES) + 3:
             raise ValueError(f"the LCT observation has 7 ego features, vehicle slots and 3 stimulus values, not {size} values")
         stepping = ~resetting
-        c = self.actions.convert(actions, stepping)
+        c = self.actions.convert(actions, stepping, checked=True)  # (`NativeVectorEnv.step` refused NaN and infinity before any shard)
         # one chunk-size block for both parallel passes (threads take the chunks one at a time: a busy core holds up one chunk,
         # not half the batch); entering one costs 15-40 µs of Python here
         with numba.parallel_chunksize(1):
