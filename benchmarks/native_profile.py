@@ -77,10 +77,10 @@ def timed_parts(parts: dict[str, float]) -> list[tuple[object, str, Callable[...
         fn = getattr(obj, name)
         undo.append((obj, name, fn))
 
-        def timed(*a: object, _fn: Callable[..., object] = fn, _label: str = label) -> object:
+        def timed(*a: object, _fn: Callable[..., object] = fn, _label: str = label, **kw: object) -> object:
             c = time.process_time()
             try:
-                return _fn(*a)
+                return _fn(*a, **kw)
             finally:
                 parts[_label] = parts.get(_label, 0.0) + time.process_time() - c
 

@@ -161,10 +161,11 @@ def reversal_rates_into(row: np.ndarray, at: int, keep: np.ndarray, lo: int, hi:
 def episode_scores(starts: np.ndarray, t: np.ndarray, ds: np.ndarray, speed: np.ndarray, steer_deg: np.ndarray, gap: np.ndarray,
                    lead_v: np.ndarray, headway: np.ndarray, ttc: np.ndarray, lateral: np.ndarray, lane: np.ndarray,
                    offset: np.ndarray, b: np.ndarray, a: np.ndarray, zi: np.ndarray, p: np.ndarray, gaps: np.ndarray,
-                   thw_th: np.ndarray, ttc_th: np.ndarray, out: np.ndarray) -> None:  # fmt: skip
+                   thw_th: np.ndarray, ttc_th: np.ndarray, out: np.ndarray, j2944: bool = True) -> None:  # fmt: skip
     """`KEYS` of episodes j = 0..m-1 into out[j]: rows starts[j]..starts[j+1]-1 of the trace
     columns are episode j's trace (reset row first), ds[i] the `np.hypot` step from row i to
-    i+1; `p` etc. from `scoring_params`."""
+    i+1; `p` etc. from `scoring_params`. `j2944` False leaves out[j, 9:14 + len(gaps)] (SAE
+    J2944 and the reversal rates) unwritten, for a caller that scores them its own way (the LCT)."""
     fs, limit, left, right, window, min_v, max_gap, max_rel = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]
     min_dur, seg_len, min_valid, min_run, on = p[8], p[9], p[10], p[11], p[12] > 0.0
     total = len(t)
@@ -243,19 +244,20 @@ def episode_scores(starts: np.ndarray, t: np.ndarray, ds: np.ndarray, speed: np.
                 exits += 1
         row[7] = float(off_count) / fs
         row[8] = exits
-        # SDLP over fixed segments (`lateral.sdlp_segments`, nothing excluded, valid: finite)
-        ok_all = 0
-        for i in range(lo, hi):
-            if math.isfinite(lateral[i]):
-                ok_all += 1
-        n_seg, valid_segs = j2944_segments(t, lateral, everywhere, lo, hi, seg_len, min_valid, segs, buf)
-        row[9] = np_sum(segs, 0, valid_segs) / valid_segs if valid_segs else math.nan
-        row[10] = float(ok_all) / n if n else math.nan
-        row[11] = 1.0 - n / n if n else math.nan
-        row[12] = n_seg
-        row[13] = valid_segs
-        # steering reversal rates over the lane-keeping stretches (`steering.reversal_rates`)
-        reversal_rates_into(row, 14, keep, lo, hi, min_run, fs, b, a, zi, on, steer_deg, gaps)
+        if j2944:
+            # SDLP over fixed segments (`lateral.sdlp_segments`, nothing excluded, valid: finite)
+            ok_all = 0
+            for i in range(lo, hi):
+                if math.isfinite(lateral[i]):
+                    ok_all += 1
+            n_seg, valid_segs = j2944_segments(t, lateral, everywhere, lo, hi, seg_len, min_valid, segs, buf)
+            row[9] = np_sum(segs, 0, valid_segs) / valid_segs if valid_segs else math.nan
+            row[10] = float(ok_all) / n if n else math.nan
+            row[11] = 1.0 - n / n if n else math.nan
+            row[12] = n_seg
+            row[13] = valid_segs
+            # steering reversal rates over the lane-keeping stretches (`steering.reversal_rates`)
+            reversal_rates_into(row, 14, keep, lo, hi, min_run, fs, b, a, zi, on, steer_deg, gaps)
         base = 14 + len(gaps)
         # car following summary (`headway.car_following_summary`)
         leads, m, thw_lo = 0, 0, math.nan

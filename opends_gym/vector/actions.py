@@ -42,13 +42,14 @@ class BatchActions:
     def reset_rows(self, idx: np.ndarray) -> None:
         self.held[idx] = False
 
-    def convert(self, actions: np.ndarray, rows: np.ndarray) -> BatchControls:
-        """Controls for every env; `rows` are the envs that step (the others reset)."""
+    def convert(self, actions: np.ndarray, rows: np.ndarray, checked: bool = False) -> BatchControls:
+        """Controls for every env; `rows` are the envs that step (the others reset). `checked`:
+        the caller refused NaN and infinity in `rows` already (`NativeVectorEnv.step` does)."""
         a = np.asarray(actions, dtype=np.float64)
         n = len(self.held)
         if a.shape != (n, self.width):
             raise ValueError(f"actions must have shape ({n}, {self.width}), got {a.shape}")
-        bad = first_nonfinite(a, rows)
+        bad = -1 if checked else first_nonfinite(a, rows)
         if bad >= 0:
             raise ValueError(f"env {bad}: action contains NaN or infinity: {a[bad].tolist()}")
         steer, gas, brake = np.empty(n), np.empty(n), np.empty(n)

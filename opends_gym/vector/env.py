@@ -215,11 +215,8 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
     def _info_dict(self, values: dict[str, np.ndarray], ended_metrics: list[list[tuple[int, dict[str, float]]]]) -> dict[str, Any]:
         """Info arrays with their `_key` masks, plus `episode_metrics` of the episodes that
         ended (each shard's list of (env in the shard, metrics))."""
-        info: dict[str, Any] = {}
         full = np.ones(self.num_envs, dtype=bool)
-        for k, v in values.items():
-            info[k] = v
-            info[f"_{k}"] = full
+        info: dict[str, Any] = {name: item for k, v in values.items() for name, item in ((k, v), (f"_{k}", full))}
         if any(ended_metrics):
             ended = [(sl.start + e, values_e) for sl, shard_metrics in zip(self._slices, ended_metrics) for e, values_e in shard_metrics]
             mask = np.zeros(self.num_envs, dtype=bool)
@@ -229,21 +226,37 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
 
 
 def _metrics_arrays(ended: list[tuple[int, dict[str, float]]], n: int) -> dict[str, Any]:
-    """The ended episodes' metrics as `_add_numbers` builds them one by one, a column at a time
-    when every episode has the same float keys in the same order (one task: the usual case)."""
+    """The ended episodes' metrics as `_add_numbers` builds them one by one (each key's array
+    and mask in the order keys first appear), a block at a time when every value is a float
+    (the usual case; episodes of one task may differ in keys, e.g. the LCT's per-sign keys)."""
     first = ended[0][1]
     keys = tuple(first)
-    if len(ended) < 2 or any(type(v) not in (float, np.float64) for v in first.values()) or any(tuple(m) != keys for _, m in ended):
+    floats = {float, np.float64}
+    if not all(set(map(type, m.values())) <= floats for _, m in ended):
         out: dict[str, Any] = {}
         for e, values in ended:
             _add_numbers(out, values, e, n)
         return out
     rows = np.fromiter((e for e, _ in ended), dtype=np.intp, count=len(ended))
-    table = np.array([tuple(m.values()) for _, m in ended], dtype=np.float64)
+    if all(tuple(m) == keys for _, m in ended):
+        table = np.array([tuple(m.values()) for _, m in ended], dtype=np.float64)
+        present = None
+    else:  # the union of the keys, in order of first appearance; absent values stay 0 with a False mask
+        order: dict[str, int] = {}
+        for _, m in ended:
+            for key in m:
+                order.setdefault(key, len(order))
+        keys = tuple(order)
+        table = np.zeros((len(ended), len(keys)))
+        present = np.zeros((len(ended), len(keys)), dtype=np.bool_)
+        for j, (_, m) in enumerate(ended):
+            at = [order[key] for key in m]
+            table[j, at] = tuple(m.values())
+            present[j, at] = True
     # every key's column and mask as rows of two blocks (two allocations, not two per key)
     columns, masks = np.zeros((len(keys), n)), np.zeros((len(keys), n), dtype=np.bool_)
     columns[:, rows] = table.T
-    masks[:, rows] = True
+    masks[:, rows] = True if present is None else present.T
     out = {}
     for j, key in enumerate(keys):
         out[key], out[f"_{key}"] = columns[j], masks[j]
@@ -280,6 +293,8 @@ def _join(parts: list[np.ndarray]) -> np.ndarray:
 
 
 def _concat(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    if len(parts) == 1:  # (a single shard's info arrays are fresh each step, as `_join` takes them)
+        return parts[0]
     return {k: _join([p[k] for p in parts]) for k in parts[0]}
 
 

@@ -43,7 +43,7 @@ from .lct_step import (
     lct_substeps,
 )
 from .platoon import _BASE_KEYS
-from .trace import TraceRing, lane_columns
+from .trace import TraceRing, score_columns
 
 # the info keys of a step, in `BatchCore.info`'s order
 INFO_KEYS = ("sim_time_s", "speed_kmh", "lateral_offset_m", "lane_index", "fuel_used_l", "collisions", "reaction_result", "reaction_time_s",
@@ -157,7 +157,7 @@ class LctBatch(BatchCore):
         if size != len(EGO_NAMES) + self.template.config.nearby_vehicles * len(VEHICLE_NAMES) + 3:
             raise ValueError(f"the LCT observation has 7 ego features, vehicle slots and 3 stimulus values, not {size} values")
         stepping = ~resetting
-        c = self.actions.convert(actions, stepping)
+        c = self.actions.convert(actions, stepping, checked=True)  # (`NativeVectorEnv.step` refused NaN and infinity before any shard)
         # one chunk-size block for both parallel passes (threads take the chunks one at a time: a busy core holds up one chunk,
         # not half the batch); entering one costs 15-40 µs of Python here
         with numba.parallel_chunksize(1):
@@ -282,26 +282,30 @@ class LctBatch(BatchCore):
         (generic keys, LCT keys, signs passed and scored, MDEV rows, fits)."""
         counts = np.diff(starts)
         x, z, speed, steer = data
-        lat, lane, off = lane_columns(self.guide, x, z)
-        t = (np.arange(len(x)) - np.repeat(starts[:-1], counts)) * self.dt  # (`TraceRing.to_trace`'s clock)
-        steer_deg = steer * STEERING_WHEEL_MAX_DEG
+        derived = np.empty((6, len(x)))  # t, lateral, lane, offset, steering (deg), distance to the next row
+        g = self.guide
+        if g.kind != "lanes":
+            raise ValueError("the native batch needs a task with lane bands")
+        score_columns(starts, x, z, steer, self.dt, g.sign, self.centres, g.lane_width_m / 2.0, STEERING_WHEEL_MAX_DEG, derived)
+        t, lat, lane, off, steer_deg, ds = derived
         m = len(starts) - 1
         inf, nan = np.full(len(x), math.inf), np.full(len(x), math.nan)  # headway, TTC, gap; the lead's speed: no traffic
         base = np.empty((m, len(episode_scores.KEYS)))
         b, a, zi, p, gaps, thw, ttc = self._score_params
-        episode_scores.episode_scores(starts, t, np.hypot(np.diff(x), np.diff(z)), speed, steer_deg, inf, nan, inf, inf, lat,
-                                      lane.astype(np.float64), off, b, a, zi, p, gaps, thw, ttc, base)  # fmt: skip
+        # (SAE J2944 and the reversal rates: the LCT's own, below, without the instructed lane changes)
+        episode_scores.episode_scores(starts, t, ds, speed, steer_deg, inf, nan, inf, inf, lat, lane, off, b, a, zi, p, gaps, thw, ttc,
+                                      base, False)  # fmt: skip
         lct = np.empty((m, J2944 + len(gaps) + 3))
         tpl = self.template
-        g = tpl.geometry
-        lct_scores(starts, t, z, lat, steer_deg, self.start_z, *self._signs, g.visibility_m, tpl.basic.start_before_sign_m,
+        geo = tpl.geometry
+        lct_scores(starts, t, z, lat, steer_deg, self.start_z, *self._signs, geo.visibility_m, tpl.basic.start_before_sign_m,
                    tpl.basic.length_per_lane_m, self.lane_lat, int(tpl.initial_lane), b, a, zi, p, gaps, lct)  # fmt: skip
         base[:, 9 : 14 + len(gaps)] = lct[:, : J2944 + len(gaps)]
         passed = lct[:, J2944 + len(gaps) + 2].astype(np.int64)
         passed[counts < 2] = 0  # (not scored by `lct_mdev`: the template's code, below)
         mdev, fits = np.full((m, 5), math.nan), np.zeros((m, len(self._signs[0]), 2))
         if passed.any():
-            lct_lane_changes(starts, z, lat, self.start_z, *self._signs, passed, g.visibility_m, tpl.basic.start_before_sign_m,
+            lct_lane_changes(starts, z, lat, self.start_z, *self._signs, passed, geo.visibility_m, tpl.basic.start_before_sign_m,
                              tpl.basic.length_per_lane_m, self.lane_lat, int(tpl.initial_lane), mdev, fits)  # fmt: skip
         return base, lct, passed, mdev, fits
 

@@ -267,3 +267,23 @@ def _lane_columns(x: np.ndarray, sign: float, centres: np.ndarray, half: float, 
         la = -sign * x[e]
         ln, ref = lane_of(la, centres, half)
         lat[e], lane[e], offset[e] = la, ln, la - centres[ref]
+
+
+@kernel
+def score_columns(starts: np.ndarray, x: np.ndarray, z: np.ndarray, steer: np.ndarray, dt: float, sign: float, centres: np.ndarray,
+                  half: float, steer_deg: float, out: np.ndarray) -> None:  # fmt: skip
+    """The derived columns of `TraceRing.gather`'s episodes (rows starts[j]..starts[j+1]-1
+    episode j's) for their scoring, in one pass: out rows time (`to_trace`'s clock),
+    `lane_columns`' lateral position, lane (as a float) and lane offset, the steering wheel
+    angle (steer x steer_deg) and the `np.hypot` step to the next row (np.diff's, across
+    episodes too; the last row's 0)."""
+    total = len(x)
+    for j in range(len(starts) - 1):
+        for i in range(starts[j], starts[j + 1]):
+            out[0, i] = float(i - starts[j]) * dt
+    for i in range(total):
+        la = -sign * x[i]
+        ln, ref = lane_of(la, centres, half)
+        out[1, i], out[2, i], out[3, i] = la, float(ln), la - centres[ref]
+        out[4, i] = steer[i] * steer_deg
+        out[5, i] = np.hypot(x[i + 1] - x[i], z[i + 1] - z[i]) if i + 1 < total else 0.0
