@@ -72,10 +72,12 @@ if ! satisfied; then
 fi
 export PATH="$VENV/bin:$PATH"
 
-# Compile the kernels into this machine's numba cache (`opends-gym compile`), so that no first
-# step waits for a compile later; again only when the package's sources (or NUMBA_CACHE_DIR)
-# changed since (a warm cache takes seconds). Never fatal: on failure the kernels compile on
-# first use, as without this step. OPENDS_GYM_SKIP_COMPILE=1 skips it.
+# compile_kernels: compile the kernels into this machine's numba cache (`opends-gym compile`), so
+# that no first step waits for a compile later; again only when the package's sources (or
+# NUMBA_CACHE_DIR) changed since (a warm cache takes seconds). Never fatal: on failure the
+# kernels compile on first use, as without this step. OPENDS_GYM_SKIP_COMPILE=1 skips it.
+# test.sh calls it (the tests then load the kernels instead of compiling them); run.sh does
+# not, since its one LCT env runs its kernels as Python until their background compile is done.
 compile_kernels() {
   local stamp="$VENV/.compile-stamp" log="$VENV/compile.log" want
   want="$( (cd "$ROOT" && find opends_gym -name '*.py' -print0 | LC_ALL=C sort -z | xargs -0 cat; echo "${NUMBA_CACHE_DIR:-}") | sha256sum | cut -c1-16)"
@@ -88,4 +90,3 @@ compile_kernels() {
     echo "opends-gym compile failed (see $log); the kernels will compile on first use instead" >&2
   fi
 }
-[ "${OPENDS_GYM_SKIP_COMPILE:-0}" = 1 ] || compile_kernels

@@ -5,6 +5,7 @@
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 source "$ROOT/scripts/_env.sh" "dev,rl,cluster,bullet,report,can,docs,study,data"
+[ "${OPENDS_GYM_SKIP_COMPILE:-0}" = 1 ] || compile_kernels
 cd "$ROOT"
 # The drive-window test (tests/test_human_window.py) runs a real window under Xvfb.
 # Install it once if missing (root, or sudo without a password); quiet, never fatal here.
