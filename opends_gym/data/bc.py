@@ -94,6 +94,12 @@ def clone_env_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
 
 def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> dict[str, Any]:
     """Train a clone on Minari dataset `dataset`, save it in folder `out`; returns its summary."""
+    if config.history < 1:
+        raise UserError(f"history must be at least 1, not {config.history}")
+    if config.ensemble < 1:
+        raise UserError(f"ensemble must be at least 1 member, not {config.ensemble}")
+    if not 0.0 <= config.validation < 1.0:
+        raise UserError(f"validation must be a share in [0, 1), not {config.validation}")
     minari = require("data", "minari", "behaviour cloning from a Minari dataset")
     torch = require("rl", "torch", "behaviour cloning")
     try:
@@ -103,12 +109,6 @@ def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> di
     space = ds.action_space
     if not hasattr(space, "low"):
         raise UserError(f"{dataset}: behaviour cloning needs a Box action space, the dataset has {space}")
-    if config.history < 1:
-        raise UserError(f"history must be at least 1, not {config.history}")
-    if config.ensemble < 1:
-        raise UserError(f"ensemble must be at least 1 member, not {config.ensemble}")
-    if not 0.0 <= config.validation < 1.0:
-        raise UserError(f"validation must be a share in [0, 1), not {config.validation}")
     episodes = dataset_arrays(ds, config.history, config.actions)
     train_idx, held_idx = split(len(episodes), config.validation, config.seed)
     obs = np.nan_to_num(np.concatenate([episodes[i][0] for i in train_idx]), posinf=0.0, neginf=0.0)
