@@ -133,6 +133,8 @@ def test_export_augment_recovery_adds_labelled_copies(tmp_path: Path, monkeypatc
                 "2",
                 "--augment-dart",
                 "1",
+                "--augment-lateral",
+                "0.5",
                 "--minari",
                 "test/aug",
             ]
@@ -146,7 +148,7 @@ def test_export_augment_recovery_adds_labelled_copies(tmp_path: Path, monkeypatc
     assert kinds[0] == "cardata" and kinds[-1] == "dart" and kinds.count("recovery") == len(kinds) - 2 >= 2
     copies = [m for m in meta if m["kind"] == "recovery"]
     for a, b in zip(copies[::2], copies[1::2], strict=True):  # two draws from each start point: two perturbations
-        assert a["start_pose/x"] != b["start_pose/x"] and abs(a["start_pose/x"] - b["start_pose/x"]) < 3.0
+        assert a["start_pose/x"] != b["start_pose/x"] and abs(a["start_pose/x"] - b["start_pose/x"]) <= 1.0  # each within 0.5 m
     assert "recovery copies and rollouts" in err.getvalue()
     fake = tmp_path / "drive.mcap"
     fake.write_bytes(b"\x89MCAP0\r\n" + b"\0" * 16)

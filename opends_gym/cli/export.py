@@ -12,6 +12,8 @@ import argparse
 import dataclasses
 import sys
 
+RECOVERY_LATERAL_M = 1.5  # data.recovery.RecoveryConfig.lateral_m (not imported: the CLI loads without the data modules)
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("drives", nargs="+", help="MCAP recordings and/or OpenDS carData.txt logs")
@@ -43,6 +45,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="--augment recovery: N copies from each start point, each with its own perturbation (default 1)",
     )
     p.add_argument(
+        "--augment-lateral",
+        type=float,
+        default=RECOVERY_LATERAL_M,
+        metavar="M",
+        help=f"--augment recovery: copies start up to M metres either side of the log (default {RECOVERY_LATERAL_M:g})",
+    )
+    p.add_argument(
         "--augment-dart",
         type=int,
         default=0,
@@ -64,6 +73,8 @@ def run(args: argparse.Namespace) -> int:
     ident = dataset_id(args.minari)
     if not args.augment_every > 0.0:
         raise UserError(f"--augment-every must be a positive number of seconds, not {args.augment_every:g}")
+    if not 0.0 <= args.augment_lateral <= 10.0:
+        raise UserError(f"--augment-lateral must be 0-10 m, not {args.augment_lateral:g}")
     if args.augment_draws < 1 or args.augment_dart < 0:
         raise UserError(f"--augment-draws must be at least 1 and --augment-dart 0 or more, not {args.augment_draws}, {args.augment_dart}")
     # the options every env shares typed by EnvConfig (road_preview_m=10,25,50), the rest as they read
@@ -77,7 +88,9 @@ def run(args: argparse.Namespace) -> int:
     for path in args.drives:
         try:
             if args.augment == "recovery":
-                config = RecoveryConfig(every_s=args.augment_every, draws=args.augment_draws, dart=args.augment_dart)
+                config = RecoveryConfig(
+                    every_s=args.augment_every, draws=args.augment_draws, dart=args.augment_dart, lateral_m=args.augment_lateral
+                )
                 ep, *copies = cardata_with_recovery(path, args.env, args.task, kwargs, args.trim_idle, config)
             else:
                 ep, copies = load_episode(path, args.env, args.task, kwargs, args.trim_idle), []
