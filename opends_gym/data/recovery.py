@@ -75,7 +75,6 @@ class RecoveryConfig:
     dart: int = 0  # noisy rollouts of the whole drive with the labels (DART, Laskey et al. 2017)
     dart_steering: float = 0.05  # DART: SD of the Gaussian noise added to the executed steering (of [-1, 1])
     dart_pedal: float = 0.1  # DART: SD of the noise added to the executed pedal
-    smooth_s: float = 0.0  # the labels rejoin the logged path and speed averaged over this many seconds (Reference.smoothed)
 
 
 class Reference:
@@ -103,22 +102,6 @@ class Reference:
         sl = slice(i0, None)
         return cls(rec.sim_t[sl] - rec.sim_t[i0], rec.x[sl], rec.y[sl], rec.z[sl], rec.yaw[sl], np.maximum(rec.speed_kmh[sl], 0.0) / 3.6,
                    rec.steering[sl], cardata_pedal(rec)[sl], rec.engine_on[sl])  # fmt: skip
-
-    def smoothed(self, window_s: float) -> Reference:
-        """The path and speed as centred moving averages over `window_s` seconds of rows (the rest as
-        logged): the course the driver held, without the swerves of single steering taps (a keyboard
-        tap moves a car a metre sideways and back within a second). Labels that rejoin the raw path
-        2 s ahead swing with each such swerve, which nothing in an observation foretells."""
-        if window_s <= 0.0:
-            return self
-        lo = np.searchsorted(self.t, self.t - 0.5 * window_s, side="left")
-        hi = np.searchsorted(self.t, self.t + 0.5 * window_s, side="right")
-
-        def mean(v: np.ndarray) -> np.ndarray:
-            c = np.r_[0.0, np.cumsum(v)]
-            return (c[hi] - c[lo]) / (hi - lo)
-
-        return Reference(self.t, mean(self.x), self.y, mean(self.z), self.yaw, mean(self.u), self.steering, self.pedal, self.engine_on)
 
     @property
     def moves(self) -> bool:
@@ -333,7 +316,7 @@ def cardata_with_recovery(
                 yield item
 
         demo = drive(env, str(p), "cardata", None, {"start_pose": cardata_start_pose(rec, i0)}, feed())
-        ref = Reference.from_cardata(rec, i0).smoothed(config.smooth_s)
+        ref = Reference.from_cardata(rec, i0)
         out = [demo]
         if not ref.moves:
             return out
