@@ -72,6 +72,7 @@ class RecoveryConfig:
     iterations: int = 8  # bisection steps per searched input (2 / 2**8 of its range)
     seed: int = 0
     draws: int = 1  # copies per start point, each with its own perturbation draw
+    in_time: bool = True  # the pedal also makes up time lost against the log (RecoveryLabeler.label)
     dart: int = 0  # noisy rollouts of the whole drive with the labels (DART, Laskey et al. 2017)
     dart_steering: float = 0.05  # DART: SD of the Gaussian noise added to the executed steering (of [-1, 1])
     dart_pedal: float = 0.1  # DART: SD of the noise added to the executed pedal
@@ -136,6 +137,10 @@ class Reference:
         across = ((x - fx[i]) * dz[i] - (z - fz[i]) * dx[i]) / length
         return float(self.s[lo + i] + f[i] * length), float(across), lo + i
 
+    def along_at(self, t_s: float) -> float:
+        """How far along its path the log was `t_s` seconds from its start."""
+        return float(np.interp(t_s, self.t[self.rows], self.s))
+
     def speed_at(self, s_m: float) -> float:
         """The logged speed at `s_m` metres along the path."""
         return float(np.interp(s_m, self.s, self.pu))
@@ -179,38 +184,57 @@ class RecoveryLabeler:
                 hi = mid
         return 0.5 * (lo + hi)
 
-    def _nearest_root(self, f: Any, guess: float) -> float:
-        """The steering nearest `guess` where `f` (the end's offset across the path) crosses zero
-        upwards: held for `tau_s`, a steering far from the log's can turn the car round a full
-        circle back onto the path, so the crossings of a grid over [-1, 1] are bisected, the
-        nearest kept (where none, the grid's least offset)."""
+    def _nearest_root(self, f: Any, guess: float, progress_m: float) -> float:
+        """The steering nearest `guess` where `f` (the end's offset across the path, and how far along
+        it the end is) crosses zero upwards: held for `tau_s`, a steering far from the log's can turn
+        the car round a full circle back onto the path, so the crossings of a grid over [-1, 1] are
+        bisected, the nearest kept (where none, the grid's least offset). Only ends at least
+        `progress_m` further along the path count: a car that spun or circled back onto the path
+        (a keyboard tap's steering as the guess once picked full lock, scrubbing 23 km/h) has not
+        rejoined it ahead."""
         grid = np.linspace(-1.0, 1.0, STEERING_GRID)
-        values = np.asarray([f(d) for d in grid])
-        up = np.flatnonzero((values[:-1] < 0.0) & (values[1:] >= 0.0))
+        ends = np.asarray([f(d) for d in grid])
+        values, ahead = ends[:, 0], ends[:, 1] >= progress_m
+        if not ahead.any():
+            ahead[:] = True  # none goes ahead (a standing car): every end counts
+        up = np.flatnonzero((values[:-1] < 0.0) & (values[1:] >= 0.0) & ahead[:-1] & ahead[1:])
         if not up.size:
-            return float(grid[int(np.argmin(np.abs(values)))]) if np.ptp(values) > 1e-6 else guess
+            return float(grid[ahead][int(np.argmin(np.abs(values[ahead])))]) if np.ptp(values) > 1e-6 else guess
         i = int(up[np.argmin(np.abs(0.5 * (grid[up] + grid[up + 1]) - guess))])
-        return self._bisect(f, guess, float(grid[i]), float(grid[i + 1]), float(values[i]))
+        return self._bisect(lambda d: f(d)[0], guess, float(grid[i]), float(grid[i + 1]), float(values[i]))
 
-    def label(self, hint: int) -> tuple[np.ndarray, int]:
+    def label(self, hint: int, t_s: float | None = None) -> tuple[np.ndarray, int]:
         """The recovery action [steering, pedal] for the car's state now, and the path segment it is at
-        (the next call's `hint`)."""
+        (the next call's `hint`). With `t_s`, the time on the log now, the pedal also makes up where
+        the car is behind (or ahead of) where the log was `tau_s` later, within `tau_s`: the log's
+        course in time, as ChauffeurNet's labels are the logged poses at future times (Bansal et al.
+        2018). By place alone, a car that reaches each place later than the log did (accelerating
+        with a held pedal lags behind) stays behind for good: the labeler driving the bundled 17 s
+        log with place-only speeds ended 7 m short of it."""
         ref = self.ref
         s = self.base.world.ego.state
         _, _, seg = ref.locate(float(s.x), float(s.z), hint)
         row = ref.rows[min(seg, len(ref.rows) - 1)]
         steering, logged_pedal = float(ref.steering[row]), float(ref.pedal[row])  # the log's inputs there: the first guess
 
+        goal_m = None if t_s is None else ref.along_at(t_s + self.config.tau_s)  # where the log was by then
+
         def speed_error(pedal: float) -> float:
             x, z, u = self._ahead(steering, pedal)
-            return u - ref.speed_at(ref.locate(x, z, seg)[0])
+            along = ref.locate(x, z, seg)[0]
+            catch_up = 0.0 if goal_m is None else (goal_m - along) / self.config.tau_s
+            return u - ref.speed_at(along) - catch_up
 
-        def across(steer: float) -> float:  # steering left (+) ends the car further left (+)
+        here = ref.locate(float(s.x), float(s.z), seg)[0]
+
+        def across(steer: float) -> tuple[float, float]:  # steering left (+) ends the car further left (+); and how far along
             x, z, _ = self._ahead(steer, pedal)
-            return ref.locate(x, z, seg)[1]
+            along, side, _ = ref.locate(x, z, seg)
+            return side, along - here
 
         pedal = self._bisect(speed_error, logged_pedal)  # with the log's wheel there
-        steering = self._nearest_root(across, steering)  # with that pedal
+        progress = 0.5 * float(s.u) * self.config.tau_s  # half the way the car would go straight on
+        steering = self._nearest_root(across, steering, progress)  # with that pedal
         pedal = self._bisect(speed_error, pedal)  # with that steering
         return np.asarray([steering, pedal], dtype=np.float32), seg
 
@@ -267,7 +291,7 @@ def recovery_copy(
     for k in range(steps):
         if t_s + k / _policy_hz(env) > end_s:
             break
-        action, hint = labeler.label(hint)
+        action, hint = labeler.label(hint, t_s + k / _policy_hz(env) if config.in_time else None)
         if noise is None:
             done = _step(env, ep, action)[2]
         else:  # executed with noise, recorded as labelled
