@@ -286,9 +286,9 @@ def _export_logs(logs: list[Path], export: dict[str, Any], augment: str, indices
     out: list[list[Any]] = []
     for i in indices:
         try:
-            if augment.startswith("recovery:"):  # recovery:EVERY_S:DRAWS:DART:LATERAL_M
-                every, draws, dart, lateral = augment.split(":")[1:]
-                config = RecoveryConfig(every_s=float(every), draws=int(draws), dart=int(dart), lateral_m=float(lateral))
+            if augment.startswith("recovery:"):  # recovery:EVERY_S:DRAWS:DART:LATERAL_M:TAU_S
+                every, draws, dart, lateral, tau = augment.split(":")[1:]
+                config = RecoveryConfig(every_s=float(every), draws=int(draws), dart=int(dart), lateral_m=float(lateral), tau_s=float(tau))
                 out.append(cardata_with_recovery(logs[i], None, str(CS_TASK), export, trim_idle=True, config=config))
             else:
                 out.append([load_episode(logs[i], None, str(CS_TASK), export, trim_idle=True)])
@@ -308,13 +308,14 @@ def countryside(args: argparse.Namespace, cache: Path) -> dict[str, Any]:
     preview = tuple(float(v) for v in args.cs_preview.split(",") if v.strip())
     export = {**CS_EXPORT, "road_preview_m": preview} if preview else CS_EXPORT  # the dataset's env spec: the clone's env
     key = logs_key(logs) + ("-preview-" + "-".join(f"{d:g}" for d in preview) if preview else "")
-    copies = f"{round(args.cs_augment_every * 1000)}ms-{args.cs_draws}x-dart{args.cs_dart}-{round(args.cs_lateral * 100)}cm"
+    copy = (args.cs_augment_every, args.cs_draws, args.cs_dart, args.cs_lateral, args.cs_tau)
+    copies = "{:g}s-{}x-dart{}-{:g}m-{:g}s".format(*copy).replace(".", "p")
     key += f"-{args.cs_augment}-{copies}" if args.cs_augment else ""
     name = f"bench/countryside-{key}-v0"
     if name not in minari.list_local_datasets():
         # from each log's own first state at its first gas; through traffic: the real logs began minutes into their
         # sessions (2019_01_04-11_40_24: 107 s), so the env's traffic, started at the task's time 0, is not where OpenDS's was
-        augment = f"{args.cs_augment}:{args.cs_augment_every}:{args.cs_draws}:{args.cs_dart}:{args.cs_lateral}" if args.cs_augment else ""
+        augment = ":".join(map(str, (args.cs_augment, *copy))) if args.cs_augment else ""
         exported = pooled(partial(_export_logs, logs, export), augment, list(range(len(logs))), args.workers)
         episodes = [ep for eps in exported for ep in eps]
         write_dataset(name, episodes)
@@ -322,7 +323,7 @@ def countryside(args: argparse.Namespace, cache: Path) -> dict[str, Any]:
     tree = logs_path(logs)
     augment = (
         f"{args.cs_augment} every {args.cs_augment_every:g} s, {args.cs_draws} per start up to {args.cs_lateral:g} m across,"
-        f" {args.cs_dart} DART rollouts"
+        f" {args.cs_dart} DART rollouts, labels within {args.cs_tau:g} s"
     )
     out: dict[str, Any] = {
         "logs": label,
@@ -454,6 +455,7 @@ def main() -> None:
         "--cs-dart", type=int, default=0, metavar="N", help="--cs-augment recovery: N noisy rollouts of each log (export --augment-dart)"
     )
     ap.add_argument("--cs-lateral", type=float, default=1.5, metavar="M", help="--cs-augment recovery: copies start up to M m across")
+    ap.add_argument("--cs-tau", type=float, default=2.0, metavar="S", help="--cs-augment recovery: labels rejoin the log within S s")
     ap.add_argument("--cs-ensemble", type=int, default=1, metavar="N", help="Countryside clone: N networks averaged (train bc --ensemble)")
     ap.add_argument(
         "--cs-seeds",

@@ -13,6 +13,7 @@ import dataclasses
 import sys
 
 RECOVERY_LATERAL_M = 1.5  # data.recovery.RecoveryConfig.lateral_m (not imported: the CLI loads without the data modules)
+RECOVERY_TAU_S = 2.0  # data.recovery.RecoveryConfig.tau_s
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -52,6 +53,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help=f"--augment recovery: copies start up to M metres either side of the log (default {RECOVERY_LATERAL_M:g})",
     )
     p.add_argument(
+        "--augment-tau",
+        type=float,
+        default=RECOVERY_TAU_S,
+        metavar="S",
+        help=f"--augment recovery: labels rejoin the log within S seconds (default {RECOVERY_TAU_S:g}, Bojarski et al. 2016)",
+    )
+    p.add_argument(
         "--augment-dart",
         type=int,
         default=0,
@@ -73,6 +81,8 @@ def run(args: argparse.Namespace) -> int:
     ident = dataset_id(args.minari)
     if not args.augment_every > 0.0:
         raise UserError(f"--augment-every must be a positive number of seconds, not {args.augment_every:g}")
+    if not 0.1 <= args.augment_tau <= 10.0:
+        raise UserError(f"--augment-tau must be 0.1-10 s, not {args.augment_tau:g}")
     if not 0.0 <= args.augment_lateral <= 10.0:
         raise UserError(f"--augment-lateral must be 0-10 m, not {args.augment_lateral:g}")
     if args.augment_draws < 1 or args.augment_dart < 0:
@@ -89,7 +99,11 @@ def run(args: argparse.Namespace) -> int:
         try:
             if args.augment == "recovery":
                 config = RecoveryConfig(
-                    every_s=args.augment_every, draws=args.augment_draws, dart=args.augment_dart, lateral_m=args.augment_lateral
+                    every_s=args.augment_every,
+                    draws=args.augment_draws,
+                    dart=args.augment_dart,
+                    lateral_m=args.augment_lateral,
+                    tau_s=args.augment_tau,
                 )
                 ep, *copies = cardata_with_recovery(path, args.env, args.task, kwargs, args.trim_idle, config)
             else:
