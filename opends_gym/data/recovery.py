@@ -72,7 +72,7 @@ class RecoveryConfig:
     iterations: int = 8  # bisection steps per searched input (2 / 2**8 of its range)
     seed: int = 0
     draws: int = 1  # copies per start point, each with its own perturbation draw
-    in_time: bool = True  # the pedal also makes up time lost against the log (RecoveryLabeler.label)
+    in_time: bool = True  # DART rollouts' pedal also makes up time lost against the log (RecoveryLabeler.label)
     dart: int = 0  # noisy rollouts of the whole drive with the labels (DART, Laskey et al. 2017)
     dart_steering: float = 0.05  # DART: SD of the Gaussian noise added to the executed steering (of [-1, 1])
     dart_pedal: float = 0.1  # DART: SD of the noise added to the executed pedal
@@ -210,7 +210,11 @@ class RecoveryLabeler:
         course in time, as ChauffeurNet's labels are the logged poses at future times (Bansal et al.
         2018). By place alone, a car that reaches each place later than the log did (accelerating
         with a held pedal lags behind) stays behind for good: the labeler driving the bundled 17 s
-        log with place-only speeds ended 7 m short of it."""
+        log with place-only speeds ended 7 m short of it. Only the DART rollouts are labelled so
+        (`recovery_copy`): they start on the log's time and speed, and the time they lose is the
+        kind a clone loses on its own; a copy started at half the log's speed is seconds behind at
+        once, and its labels (full throttle long after it is back at the log's speed) taught
+        clones to speed: nothing in an observation tells how far behind the log a car is."""
         ref = self.ref
         s = self.base.world.ego.state
         _, _, seg = ref.locate(float(s.x), float(s.z), hint)
@@ -291,7 +295,8 @@ def recovery_copy(
     for k in range(steps):
         if t_s + k / _policy_hz(env) > end_s:
             break
-        action, hint = labeler.label(hint, t_s + k / _policy_hz(env) if config.in_time else None)
+        timed = config.in_time and noise is not None  # a rollout from the log's own state and speed: on its time
+        action, hint = labeler.label(hint, t_s + k / _policy_hz(env) if timed else None)
         if noise is None:
             done = _step(env, ep, action)[2]
         else:  # executed with noise, recorded as labelled
