@@ -192,3 +192,18 @@ def test_export_refuses_no_draws_in_one_line(tmp_path: Path, monkeypatch: pytest
         code = main(["export", str(SHORT_LOG), "--task", str(TASK), "--augment", "recovery", "--augment-draws", "0", "--minari", "test/a"])
     assert code == 2
     assert err.getvalue().strip().endswith("--augment-draws must be at least 1 and --augment-dart 0 or more, not 0, 0")
+
+
+def test_export_augment_options_default_to_the_recovery_config() -> None:
+    from opends_gym.cli.export import RECOVERY_LATERAL_M, RECOVERY_TAU_S
+
+    assert (RecoveryConfig().lateral_m, RecoveryConfig().tau_s) == (RECOVERY_LATERAL_M, RECOVERY_TAU_S)
+
+
+def test_export_refuses_a_horizon_out_of_range_in_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        code = main(["export", str(SHORT_LOG), "--task", str(TASK), "--augment", "recovery", "--augment-tau", "0", "--minari", "test/a"])
+    assert code == 2
+    assert err.getvalue().strip().endswith("--augment-tau must be 0.1-10 s, not 0")
