@@ -72,7 +72,6 @@ class RecoveryConfig:
     iterations: int = 8  # bisection steps per searched input (2 / 2**8 of its range)
     seed: int = 0
     draws: int = 1  # copies per start point, each with its own perturbation draw
-    in_time: bool = True  # DART rollouts' pedal also makes up time lost against the log (RecoveryLabeler.label)
     dart: int = 0  # noisy rollouts of the whole drive with the labels (DART, Laskey et al. 2017)
     dart_steering: float = 0.05  # DART: SD of the Gaussian noise added to the executed steering (of [-1, 1])
     dart_pedal: float = 0.1  # DART: SD of the noise added to the executed pedal
@@ -137,10 +136,6 @@ class Reference:
         across = ((x - fx[i]) * dz[i] - (z - fz[i]) * dx[i]) / length
         return float(self.s[lo + i] + f[i] * length), float(across), lo + i
 
-    def along_at(self, t_s: float) -> float:
-        """How far along its path the log was `t_s` seconds from its start."""
-        return float(np.interp(t_s, self.t[self.rows], self.s))
-
     def speed_at(self, s_m: float) -> float:
         """The logged speed at `s_m` metres along the path."""
         return float(np.interp(s_m, self.s, self.pu))
@@ -203,31 +198,21 @@ class RecoveryLabeler:
         i = int(up[np.argmin(np.abs(0.5 * (grid[up] + grid[up + 1]) - guess))])
         return self._bisect(lambda d: f(d)[0], guess, float(grid[i]), float(grid[i + 1]), float(values[i]))
 
-    def label(self, hint: int, t_s: float | None = None) -> tuple[np.ndarray, int]:
+    def label(self, hint: int) -> tuple[np.ndarray, int]:
         """The recovery action [steering, pedal] for the car's state now, and the path segment it is at
-        (the next call's `hint`). With `t_s`, the time on the log now, the pedal also makes up where
-        the car is behind (or ahead of) where the log was `tau_s` later, within `tau_s`: the log's
-        course in time, as ChauffeurNet's labels are the logged poses at future times (Bansal et al.
-        2018). By place alone, a car that reaches each place later than the log did (accelerating
-        with a held pedal lags behind) stays behind for good: the labeler driving the bundled 17 s
-        log with place-only speeds ended 7 m short of it. Only the DART rollouts are labelled so
-        (`recovery_copy`): they start on the log's time and speed, and the time they lose is the
-        kind a clone loses on its own; a copy started at half the log's speed is seconds behind at
-        once, and its labels (full throttle long after it is back at the log's speed) taught
-        clones to speed: nothing in an observation tells how far behind the log a car is."""
+        (the next call's `hint`). The pedal's target is the log's speed at the place the car reaches,
+        not where the log was at that time: labels that also made up time lost against the log
+        (ChauffeurNet's labels are poses in time, Bansal et al. 2018) taught clones to speed, since
+        nothing in an observation tells how far behind the log a car is (docs/imitation.md)."""
         ref = self.ref
         s = self.base.world.ego.state
         _, _, seg = ref.locate(float(s.x), float(s.z), hint)
         row = ref.rows[min(seg, len(ref.rows) - 1)]
         steering, logged_pedal = float(ref.steering[row]), float(ref.pedal[row])  # the log's inputs there: the first guess
 
-        goal_m = None if t_s is None else ref.along_at(t_s + self.config.tau_s)  # where the log was by then
-
         def speed_error(pedal: float) -> float:
             x, z, u = self._ahead(steering, pedal)
-            along = ref.locate(x, z, seg)[0]
-            catch_up = 0.0 if goal_m is None else (goal_m - along) / self.config.tau_s
-            return u - ref.speed_at(along) - catch_up
+            return u - ref.speed_at(ref.locate(x, z, seg)[0])
 
         here = ref.locate(float(s.x), float(s.z), seg)[0]
 
@@ -295,8 +280,7 @@ def recovery_copy(
     for k in range(steps):
         if t_s + k / _policy_hz(env) > end_s:
             break
-        timed = config.in_time and noise is not None  # a rollout from the log's own state and speed: on its time
-        action, hint = labeler.label(hint, t_s + k / _policy_hz(env) if timed else None)
+        action, hint = labeler.label(hint)
         if noise is None:
             done = _step(env, ep, action)[2]
         else:  # executed with noise, recorded as labelled
