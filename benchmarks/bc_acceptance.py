@@ -30,6 +30,10 @@ Prints one table (goal, measured, pass) and, with --json, the full figures.
     PYTHONPATH=. python benchmarks/bc_acceptance.py                      # the acceptance (200 drives, 20 episodes)
     PYTHONPATH=. python benchmarks/bc_acceptance.py --drives 20 --eval 4 # a quick look
     PYTHONPATH=. python benchmarks/bc_acceptance.py --skip-lct --synthetic-countryside 10  # Countryside from 75 s logs
+    PYTHONPATH=. python benchmarks/bc_acceptance.py --skip-lct --cs-augment recovery --cs-history 1 --cs-lateral 3 \
+        --cs-dart 8 --cs-tau 1 --cs-epochs 300 --cs-augment-every 0.25 --cs-seeds 0,1,2,3,4   # few short real logs, 5 seeds
+
+--cs-seeds trains one clone per seed and checks each: how much a result hangs on the training seed.
 """
 
 from __future__ import annotations
