@@ -30,6 +30,10 @@ Prints one table (goal, measured, pass) and, with --json, the full figures.
     PYTHONPATH=. python benchmarks/bc_acceptance.py                      # the acceptance (200 drives, 20 episodes)
     PYTHONPATH=. python benchmarks/bc_acceptance.py --drives 20 --eval 4 # a quick look
     PYTHONPATH=. python benchmarks/bc_acceptance.py --skip-lct --synthetic-countryside 10  # Countryside from 75 s logs
+    PYTHONPATH=. python benchmarks/bc_acceptance.py --skip-lct --cs-augment recovery --cs-history 1 --cs-lateral 3 \
+        --cs-dart 8 --cs-tau 1 --cs-epochs 300 --cs-augment-every 0.25 --cs-seeds 0,1,2,3,4   # few short real logs, 5 seeds
+
+--cs-seeds trains one clone per seed and checks each: how much a result hangs on the training seed.
 """
 
 from __future__ import annotations
@@ -286,8 +290,9 @@ def _export_logs(logs: list[Path], export: dict[str, Any], augment: str, indices
     out: list[list[Any]] = []
     for i in indices:
         try:
-            if augment.startswith("recovery:"):  # recovery:EVERY_S
-                config = RecoveryConfig(every_s=float(augment.partition(":")[2]))
+            if augment.startswith("recovery:"):  # recovery:EVERY_S:DRAWS:DART:LATERAL_M:TAU_S
+                every, draws, dart, lateral, tau = augment.split(":")[1:]
+                config = RecoveryConfig(every_s=float(every), draws=int(draws), dart=int(dart), lateral_m=float(lateral), tau_s=float(tau))
                 out.append(cardata_with_recovery(logs[i], None, str(CS_TASK), export, trim_idle=True, config=config))
             else:
                 out.append([load_episode(logs[i], None, str(CS_TASK), export, trim_idle=True)])
@@ -307,47 +312,70 @@ def countryside(args: argparse.Namespace, cache: Path) -> dict[str, Any]:
     preview = tuple(float(v) for v in args.cs_preview.split(",") if v.strip())
     export = {**CS_EXPORT, "road_preview_m": preview} if preview else CS_EXPORT  # the dataset's env spec: the clone's env
     key = logs_key(logs) + ("-preview-" + "-".join(f"{d:g}" for d in preview) if preview else "")
-    key += f"-{args.cs_augment}-{round(args.cs_augment_every * 1000)}ms" if args.cs_augment else ""
+    copy = (args.cs_augment_every, args.cs_draws, args.cs_dart, args.cs_lateral, args.cs_tau)
+    copies = "{:g}s-{}x-dart{}-{:g}m-{:g}s".format(*copy).replace(".", "p")
+    key += f"-{args.cs_augment}-{copies}" if args.cs_augment else ""
     name = f"bench/countryside-{key}-v0"
     if name not in minari.list_local_datasets():
         # from each log's own first state at its first gas; through traffic: the real logs began minutes into their
         # sessions (2019_01_04-11_40_24: 107 s), so the env's traffic, started at the task's time 0, is not where OpenDS's was
-        augment = f"{args.cs_augment}:{args.cs_augment_every}" if args.cs_augment else ""
+        augment = ":".join(map(str, (args.cs_augment, *copy))) if args.cs_augment else ""
         exported = pooled(partial(_export_logs, logs, export), augment, list(range(len(logs))), args.workers)
         episodes = [ep for eps in exported for ep in eps]
         write_dataset(name, episodes)
     t1 = time.perf_counter()
-    clone = cache / f"cs-clone-{key}"
-    config = BCConfig(epochs=args.cs_epochs, history=args.cs_history, validation=0.0)
-    summary = train_bc(name, clone, config)
-    t2 = time.perf_counter()
     tree = logs_path(logs)
+    augment = (
+        f"{args.cs_augment} every {args.cs_augment_every:g} s, {args.cs_draws} per start up to {args.cs_lateral:g} m across,"
+        f" {args.cs_dart} DART rollouts, labels within {args.cs_tau:g} s"
+    )
     out: dict[str, Any] = {
         "logs": label,
         "log_files": len(logs),
         "history": args.cs_history,
+        "epochs": args.cs_epochs,
+        "ensemble": args.cs_ensemble,
         "road_preview_m": list(preview),
-        "augment": f"{args.cs_augment} every {args.cs_augment_every:g} s" if args.cs_augment else "",
-        "train_steps": summary["steps"],
+        "augment": augment if args.cs_augment else "",
         "reach_m": reach_m(logs, args.seconds),
         "collect_s": t1 - t0,
-        "train_s": t2 - t1,
+        # the rule driver as a reference: how far from the logs' path the road itself leads
+        "rule": drive_clone("rule", tree, args.seconds, {}),
+        "seeds": [],
     }
-    # the clone, and the rule driver as a reference: how far from the logs' path the road itself leads
-    for k, spec in (("clone", f"bc:{clone}"), ("rule", "rule")):
-        out[k] = drive_clone(spec, tree, args.seconds, {})
-    # over what the logs cover: the clone from each log's first state for as long as the log drove (through traffic)
-    spans = []
-    for p in logs:
-        pose, span, t, d = log_start(p)
-        if span * 10.0 < 1.0 or d[-1] < 1.0:  # not one policy step, or it never set off: nothing to follow
-            continue
-        secs = min(span, args.seconds)
-        row = drive_clone(f"bc:{clone}", tree, secs, CS_EXPORT, pose)
-        spans.append({"log": str(p.relative_to(p.parents[1])), "span_s": secs, "log_m": float(np.interp(secs, t, d)), **row})
-    out["spans"] = spans
-    out["eval_s"] = time.perf_counter() - t2
+    for seed in args.cs_seeds:  # one clone per training seed: how much the result hangs on it
+        t2 = time.perf_counter()
+        clone = cache / f"cs-clone-{key}-h{args.cs_history}-e{args.cs_epochs}-x{args.cs_ensemble}-s{seed}"
+        config = BCConfig(epochs=args.cs_epochs, history=args.cs_history, validation=0.0, seed=seed, ensemble=args.cs_ensemble)
+        summary = train_bc(name, clone, config)
+        t3 = time.perf_counter()
+        run = {"seed": seed, "train_steps": summary["steps"], "train_s": t3 - t2}
+        run["clone"] = drive_clone(f"bc:{clone}", tree, args.seconds, {})
+        # over what the logs cover: the clone from each log's first state for as long as the log drove (through traffic)
+        spans = []
+        for p in logs:
+            pose, span, t, d = log_start(p)
+            if span * 10.0 < 1.0 or d[-1] < 1.0:  # not one policy step, or it never set off: nothing to follow
+                continue
+            secs = min(span, args.seconds)
+            row = drive_clone(f"bc:{clone}", tree, secs, CS_EXPORT, pose)
+            spans.append({"log": str(p.relative_to(p.parents[1])), "span_s": secs, "log_m": float(np.interp(secs, t, d)), **row})
+        run["spans"] = spans
+        run["eval_s"] = time.perf_counter() - t3
+        out["seeds"].append(run)
+    out["train_steps"] = out["seeds"][0]["train_steps"]
     return out
+
+
+def clone_ok(c: dict[str, Any], seconds: float, reach: float) -> bool:
+    """The goal: `seconds` driven, within 5 m of the logs' path throughout, no more than 5 m short of
+    where the logs got (a clone that stands still is trivially on the path)."""
+    return c["driven_s"] >= seconds - 1e-6 and c["max_distance_m"] <= GOAL_M and c["driven_m"] >= reach - GOAL_M
+
+
+def spans_ok(spans: list[dict[str, Any]]) -> bool:
+    """Each log's span driven whole, within 5 m of the logs' path and no more than 5 m short of the log."""
+    return all(s["driven_s"] >= s["span_s"] - 0.1 and s["max_distance_m"] <= GOAL_M and s["driven_m"] >= s["log_m"] - GOAL_M for s in spans)
 
 
 def table(result: dict[str, Any], seconds: float) -> list[tuple[str, str, str, bool]]:
@@ -361,26 +389,31 @@ def table(result: dict[str, Any], seconds: float) -> list[tuple[str, str, str, b
             rows.append((f"LCT {m}", "within 15 %", measured, bool(d <= 0.15)))
     if "countryside" in result:
         cs = result["countryside"]
-        for key, label in (("clone", "Countryside clone"), ("rule", "(reference: rule driver)")):
-            c = cs[key]
-            # "drives": ends no more than 5 m short of where the logs got (a clone that stands still is on the path)
-            ok = c["driven_s"] >= seconds - 1e-6 and c["max_distance_m"] <= GOAL_M and c["driven_m"] >= cs["reach_m"] - GOAL_M
+        many = len(cs["seeds"]) > 1
+        tag = {r["seed"]: f" (seed {r['seed']})" if many else "" for r in cs["seeds"]}
+        drives = [(f"Countryside clone{tag[r['seed']]}", r["clone"]) for r in cs["seeds"]]
+        for label, c in [*drives, ("(reference: rule driver)", cs["rule"])]:
             measured = (
                 f"{c['driven_s']:.1f} s, {c['driven_m']:.0f} m (logs {cs['reach_m']:.0f} m),"
                 f" max {c['max_distance_m']:.1f} m, mean {c['mean_distance_m']:.1f} m"
             )
-            rows.append((label, f"{seconds:.0f} s within 5 m", measured, ok))
-        spans = cs["spans"]
-        if spans:
-            ok = all(
-                s["driven_s"] >= s["span_s"] - 0.1 and s["max_distance_m"] <= GOAL_M and s["driven_m"] >= s["log_m"] - GOAL_M for s in spans
-            )
+            rows.append((label, f"{seconds:.0f} s within 5 m", measured, clone_ok(c, seconds, cs["reach_m"])))
+        for r in cs["seeds"]:
+            spans = r["spans"]
+            if not spans:
+                continue
             driven, logged = sum(s["driven_m"] for s in spans), sum(s["log_m"] for s in spans)
             measured = (
                 f"{len(spans)} logs: {sum(s['driven_s'] for s in spans):.1f} of {sum(s['span_s'] for s in spans):.1f} s,"
                 f" {driven:.0f} of {logged:.0f} m, max {max(s['max_distance_m'] for s in spans):.1f} m"
             )
-            rows.append(("Countryside clone over each log's span", "each within 5 m", measured, ok))
+            rows.append((f"Countryside clone over each log's span{tag[r['seed']]}", "each within 5 m", measured, spans_ok(spans)))
+        if many:
+            n = len(cs["seeds"])
+            goal = sum(clone_ok(r["clone"], seconds, cs["reach_m"]) for r in cs["seeds"])
+            each = sum(spans_ok(r["spans"]) for r in cs["seeds"] if r["spans"])
+            measured = f"{seconds:.0f} s goal: {goal}, every span: {each}"
+            rows.append(("Countryside clones: training seeds that pass", f"of {n}", measured, goal == n))
     return rows
 
 
@@ -419,6 +452,22 @@ def main() -> None:
     ap.add_argument(
         "--cs-augment-every", type=float, default=1.0, metavar="S", help="--cs-augment recovery: a copy every S seconds of each log"
     )
+    ap.add_argument(
+        "--cs-draws", type=int, default=1, metavar="N", help="--cs-augment recovery: N copies per start point (export --augment-draws)"
+    )
+    ap.add_argument(
+        "--cs-dart", type=int, default=0, metavar="N", help="--cs-augment recovery: N noisy rollouts of each log (export --augment-dart)"
+    )
+    ap.add_argument("--cs-lateral", type=float, default=1.5, metavar="M", help="--cs-augment recovery: copies start up to M m across")
+    ap.add_argument("--cs-tau", type=float, default=2.0, metavar="S", help="--cs-augment recovery: labels rejoin the log within S s")
+    ap.add_argument("--cs-ensemble", type=int, default=1, metavar="N", help="Countryside clone: N networks averaged (train bc --ensemble)")
+    ap.add_argument(
+        "--cs-seeds",
+        type=lambda v: [int(x) for x in v.split(",")],
+        default=[0],
+        metavar="S,...",
+        help="Countryside: one clone per training seed, each driven and checked (default 0)",
+    )
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "opends-gym-bc-acceptance")
@@ -451,6 +500,7 @@ def main() -> None:
         cs = result["countryside"]
         aug = f", augmented: {cs['augment']} ({cs['train_steps']} training steps)" if cs["augment"] else ""
         print(f"Countryside: cloned from {cs['logs']}, road preview {cs['road_preview_m'] or 'none'} m{aug}")
+        print(f"Countryside clone: history {cs['history']}, {cs['epochs']} epochs, ensemble of {cs['ensemble']}")
     print(f"wall {result['wall_s']:.0f} s (cache {args.cache})")
     if args.json:
         print(json.dumps(result, indent=1))

@@ -88,6 +88,32 @@ def test_a_recovery_copy_returns_to_the_path_and_the_speed(logged: Any) -> None:
     assert ep.infos["speed_kmh"][-1] / 3.6 == pytest.approx(ref.at_time(8.0)["u"], rel=0.15)  # from 60 % of it
 
 
+def test_a_keyboard_taps_steering_as_the_guess_still_rejoins_the_path_ahead(logged: Any) -> None:
+    env, ref = logged
+    tapped = Reference(ref.t, ref.x, ref.y, ref.z, ref.yaw, ref.u, np.full(len(ref.t), -0.9), ref.pedal, ref.engine_on)
+    env.reset(seed=0, options={"start_pose": perturbed_pose(ref.at_time(6.0), 0.5, 0.0, 1.0)})  # 0.5 m left of the path
+    base: Any = env.unwrapped
+    label = RecoveryLabeler(env, tapped).label(int(np.searchsorted(ref.t[ref.rows], 6.0)))[0]
+    s = base.world.ego.state
+    x, z, _ = base.world.ego.ahead(base.world.dt_s, DriverControls.pedals(float(label[0]), max(float(label[1]), 0.0), 0.0).clipped(), 120)
+    along, across, _ = ref.locate(x, z, 0)
+    assert abs(label[0]) < 0.1  # a gentle turn, not a circle near the guess (before: -0.82, round onto the path behind)
+    assert along - ref.locate(s.x, s.z, 0)[0] > 0.8 * s.u * 2.0 and abs(across) < 0.5
+
+
+def test_a_dart_rollout_is_driven_with_noise_and_records_the_labels(logged: Any) -> None:
+    env, ref = logged
+    config = RecoveryConfig(dart_steering=0.2, dart_pedal=0.2)
+    start = np.asarray([0.0, 0.0, 1.0])  # on the log
+    clean = recovery_copy(env, ref, 4.0, None, start, "log#recovery0", config, horizon_s=0.1)  # one step, no noise
+    ep = recovery_copy(env, ref, 4.0, None, start, "log#dart0", config, horizon_s=4.0, noise=np.random.default_rng(0))
+    assert clean is not None and ep is not None and ep.kind == "dart" and ep.steps == 40
+    np.testing.assert_array_equal(ep.actions[0], clean.actions[0])  # the state's label is recorded ...
+    assert abs(ep.observations[1][5] - clean.observations[1][5]) > 0.01  # ... the wheel was moved with the noise
+    s = env.unwrapped.world.ego.state
+    assert abs(ref.locate(s.x, s.z, 0)[1]) < 1.0  # and the labels kept the car near the path
+
+
 def test_the_car_model_look_ahead_is_the_cars_own_steps(logged: Any) -> None:
     env, _ = logged
     env.reset(seed=0)
@@ -116,6 +142,12 @@ def test_export_augment_recovery_adds_labelled_copies(tmp_path: Path, monkeypatc
                 "recovery",
                 "--augment-every",
                 "2",
+                "--augment-draws",
+                "2",
+                "--augment-dart",
+                "1",
+                "--augment-lateral",
+                "0.5",
                 "--minari",
                 "test/aug",
             ]
@@ -124,9 +156,13 @@ def test_export_augment_recovery_adds_labelled_copies(tmp_path: Path, monkeypatc
     import minari
 
     ds = minari.load_dataset("test/aug-v0")
-    kinds = [m["kind"] for m in ds.storage.get_episode_metadata(ds.episode_indices)]
-    assert kinds[0] == "cardata" and kinds.count("recovery") == len(kinds) - 1 >= 1
-    assert "recovery copies" in err.getvalue()
+    meta = list(ds.storage.get_episode_metadata(ds.episode_indices))
+    kinds = [m["kind"] for m in meta]
+    assert kinds[0] == "cardata" and kinds[-1] == "dart" and kinds.count("recovery") == len(kinds) - 2 >= 2
+    copies = [m for m in meta if m["kind"] == "recovery"]
+    for a, b in zip(copies[::2], copies[1::2], strict=True):  # two draws from each start point: two perturbations
+        assert a["start_pose/x"] != b["start_pose/x"] and abs(a["start_pose/x"] - b["start_pose/x"]) <= 1.0  # each within 0.5 m
+    assert "recovery copies and rollouts" in err.getvalue()
     fake = tmp_path / "drive.mcap"
     fake.write_bytes(b"\x89MCAP0\r\n" + b"\0" * 16)
     err = io.StringIO()
@@ -134,3 +170,27 @@ def test_export_augment_recovery_adds_labelled_copies(tmp_path: Path, monkeypatc
         code = main(["export", str(fake), "--augment", "recovery", "--minari", "test/aug2"])
     assert code == 2
     assert err.getvalue().strip().endswith("recovery copies are made of OpenDS carData.txt logs, not of MCAP recordings")
+
+
+def test_export_refuses_no_draws_in_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        code = main(["export", str(SHORT_LOG), "--task", str(TASK), "--augment", "recovery", "--augment-draws", "0", "--minari", "test/a"])
+    assert code == 2
+    assert err.getvalue().strip().endswith("--augment-draws must be at least 1 and --augment-dart 0 or more, not 0, 0")
+
+
+def test_export_augment_options_default_to_the_recovery_config() -> None:
+    from opends_gym.cli.export import RECOVERY_LATERAL_M, RECOVERY_TAU_S
+
+    assert (RecoveryConfig().lateral_m, RecoveryConfig().tau_s) == (RECOVERY_LATERAL_M, RECOVERY_TAU_S)
+
+
+def test_export_refuses_a_horizon_out_of_range_in_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        code = main(["export", str(SHORT_LOG), "--task", str(TASK), "--augment", "recovery", "--augment-tau", "0", "--minari", "test/a"])
+    assert code == 2
+    assert err.getvalue().strip().endswith("--augment-tau must be 0.1-10 s, not 0")

@@ -12,6 +12,9 @@ import argparse
 import dataclasses
 import sys
 
+RECOVERY_LATERAL_M = 1.5  # data.recovery.RecoveryConfig.lateral_m (not imported: the CLI loads without the data modules)
+RECOVERY_TAU_S = 2.0  # data.recovery.RecoveryConfig.tau_s
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("drives", nargs="+", help="MCAP recordings and/or OpenDS carData.txt logs")
@@ -35,6 +38,34 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="SECONDS",
         help="--augment recovery: a copy starts every SECONDS of each log (default 1; fewer logs, more copies)",
     )
+    p.add_argument(
+        "--augment-draws",
+        type=int,
+        default=1,
+        metavar="N",
+        help="--augment recovery: N copies from each start point, each with its own perturbation (default 1)",
+    )
+    p.add_argument(
+        "--augment-lateral",
+        type=float,
+        default=RECOVERY_LATERAL_M,
+        metavar="M",
+        help=f"--augment recovery: copies start up to M metres either side of the log (default {RECOVERY_LATERAL_M:g})",
+    )
+    p.add_argument(
+        "--augment-tau",
+        type=float,
+        default=RECOVERY_TAU_S,
+        metavar="S",
+        help=f"--augment recovery: labels rejoin the log within S seconds (default {RECOVERY_TAU_S:g}, Bojarski et al. 2016)",
+    )
+    p.add_argument(
+        "--augment-dart",
+        type=int,
+        default=0,
+        metavar="N",
+        help="--augment recovery: also N rollouts of each whole log driven by its labels plus noise (DART; default 0)",
+    )
     p.add_argument("--author", default=None, help="dataset author (Minari metadata)")
 
 
@@ -50,6 +81,12 @@ def run(args: argparse.Namespace) -> int:
     ident = dataset_id(args.minari)
     if not args.augment_every > 0.0:
         raise UserError(f"--augment-every must be a positive number of seconds, not {args.augment_every:g}")
+    if not 0.1 <= args.augment_tau <= 10.0:
+        raise UserError(f"--augment-tau must be 0.1-10 s, not {args.augment_tau:g}")
+    if not 0.0 <= args.augment_lateral <= 10.0:
+        raise UserError(f"--augment-lateral must be 0-10 m, not {args.augment_lateral:g}")
+    if args.augment_draws < 1 or args.augment_dart < 0:
+        raise UserError(f"--augment-draws must be at least 1 and --augment-dart 0 or more, not {args.augment_draws}, {args.augment_dart}")
     # the options every env shares typed by EnvConfig (road_preview_m=10,25,50), the rest as they read
     # (the env, a recording's or a carData log's, is known only once a drive is loaded)
     shared = {f.name: str(f.type) for f in dataclasses.fields(EnvConfig)}
@@ -61,14 +98,20 @@ def run(args: argparse.Namespace) -> int:
     for path in args.drives:
         try:
             if args.augment == "recovery":
-                config = RecoveryConfig(every_s=args.augment_every)
+                config = RecoveryConfig(
+                    every_s=args.augment_every,
+                    draws=args.augment_draws,
+                    dart=args.augment_dart,
+                    lateral_m=args.augment_lateral,
+                    tau_s=args.augment_tau,
+                )
                 ep, *copies = cardata_with_recovery(path, args.env, args.task, kwargs, args.trim_idle, config)
             else:
                 ep, copies = load_episode(path, args.env, args.task, kwargs, args.trim_idle), []
         except NeverSetsOff as e:  # a log of someone waiting: with --trim-idle nothing of it is driving
             print(f"{e}: skipped", file=sys.stderr)
             continue
-        more = f", {len(copies)} recovery copies ({sum(c.steps for c in copies)} steps)" if args.augment else ""
+        more = f", {len(copies)} recovery copies and rollouts ({sum(c.steps for c in copies)} steps)" if args.augment else ""
         print(f"{path}: {ep.steps} steps ({ep.kind}) on {ep.env_spec.id}{more}", file=sys.stderr)
         episodes += [ep, *copies]
     if not episodes:

@@ -25,6 +25,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--actions", action="store_true", help="with bc: the clone also sees the actions it took before them")
     p.add_argument("--validation", type=float, default=0.1, help="with bc: share of episodes held out for early stopping (default 0.1)")
     p.add_argument("--patience", type=int, default=10, help="with bc: epochs without a lower held-out error before it stops (default 10)")
+    p.add_argument("--ensemble", type=int, default=1, help="with bc: networks trained, their outputs averaged (default 1)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a top-level config key (repeatable)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--resume", default=None, metavar="RUN_DIR", help="continue a finished run (its model.zip) for --total-steps more")
@@ -38,6 +39,7 @@ def _train_bc(args: argparse.Namespace) -> int:
         print("opends-gym train: bc needs a dataset: opends-gym train bc DATASET [--out FOLDER]", file=sys.stderr)
         return 2
     options = {"history": args.history, "actions": args.actions, "validation": args.validation, "patience": args.patience}
+    options["ensemble"] = args.ensemble
     config = BCConfig(**options) if args.epochs is None else BCConfig(epochs=args.epochs, **options)
     out = Path(args.output) if args.output else Path("bc-" + args.dataset.replace("/", "-"))
     summary = train_bc(args.dataset, out, config)

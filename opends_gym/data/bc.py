@@ -17,6 +17,13 @@ time). A share `validation` of the episodes (whole episodes, seeded choice) is h
 weights of the epoch with the lowest held-out error are kept and training stops after `patience`
 epochs without a better one (early stopping: a clone fitted ever closer to its demonstrations
 drove worse, docs/imitation.md).
+
+`ensemble` trains that many members from consecutive seeds on the same data and the clone acts
+with their mean output: averaging independently initialised networks cancels much of the error
+each makes away from its data (Breiman 1996, "Bagging predictors"; Lakshminarayanan et al. 2017,
+"Simple and scalable predictive uncertainty estimation using deep ensembles"), and a clone of a
+few short logs whose drive hinged on its training seed drives alike across seeds
+(docs/imitation.md).
 """
 
 from __future__ import annotations
@@ -24,7 +31,7 @@ from __future__ import annotations
 import json
 import logging
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -49,6 +56,7 @@ class BCConfig:
     actions: bool = False  # the network also sees the actions taken before those observations
     validation: float = 0.1  # share of the episodes held out for early stopping (0: none, train all epochs)
     patience: int = 10  # epochs without a lower held-out error before training stops
+    ensemble: int = 1  # members trained from seeds ensemble*seed + 0..ensemble-1 (no two seeds share one); it acts with their mean
 
 
 def dataset_arrays(ds: Any, history: int = 1, actions: bool = False) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -86,6 +94,12 @@ def clone_env_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
 
 def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> dict[str, Any]:
     """Train a clone on Minari dataset `dataset`, save it in folder `out`; returns its summary."""
+    if config.history < 1:
+        raise UserError(f"history must be at least 1, not {config.history}")
+    if config.ensemble < 1:
+        raise UserError(f"ensemble must be at least 1 member, not {config.ensemble}")
+    if not 0.0 <= config.validation < 1.0:
+        raise UserError(f"validation must be a share in [0, 1), not {config.validation}")
     minari = require("data", "minari", "behaviour cloning from a Minari dataset")
     torch = require("rl", "torch", "behaviour cloning")
     try:
@@ -95,10 +109,6 @@ def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> di
     space = ds.action_space
     if not hasattr(space, "low"):
         raise UserError(f"{dataset}: behaviour cloning needs a Box action space, the dataset has {space}")
-    if config.history < 1:
-        raise UserError(f"history must be at least 1, not {config.history}")
-    if not 0.0 <= config.validation < 1.0:
-        raise UserError(f"validation must be a share in [0, 1), not {config.validation}")
     episodes = dataset_arrays(ds, config.history, config.actions)
     train_idx, held_idx = split(len(episodes), config.validation, config.seed)
     obs = np.nan_to_num(np.concatenate([episodes[i][0] for i in train_idx]), posinf=0.0, neginf=0.0)
@@ -130,12 +140,15 @@ def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> di
     torch.set_num_threads(1)  # a small MLP: one thread is ~10x faster than threads contending for busy cores
     try:
         with torch.random.fork_rng(devices=[]):  # seeded weights without moving the caller's torch RNG
-            net, losses, held_losses = _fit(torch, x, y, held, config)
+            fits = [_fit(torch, x, y, held, replace(config, seed=config.seed * config.ensemble + m)) for m in range(config.ensemble)]
     finally:
         torch.set_num_threads(threads)
+    net, losses, held_losses = fits[0]
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
-    torch.save(net.state_dict(), folder / WEIGHTS)
+    # one member: its Sequential's state dict (as before ensembles); several: a ModuleList's (keys "m.layer...")
+    state = net.state_dict() if config.ensemble == 1 else torch.nn.ModuleList([f[0] for f in fits]).state_dict()
+    torch.save(state, folder / WEIGHTS)
     summary = {
         "dataset": ds.id,
         "env_id": ds.env_spec.id if ds.env_spec is not None else "",
@@ -146,6 +159,7 @@ def train_bc(dataset: str, out: str | Path, config: BCConfig = BCConfig()) -> di
         "final_mse": losses[-1] if losses else math.nan,
         "validation_mse": min(held_losses) if held_losses else math.nan,
         "best_epoch": int(np.argmin(held_losses)) + 1 if held_losses else len(losses),
+        "member_final_mse": [f[1][-1] if f[1] else math.nan for f in fits],
         **{k: list(v) if isinstance(v, tuple) else v for k, v in asdict(config).items()},
     }
     settings = {

@@ -71,6 +71,10 @@ class RecoveryConfig:
     faster: float = 0.25  # start speed up to (1 + faster) x the logged speed
     iterations: int = 8  # bisection steps per searched input (2 / 2**8 of its range)
     seed: int = 0
+    draws: int = 1  # copies per start point, each with its own perturbation draw
+    dart: int = 0  # noisy rollouts of the whole drive with the labels (DART, Laskey et al. 2017)
+    dart_steering: float = 0.05  # DART: SD of the Gaussian noise added to the executed steering (of [-1, 1])
+    dart_pedal: float = 0.1  # DART: SD of the noise added to the executed pedal
 
 
 class Reference:
@@ -175,22 +179,31 @@ class RecoveryLabeler:
                 hi = mid
         return 0.5 * (lo + hi)
 
-    def _nearest_root(self, f: Any, guess: float) -> float:
-        """The steering nearest `guess` where `f` (the end's offset across the path) crosses zero
-        upwards: held for `tau_s`, a steering far from the log's can turn the car round a full
-        circle back onto the path, so the crossings of a grid over [-1, 1] are bisected, the
-        nearest kept (where none, the grid's least offset)."""
+    def _nearest_root(self, f: Any, guess: float, progress_m: float) -> float:
+        """The steering nearest `guess` where `f` (the end's offset across the path, and how far along
+        it the end is) crosses zero upwards: held for `tau_s`, a steering far from the log's can turn
+        the car round a full circle back onto the path, so the crossings of a grid over [-1, 1] are
+        bisected, the nearest kept (where none, the grid's least offset). Only ends at least
+        `progress_m` further along the path count: a car that spun or circled back onto the path
+        (a keyboard tap's steering as the guess once picked full lock, scrubbing 23 km/h) has not
+        rejoined it ahead."""
         grid = np.linspace(-1.0, 1.0, STEERING_GRID)
-        values = np.asarray([f(d) for d in grid])
-        up = np.flatnonzero((values[:-1] < 0.0) & (values[1:] >= 0.0))
+        ends = np.asarray([f(d) for d in grid])
+        values, ahead = ends[:, 0], ends[:, 1] >= progress_m
+        if not ahead.any():
+            ahead[:] = True  # none goes ahead (a standing car): every end counts
+        up = np.flatnonzero((values[:-1] < 0.0) & (values[1:] >= 0.0) & ahead[:-1] & ahead[1:])
         if not up.size:
-            return float(grid[int(np.argmin(np.abs(values)))]) if np.ptp(values) > 1e-6 else guess
+            return float(grid[ahead][int(np.argmin(np.abs(values[ahead])))]) if np.ptp(values) > 1e-6 else guess
         i = int(up[np.argmin(np.abs(0.5 * (grid[up] + grid[up + 1]) - guess))])
-        return self._bisect(f, guess, float(grid[i]), float(grid[i + 1]), float(values[i]))
+        return self._bisect(lambda d: f(d)[0], guess, float(grid[i]), float(grid[i + 1]), float(values[i]))
 
     def label(self, hint: int) -> tuple[np.ndarray, int]:
         """The recovery action [steering, pedal] for the car's state now, and the path segment it is at
-        (the next call's `hint`)."""
+        (the next call's `hint`). The pedal's target is the log's speed at the place the car reaches,
+        not where the log was at that time: labels that also made up time lost against the log
+        (ChauffeurNet's labels are poses in time, Bansal et al. 2018) taught clones to speed, since
+        nothing in an observation tells how far behind the log a car is (docs/imitation.md)."""
         ref = self.ref
         s = self.base.world.ego.state
         _, _, seg = ref.locate(float(s.x), float(s.z), hint)
@@ -201,12 +214,16 @@ class RecoveryLabeler:
             x, z, u = self._ahead(steering, pedal)
             return u - ref.speed_at(ref.locate(x, z, seg)[0])
 
-        def across(steer: float) -> float:  # steering left (+) ends the car further left (+)
+        here = ref.locate(float(s.x), float(s.z), seg)[0]
+
+        def across(steer: float) -> tuple[float, float]:  # steering left (+) ends the car further left (+); and how far along
             x, z, _ = self._ahead(steer, pedal)
-            return ref.locate(x, z, seg)[1]
+            along, side, _ = ref.locate(x, z, seg)
+            return side, along - here
 
         pedal = self._bisect(speed_error, logged_pedal)  # with the log's wheel there
-        steering = self._nearest_root(across, steering)  # with that pedal
+        progress = 0.5 * float(s.u) * self.config.tau_s  # half the way the car would go straight on
+        steering = self._nearest_root(across, steering, progress)  # with that pedal
         pedal = self._bisect(speed_error, pedal)  # with that steering
         return np.asarray([steering, pedal], dtype=np.float32), seg
 
@@ -236,12 +253,16 @@ def perturbed_pose(state: dict[str, float], lateral_m: float, heading_rad: float
 
 def recovery_copy(
     env: gym.Env[Any, Any], reference: Reference, t_s: float, world_state: Any, perturbation: np.ndarray, source: str,
-    config: RecoveryConfig = RecoveryConfig(),
+    config: RecoveryConfig = RecoveryConfig(), horizon_s: float | None = None, noise: np.random.Generator | None = None,
 ) -> Episode | None:  # fmt: skip
     """One copy: the logged state at `t_s` perturbed, in the env's world as it was then (`world_state`,
     from `World.get_state()`; None: the world as the env resets it), driven with recovery labels for
-    `horizon_s` (or until the episode or the log ends); None where there is nothing to drive."""
-    steps = int(round(config.horizon_s * _policy_hz(env)))
+    `horizon_s` (default the config's; or until the episode or the log ends); None where there is
+    nothing to drive. With `noise` (DART, Laskey et al. 2017: "Disturbances for Augmenting Robot
+    Trajectories") the car is driven by each label plus Gaussian noise (SD `dart_steering`,
+    `dart_pedal`) while the episode records the label: the states drift as a clone's own errors
+    would take it, each labelled with the way back (kind `dart`)."""
+    steps = int(round((config.horizon_s if horizon_s is None else horizon_s) * _policy_hz(env)))
     state = reference.at_time(t_s)
     pose = perturbed_pose(state, *map(float, perturbation))
     base: Any = env.unwrapped
@@ -250,7 +271,8 @@ def recovery_copy(
         base.world.set_state(world_state)
         base.world.ego.reset_to(pose["x"], pose["y"], pose["z"], pose["yaw_rad"], pose["speed_mps"], engine_on=pose["engine_on"])
     base.world.ego.inputs.steering = state["steering"]  # the wheel where the log held it (in the observation)
-    ep = _start(env, source, "recovery", None, base.obs_type.observe(), info)  # the reset's info keys (at the copy's start pose)
+    kind = "recovery" if noise is None else "dart"
+    ep = _start(env, source, kind, None, base.obs_type.observe(), info)  # the reset's info keys (at the copy's start pose)
     ep.start_pose = {k: float(v) for k, v in pose.items()}
     labeler = RecoveryLabeler(env, reference, config)
     hint = reference.locate(pose["x"], pose["z"], int(np.searchsorted(reference.t[reference.rows], t_s)))[2]
@@ -259,7 +281,13 @@ def recovery_copy(
         if t_s + k / _policy_hz(env) > end_s:
             break
         action, hint = labeler.label(hint)
-        if _step(env, ep, action)[2]:
+        if noise is None:
+            done = _step(env, ep, action)[2]
+        else:  # executed with noise, recorded as labelled
+            sd = np.asarray([config.dart_steering, config.dart_pedal])
+            done = _step(env, ep, np.clip(action + noise.normal(0.0, sd), -1.0, 1.0).astype(np.float32))[2]
+            ep.actions[-1] = action
+        if done:
             break
     if not ep.actions:
         return None
@@ -305,9 +333,14 @@ def cardata_with_recovery(
         out = [demo]
         if not ref.moves:
             return out
-        starts = list(range(0, len(steps), every))
+        starts = [k for k in range(0, len(steps), every) for _ in range(config.draws)]
         for j, (k, perturbation) in enumerate(zip(starts, perturbations(len(starts), config), strict=True)):
             ep = recovery_copy(env, ref, k / hz, snapshots.get(k), perturbation, f"{p}#recovery{j}", config)
+            if ep is not None:
+                out.append(ep)
+        rng = np.random.default_rng([config.seed, 1])  # the noise: seeded, apart from the perturbations
+        for j in range(config.dart):  # from the log's own first state, the whole drive
+            ep = recovery_copy(env, ref, 0.0, snapshots.get(0), np.asarray([0.0, 0.0, 1.0]), f"{p}#dart{j}", config, ref.t[-1], rng)
             if ep is not None:
                 out.append(ep)
         return out

@@ -4,8 +4,9 @@ Why here: every agent spec resolves in `drivers.agents`, so a clone drives `run`
 benchmarks like any other driver. The network and its file format live beside the driver;
 `opends_gym.data.bc` trains it. A saved clone is a folder with `bc.pt` (the weights) and
 `bc.json` (sizes, observation normalisation, action bounds, the env and dataset it came from,
-`history`: how many recent observations the network sees, oldest first, and `actions`: whether
-it also sees the actions it took before each of them; a driver who answers a sign a second
+`history`: how many recent observations the network sees, oldest first, `actions`: whether
+it also sees the actions it took before each of them, and `ensemble`: how many networks `bc.pt`
+holds, whose outputs the clone averages; a driver who answers a sign a second
 later, acts on a stale percept during a glance or moves the wheel smoothly has state the
 current observation does not show, and a memoryless clone acts the moment it sees a sign).
 NAME is that folder (or its `bc.pt`) or a bundled policy folder of that name.
@@ -104,15 +105,18 @@ class BCDriver:
         self.squash = "target_std" not in s
         # the observation options of the dataset it was cloned from (data.bc.clone_env_kwargs): the env to drive in
         self.env_kwargs: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in s.get("env_kwargs", {}).items()}
-        self.net = build_mlp(len(self.mean), len(self.low), tuple(s["hidden"]), self.squash)
+        members = int(s.get("ensemble", 1))  # several: a ModuleList of nets whose outputs are averaged (data.bc)
+        nets = [build_mlp(len(self.mean), len(self.low), tuple(s["hidden"]), self.squash) for _ in range(members)]
+        self.net = nets[0] if members == 1 else torch.nn.ModuleList(nets)
         self._obs: list[np.ndarray] = []
         self._acts: list[np.ndarray] = []
         self.net.load_state_dict(torch.load(self.folder / WEIGHTS, map_location="cpu", weights_only=True))
         self.net.eval()
         # the forward pass in numpy: one observation through a small MLP takes microseconds,
         # where torch's thread pool on a busy host took ~0.1 s per step
-        linear = [m for m in self.net if isinstance(m, torch.nn.Linear)]
-        self._layers = [(m.weight.detach().numpy().astype(np.float64), m.bias.detach().numpy().astype(np.float64)) for m in linear]
+        linear = [[m for m in net if isinstance(m, torch.nn.Linear)] for net in nets]
+        self._members = [[(m.weight.detach().numpy().astype(np.float64), m.bias.detach().numpy().astype(np.float64)) for m in ms]
+                         for ms in linear]  # fmt: skip
 
     def reset(self, env: gym.Env[Any, Any], seed: int) -> None:
         config = getattr(env.unwrapped, "config", None)
@@ -135,12 +139,15 @@ class BCDriver:
             pad = [np.zeros(len(self.low), np.float32)] * (self.history - len(taken))
             stacked = np.concatenate([stacked, *pad, *taken])
         x = np.clip(np.nan_to_num((stacked - self.mean) / self.std, posinf=CLIP, neginf=-CLIP), -CLIP, CLIP)
-        y = x.astype(np.float64)
-        for i, (w, b) in enumerate(self._layers):
-            y = w @ y + b
-            if i < len(self._layers) - 1 or self.squash:  # build_mlp's tanh layers
-                y = np.tanh(y)
-        action = action_output(y, self.settings)
+        outputs = []
+        for layers in self._members:
+            y = x.astype(np.float64)
+            for i, (w, b) in enumerate(layers):
+                y = w @ y + b
+                if i < len(layers) - 1 or self.squash:  # build_mlp's tanh layers
+                    y = np.tanh(y)
+            outputs.append(y)
+        action = action_output(np.mean(outputs, axis=0), self.settings)
         if self.with_actions:
             self._acts = [*self._acts[-(self.history - 1) :], action] if self.history > 1 else [action]
         return action
