@@ -22,6 +22,7 @@ from ..jit import inline, kernel, parallel_kernel
 from ..sim.geometry2d import boxes_overlap
 from ..sim.traffic.motion import N_WORK, W_COS, W_SIN, W_TRIG_OK, W_TRIG_YAW
 from .kernels import chunk_count, lane_measures
+from .trace import TRACE_GROUP
 
 _NO_WORK = np.zeros((N_WORK, 0))  # (no traffic work rows: `_lead_one` takes the lead car's sine and cosine itself)
 
@@ -188,7 +189,7 @@ def after_one(e: int, k: int, live: np.ndarray, a: tuple, lead: tuple, lanes: tu
     and cosine of each yaw (taken after the ego step); `lead` `_lead_one`'s arguments after
     the ego's, `gap_m` and `lead_speed_mps` before its last (the traffic's work rows); `lanes`
     `lane_measures`' constants and arrays;
-    `ring` (block, row, ring steps, with pedals, recording); `hook` `_hook_one`'s arguments
+    `ring` (block: grouped, `TraceRing(grouped=True)`; row, ring steps, with pedals, recording); `hook` `_hook_one`'s arguments
     after the ego's but `band`; `stim` the stimulus slots and constants, `changed`, `react`,
     `held`; `hits` the ego box (shift of its centre, half width, half length), each car's
     reach and half extents and the cars touching the ego; `stop` the early-stop arguments."""
@@ -212,16 +213,18 @@ def after_one(e: int, k: int, live: np.ndarray, a: tuple, lead: tuple, lanes: tu
         dist[e], area[e],
     )  # fmt: skip
     prev_x[e], prev_z[e] = x[e], z[e]
+    grp, slot = row // TRACE_GROUP, row % TRACE_GROUP  # (a grouped ring: `TraceRing`)
     if rec:
-        block[row, e, 0], block[row, e, 1], block[row, e, 2], block[row, e, 3] = x[e], z[e], u[e], steer_in[e]
-        block[row, e, 4], block[row, e, 5], block[row, e, 6], block[row, e, 7] = headway[e], ttc[e], gap_m[e], lead_speed[e]
+        block[grp, e, slot, 0], block[grp, e, slot, 1], block[grp, e, slot, 2], block[grp, e, slot, 3] = x[e], z[e], u[e], steer_in[e]
+        block[grp, e, slot, 4], block[grp, e, slot, 5], block[grp, e, slot, 6], block[grp, e, slot, 7] = headway[e], ttc[e], gap_m[e], \
+            lead_speed[e]  # fmt: skip
         if pedals:
-            block[row, e, 9], block[row, e, 10] = gas_in[e], brake_in[e]
+            block[grp, e, slot, 9], block[grp, e, slot, 10] = gas_in[e], brake_in[e]
         steps[e] += 1
     _hook_one(e, x, z, sy, cy, u, pos, ov_speed, ov_decel, c, on, kind, car, lead_i, follow_i, with_follower, band, offset, ttc, lon_dev,
               reward_acc)  # fmt: skip
     if rec:
-        block[row, e, 8] = lon_dev[e]
+        block[grp, e, slot, 8] = lon_dev[e]
     count = 0
     te = t[e]
     brake_hit = brake_in[e] >= brake_threshold
