@@ -39,6 +39,7 @@ from ..sim.traffic.state import N_COLUMNS
 from ..sim.triggers.core import CompiledAction
 from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore
+from .episode_table import EpisodeTable
 from .kernels import CHUNK_ENVS
 from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
 from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
@@ -92,7 +93,8 @@ class PlatoonBatch(BatchCore):
     needs_distance = True
     has_traffic = True
     parallel_kernels = True  # its step pass runs chunks of envs on numba's threads (`parallel`)
-    has_extra_metrics = False  # the task adds its own metrics (`_extra_metrics`)
+    has_extra_metrics = False  # the task adds its own metrics (`_extra_table`, keys `extra_keys`)
+    extra_keys: tuple[str, ...] = ()
 
     def __init__(self, template: ThreeVehiclePlatoonEnv, n: int, record_metrics: bool = True) -> None:
         template.reset(seed=0)  # the cars as the task's reset leaves them (the same for every seed)
@@ -126,6 +128,8 @@ class PlatoonBatch(BatchCore):
         self.hold = np.full(shape, np.nan)
         self.objs: list[list[Stimulus | None]] = [[None] * SLOTS for _ in range(n)]
         self.stimuli: list[list[Stimulus]] = [[] for _ in range(n)]
+        self.n_stimuli = np.zeros(n, dtype=np.int64)  # len(self.stimuli[e])
+        self.n_brake_stimuli = np.zeros(n, dtype=np.int64)  # the brake light and emergency brake stimuli among them
         self.prng: list[np.random.Generator | None] = [None] * n  # built from `prng_seed` when first drawn from
         self.prng_seed = np.zeros(n, dtype=np.int64)
         cfg: Any = template.config
@@ -206,6 +210,8 @@ class PlatoonBatch(BatchCore):
                 objs[e] = [None] * SLOTS
         self.traffic.reset_rows(idx, self.traffic.st0)
         self.on[idx] = False
+        self.n_stimuli[idx] = 0
+        self.n_brake_stimuli[idx] = 0
         self.reward_acc[idx] = 0.0
         self.seen[idx] = 0
         self.dirty[idx] = False
@@ -288,6 +294,8 @@ class PlatoonBatch(BatchCore):
             st.ov_decel[row] = abs(self.em_decel) if k == EB else np.nan
         obj = Stimulus(kind, t, t + float(self.durations[k]), target_mps=target, car=self.world.traffic.ids[car])
         self.stimuli[e].append(obj)
+        self.n_stimuli[e] += 1
+        self.n_brake_stimuli[e] += k in (BL, EB)
         self.objs[e][slot] = obj
         self.on[e, slot], self.kind[e, slot], self.car[e, slot] = True, k, car
         self.onset[e, slot], self.end[e, slot], self.target[e, slot] = obj.onset_s, obj.end_s, target
@@ -472,17 +480,24 @@ class PlatoonBatch(BatchCore):
         return r - self.collision_penalty * info["new_collisions"].astype(np.float64)
 
     def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
-        """`episode_metrics` of the envs `es`, the same floats, in two compiled passes over all
-        of them: the generic trace metrics (`metrics.episode_scores`) and the platoon metrics
-        (`PlatoonCore.metrics`, `metrics.platoon_scores`). Every episode's values are one row of
-        one table, turned into Python floats at once (NaNs as `math.nan`, as the single env's
-        metrics hold them); only the reaction counts of episodes with reactions and the task's
-        own extras (`_extra_metrics`) are per-episode Python."""
+        """`episode_metrics` of the envs `es`, the same floats: `episodes_table`'s rows as dicts
+        (turned into Python floats at once, NaNs as `math.nan`, as the single env's metrics hold
+        them)."""
+        tab = self.episodes_table(es)
+        return [(e, dict(zip(tab.keys, row))) for e, row in zip(es, _rows_with_nan(tab.values), strict=True)]
+
+    def episodes_table(self, es: list[int]) -> EpisodeTable:
+        """`episode_metrics` of the envs `es` as one table (a row per episode, `episode_metrics`'
+        keys in its order), computed in two compiled passes over all of them: the generic trace
+        metrics (`metrics.episode_scores`) and the platoon metrics (`PlatoonCore.metrics`,
+        `metrics.platoon_scores`). Only episodes with reaction timer results, and the brake
+        test's episodes with brake trials (`_extra_table`), take Python of their own."""
         if self.ring is None:
             raise RuntimeError("episode metrics were switched off (record_metrics=False)")
-        if not es:
-            return []
         m = len(es)
+        if not m:
+            keys = _BASE_KEYS + scores.KEYS + self.extra_keys
+            return EpisodeTable(keys, np.empty((0, len(keys))), None)
         starts, data = self.ring.gather(es)  # (column, row): the episodes one after another, reset rows first
         col = self.trace_columns.index
         x, z = data[col("x_m")], data[col("z_m")]
@@ -502,16 +517,16 @@ class PlatoonBatch(BatchCore):
         reactions: dict[int, list[Any]] = {}
         counts = np.zeros((m, 5))  # reactions, correct, failed, missed, mean reaction time
         counts[:, 4] = math.nan
-        for j, e in enumerate(es):
-            if self.timers.results[e]:  # (rare: an episode with reaction timers scored)
-                rs = reactions[e] = self.timers.results_of(e)
-                correct = [r for r in rs if r.result == 1]
-                counts[j, :4] = len(rs), len(correct), sum(1 for r in rs if r.result == -1), sum(1 for r in rs if r.result == -2)
-                counts[j, 4] = float(np.mean([r.reaction_time_s for r in correct])) if correct else math.nan
+        for j in np.flatnonzero(self.timers.n_results[idx] > 0).tolist():  # (rare: episodes with reaction timers scored)
+            e = es[j]
+            rs = reactions[e] = self.timers.results_of(e)
+            correct = [r for r in rs if r.result == 1]
+            counts[j, :4] = len(rs), len(correct), sum(1 for r in rs if r.result == -1), sum(1 for r in rs if r.result == -2)
+            counts[j, 4] = float(np.mean([r.reaction_time_s for r in correct])) if correct else math.nan
         tpl = self.template
         # `OpenDSEnv.episode_metrics`' keys in order (`_BASE_KEYS`), then `PlatoonCore.metrics`'
         parts = (self.t[idx], base[:, 0:2], self.s.fuel_used[idx], self.collisions[idx], base[:, 2:6], counts,
-                 float(self.guide.lanes_known), base[:, 6:8], self._presented_rows(es), base[:, 8], float(tpl.resets),
+                 float(self.guide.lanes_known), base[:, 6:8], self._presented_rows(idx), base[:, 8], float(tpl.resets),
                  float(tpl.collision_resets), float(tpl.reset_time_s), base[:, 9:])  # fmt: skip
         at = 0
         for v in parts:
@@ -520,28 +535,31 @@ class PlatoonBatch(BatchCore):
             table[:, at : at + a.shape[1]] = a
             at += a.shape[1]
         assert at == nb, "the columns above are `_BASE_KEYS`"
-        keys = _BASE_KEYS + scores.KEYS
-        out = [(e, dict(zip(keys, row))) for e, row in zip(es, _rows_with_nan(table), strict=True)]
         if self.has_extra_metrics:
-            for j, (e, d) in enumerate(out):
-                d.update(self._extra_metrics(e, reactions.get(e, []), data[:, starts[j] : starts[j + 1]]))
-        return out
+            table = np.concatenate([table, self._extra_table(es, idx, reactions, starts, data)], axis=1)
+        return EpisodeTable(_BASE_KEYS + scores.KEYS + self.extra_keys, table, None)
 
-    def _presented_rows(self, es: list[int]) -> np.ndarray:
-        """`_stimuli_presented` of the episodes of the envs `es`."""
-        return np.array([len(self.stimuli[e]) for e in es], dtype=np.float64)
+    def _presented_rows(self, idx: np.ndarray) -> np.ndarray:
+        """`_stimuli_presented` of the episodes of the envs `idx`."""
+        return self.n_stimuli[idx].astype(np.float64)
 
-    def _extra_metrics(self, e: int, reactions: list[Any], columns: np.ndarray) -> dict[str, float]:
-        """The task's own metrics after `PlatoonCore.metrics` (none for the platoon test)."""
-        return {}
+    def _extra_table(self, es: list[int], idx: np.ndarray, reactions: dict[int, list[Any]], starts: np.ndarray,
+                     data: np.ndarray) -> np.ndarray:  # fmt: skip
+        """The task's own metrics after `PlatoonCore.metrics` (`extra_keys`' columns, a row per
+        episode of `es`, envs `idx`; `reactions` their reaction timer results where any,
+        `starts` and `data` their trace as `TraceRing.gather` returned it): none for the
+        platoon test."""
+        return np.empty((len(es), 0))
 
     def _platoon_scores(self, es: list[int], lon: np.ndarray, off: np.ndarray, starts: np.ndarray, out: np.ndarray) -> None:
         """`PlatoonCore.metrics` of the envs `es` into the rows of `out` (`scores.KEYS`' columns):
         lon[starts[j]:starts[j+1]] and off[...] are the longitudinal band deviations and lane
         offsets of env es[j]'s steps."""
-        stims = [s for e in es for s in self.stimuli[e]]
+        idx = np.asarray(es, dtype=np.int64)
+        n_stim = self.n_stimuli[idx]
+        stims = [s for e in idx[n_stim > 0].tolist() for s in self.stimuli[e]]
         stim_starts = np.zeros(len(es) + 1, dtype=np.int64)
-        np.cumsum([len(self.stimuli[e]) for e in es], out=stim_starts[1:])
+        np.cumsum(n_stim, out=stim_starts[1:])
         kind = np.array([scores.KINDS.index(s.kind) for s in stims], dtype=np.int64)
         result = np.array([s.result for s in stims], dtype=np.int64)
         rt = np.array([s.reaction_time_s for s in stims], dtype=np.float64)
@@ -550,7 +568,7 @@ class PlatoonBatch(BatchCore):
         lat_lo, lat_hi = (lb.lower_bound_m, lb.upper_bound_m) if lb is not None else (0.0, 0.0)
         block = np.empty((len(es), len(scores.KEYS)))
         scores.platoon_scores(lon, off, starts, float(lat_lo), float(lat_hi), lb is not None, kind, result, rt, onset, stim_starts,
-                              self.t[np.asarray(es, dtype=np.int64)], float(self.spec.max_reaction_time_s), block)  # fmt: skip
+                              self.t[idx], float(self.spec.max_reaction_time_s), block)  # fmt: skip
         out[:] = block
 
     def _load_episode(self, e: int, columns: np.ndarray | None) -> None:
@@ -582,7 +600,9 @@ class BrakeBatch(PlatoonBatch):
         self.sign_ids = [oid for oid, objs in self.world.objects.by_id.items() if oid.endswith("_Sign")]
         self.sign_z = np.array([self.world.objects.by_id[oid][0].position[2] for oid in self.sign_ids])
         self.revealed = np.zeros((n, len(self.sign_ids)), dtype=bool)
-        self._no_trials = brake_metrics(np.zeros(1), np.zeros(1), np.zeros(1), [], [], [], 0)  # (`brake_metrics` of an episode without any)
+        no_trials = brake_metrics(np.zeros(1), np.zeros(1), np.zeros(1), [], [], [], 0)  # (`brake_metrics` of an episode without any)
+        self.extra_keys = tuple(no_trials)
+        self._no_trial_row = np.array([no_trials[k] for k in self.extra_keys], dtype=np.float64)
 
     def _reset_task(self, idx: np.ndarray) -> None:
         super()._reset_task(idx)
@@ -600,18 +620,30 @@ class BrakeBatch(PlatoonBatch):
             return
         super()._on_action(e, act, trigger)
 
-    def _presented_rows(self, es: list[int]) -> np.ndarray:
-        return super()._presented_rows(es) + np.count_nonzero(self.revealed[np.asarray(es, dtype=np.int64)], axis=1)
+    def _presented_rows(self, idx: np.ndarray) -> np.ndarray:
+        return super()._presented_rows(idx) + np.count_nonzero(self.revealed[idx], axis=1)
 
-    def _extra_metrics(self, e: int, reactions: list[Any], columns: np.ndarray) -> dict[str, float]:
-        """`BrakeReactionEnv`'s own metrics (`envs.brake.brake_metrics`, Python)."""
+    def _extra_table(self, es: list[int], idx: np.ndarray, reactions: dict[int, list[Any]], starts: np.ndarray,
+                     data: np.ndarray) -> np.ndarray:  # fmt: skip
+        """`BrakeReactionEnv`'s own metrics (`envs.brake.brake_metrics`): those of an episode
+        without a brake trial or a timer result (most) as a table; the others by
+        `brake_metrics` (Python)."""
+        shown = np.count_nonzero(self.revealed[idx], axis=1).astype(np.float64)
+        out = np.empty((len(es), len(self.extra_keys)))
+        out[:] = self._no_trial_row
+        out[:, self.extra_keys.index("BrakeSign_unscored")] = shown  # (no reactions: max(0, shown - 0))
         col = self.trace_columns.index
-        t = np.arange(columns.shape[1]) * self.dt
-        reset_t = [ev.t_s for ev in self.world.events.since(0) if ev.kind == "reset"]
-        shown = int(np.count_nonzero(self.revealed[e]))
-        if not reactions and not any(st.kind in BRAKE_KINDS for st in self.stimuli[e]):  # (most episodes: no trial, no timer)
-            return self._no_trials | {"BrakeSign_unscored": float(shown)}
-        return brake_metrics(t, columns[col("accelerator")], columns[col("brake")], self.stimuli[e], reactions, reset_t, shown)
+        reset_t: list[float] | None = None
+        for j in np.flatnonzero((self.n_brake_stimuli[idx] > 0) | (self.timers.n_results[idx] > 0)).tolist():
+            e = es[j]
+            if reset_t is None:
+                reset_t = [ev.t_s for ev in self.world.events.since(0) if ev.kind == "reset"]
+            columns = data[:, starts[j] : starts[j + 1]]
+            t = np.arange(columns.shape[1]) * self.dt
+            row = brake_metrics(t, columns[col("accelerator")], columns[col("brake")], self.stimuli[e], reactions.get(e, []), reset_t,
+                                int(shown[j]))  # fmt: skip
+            out[j] = [row[k] for k in self.extra_keys]
+        return out
 
     def _signs(self) -> tuple[np.ndarray, np.ndarray]:
         return self.revealed, self.sign_z
