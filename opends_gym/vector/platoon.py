@@ -44,7 +44,8 @@ from .kernels import CHUNK_ENVS
 from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
 from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
 from .platoon_step import _lead_range, lead_measures, lead_rows
-from .trace import TRACE_GROUP, TraceRing, lane_columns
+from .spill_ring import SpillRing
+from .trace import TRACE_GROUP, TraceRing, score_columns
 from .traffic import FlatTraffic
 
 KINDS = scores.KINDS
@@ -182,7 +183,7 @@ class PlatoonBatch(BatchCore):
         if self.trace_columns[:9] != PlatoonBatch.trace_columns or len(self.trace_columns) not in (9, 11) or SIGNAL_OFF != 0:
             raise TypeError("platoon_step.after_one writes these trace columns; change it with them")
         if self.ring is not None:  # grouped: each env's physics steps write its rows in turn (`platoon_pass`); ended episodes read runs
-            self.ring = TraceRing(n, self.trace_columns, self.ring.size - 2, grouped=True)
+            self.ring = SpillRing(n, self.trace_columns, self.ring.size - 2, grouped=True)  # (bounded: `spill_ring`)
         self._no_block = np.empty((1, 1, TRACE_GROUP, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
         self._no_hits = np.zeros(n, dtype=np.int64)
@@ -501,18 +502,21 @@ class PlatoonBatch(BatchCore):
         starts, data = self.ring.gather(es)  # (column, row): the episodes one after another, reset rows first
         col = self.trace_columns.index
         x, z = data[col("x_m")], data[col("z_m")]
-        lat, lane, off = lane_columns(self.guide, x, z)
+        derived = np.empty((6, len(x)))  # t, lateral, lane, offset, steering (deg), step to the next row
+        g = self.guide
+        if g.kind != "lanes":
+            raise ValueError("the native batch needs a task with lane bands")
+        score_columns(starts, x, z, data[col("steering")], self.dt, g.sign, self.centres, g.lane_width_m / 2.0, STEERING_WHEEL_MAX_DEG,
+                      derived)  # fmt: skip
+        t, lat, lane, off, steer_deg, ds = derived
         steps = np.ones(len(x), dtype=bool)
         steps[starts[:-1]] = False  # (the reset row is no step of the platoon metrics)
         nb = len(_BASE_KEYS)
         table = np.empty((m, nb + len(scores.KEYS)))
         self._platoon_scores(es, data[col("lon_dev")][steps], off[steps], starts - np.arange(m + 1), table[:, nb:])
-        t = (np.arange(len(x)) - np.repeat(starts[:-1], np.diff(starts))) * self.dt  # (`TraceRing.to_trace`'s clock)
         base = np.empty((m, len(episode_scores.KEYS)))
-        episode_scores.episode_scores(starts, t, np.hypot(np.diff(x), np.diff(z)), data[col("speed_mps")],
-                                      data[col("steering")] * STEERING_WHEEL_MAX_DEG, data[col("gap_m")], data[col("lead_speed_mps")],
-                                      data[col("headway_s")], data[col("ttc_s")], lat, lane.astype(np.float64), off, *self._score_params,
-                                      base)  # fmt: skip
+        episode_scores.episode_scores(starts, t, ds, data[col("speed_mps")], steer_deg, data[col("gap_m")], data[col("lead_speed_mps")],
+                                      data[col("headway_s")], data[col("ttc_s")], lat, lane, off, *self._score_params, base)  # fmt: skip
         idx = np.asarray(es, dtype=np.int64)
         reactions: dict[int, list[Any]] = {}
         counts = np.zeros((m, 5))  # reactions, correct, failed, missed, mean reaction time
