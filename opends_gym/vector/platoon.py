@@ -44,7 +44,6 @@ from .kernels import CHUNK_ENVS
 from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
 from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
 from .platoon_step import _lead_range, lead_measures, lead_rows
-from .spill_ring import SpillRing
 from .trace import TRACE_GROUP, TraceRing, score_columns
 from .traffic import FlatTraffic
 
@@ -183,7 +182,7 @@ class PlatoonBatch(BatchCore):
         if self.trace_columns[:9] != PlatoonBatch.trace_columns or len(self.trace_columns) not in (9, 11) or SIGNAL_OFF != 0:
             raise TypeError("platoon_step.after_one writes these trace columns; change it with them")
         if self.ring is not None:  # grouped: each env's physics steps write its rows in turn (`platoon_pass`); ended episodes read runs
-            self.ring = SpillRing(n, self.trace_columns, self.ring.size - 2, grouped=True)  # (bounded: `spill_ring`)
+            self.ring = TraceRing(n, self.trace_columns, self.ring.size - 2, grouped=True)
         self._no_block = np.empty((1, 1, TRACE_GROUP, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
         self._no_hits = np.zeros(n, dtype=np.int64)
