@@ -31,6 +31,8 @@ def scoring_us(env_id: str, n: int, steps: int, calls: int, table: bool = False)
         for i in range(steps):
             vec.step(actions[i % 16])
         es = list(range(core.n))
+        if table and not hasattr(core, "episodes_table"):
+            return float("nan")  # (a checkout before `episodes_table`)
         score = core.episodes_table if table else core.episodes_metrics
         score(es)  # (warm-up: compiles or loads the scoring kernels)
         times = []
