@@ -17,9 +17,10 @@ import mmap
 import os
 
 import numpy as np
+from numba import prange
 
 from ..envs.trace import COL, Trace
-from ..jit import kernel
+from ..jit import kernel, parallel_kernel
 from ..sim.guide import RoadGuide
 from .kernels import lane_of
 
@@ -136,10 +137,11 @@ class TraceRing:
             g, i = g + take, i + take
         return out
 
-    def gather(self, es: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    def gather(self, es: list[int] | np.ndarray, parallel: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """The episodes so far of the envs `es` one after another: (starts, data), data's
         (column, row) rows starts[j]..starts[j+1]-1 env es[j]'s episode (reset row first), for
-        scoring them in one compiled pass. Copied in compiled code a block at a time."""
+        scoring them in one compiled pass. Copied in compiled code a block at a time (with
+        `parallel`, each episode's rows of a block by one of numba's threads)."""
         idx = np.asarray(es, dtype=np.int64)
         counts = self.steps[idx] + 1
         starts = np.zeros(len(es) + 1, dtype=np.int64)
@@ -150,7 +152,10 @@ class TraceRing:
         if len(es):
             lo, hi = int(self.start[idx].min()), int((self.start[idx] + self.steps[idx]).max())
             for b in range(lo // self.BLOCK, (hi - 1) // self.BLOCK + 1) if hi > lo else ():
-                gather_block = _gather_block_grouped if self.grouped else _gather_block
+                if parallel:
+                    gather_block = _gather_block_grouped_parallel if self.grouped else _gather_block_parallel
+                else:
+                    gather_block = _gather_block_grouped if self.grouped else _gather_block
                 gather_block(self.blocks[b], b * self.BLOCK, idx, self.start, self.steps, starts, data)
         return starts, data
 
@@ -233,6 +238,22 @@ def _gather_block(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray,
         for g in range(lo, hi):
             for c in range(block.shape[2]):
                 data[c, out + g] = block[g - g0, e, c]
+
+
+@parallel_kernel
+def _gather_block_parallel(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray, steps: np.ndarray, starts: np.ndarray,
+                           data: np.ndarray) -> None:  # fmt: skip
+    """`_gather_block` with each episode on one of numba's threads."""
+    for j in prange(len(es)):
+        _gather_block(block, g0, es[j : j + 1], start, steps, starts[j : j + 2], data)
+
+
+@parallel_kernel
+def _gather_block_grouped_parallel(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray, steps: np.ndarray, starts: np.ndarray,
+                                   data: np.ndarray) -> None:  # fmt: skip
+    """`_gather_block_grouped` with each episode on one of numba's threads."""
+    for j in prange(len(es)):
+        _gather_block_grouped(block, g0, es[j : j + 1], start, steps, starts[j : j + 2], data)
 
 
 @kernel
