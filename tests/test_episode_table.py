@@ -34,10 +34,9 @@ def _run(env: Any, steps: int, seed: int, on_end: Any) -> None:
 
 
 def test_table_rows_equal_the_template_envs_metrics() -> None:
-    """Episodes that passed signs and episodes that passed none (off the road at once, key
-    sets differ: `present`) ended on one step: each row of `episodes_table` has the keys, in
-    order, and the floats of the single env's own `episode_metrics` (scored by the template
-    env's code), and `episodes_metrics` gives the same dicts."""
+    """Ended episodes that passed signs and that passed none (off the road early): each row
+    of `episodes_table` has the keys and the floats of the single env's own `episode_metrics` (scored by the template env's code),
+    and `episodes_metrics` gives the same dicts, keys in the same order."""
     env = gym.make_vec(LCT, num_envs=5, vectorization_mode="vector_entry_point", threads=1, **KW)
     core = env.unwrapped.shards[0].core
     seen = {"rows": 0, "signs": 0}
@@ -48,7 +47,7 @@ def test_table_rows_equal_the_template_envs_metrics() -> None:
         rows = table_rows(table)
         for e, row, (e2, again) in zip(ended, rows, core.episodes_metrics(ended), strict=True):
             want = core.episode_metrics(e)  # the template env's scoring
-            assert e2 == e and list(row) == list(want) == list(again), e
+            assert e2 == e and list(again) == list(want) and set(row) == set(want), e
             for key, value in want.items():
                 assert _same_value(row[key], value), (e, key, row[key], value)
                 assert _same_value(again[key], value)
@@ -67,14 +66,14 @@ def test_absent_keys_give_present_false() -> None:
     core = env.unwrapped.shards[0].core
     rng = np.random.default_rng(1)
     obs, _ = env.reset(seed=1)
-    for _ in range(300):  # some cars pass signs
+    for _ in range(200):  # cars 1-3 pass two signs, car 0 (at random, off the road again and again) none
         obs, *_ = env.step(lct_driver(obs, rng, 4))
     table = core.episodes_table([0, 1, 2, 3])  # (scores the episodes so far: env 0's passed no sign, the others some)
     rows = table_rows(table)
     assert table.present is not None and len({len(r) for r in rows}) >= 2
-    for j, e in enumerate([0, 1, 2, 3]):
+    for j, (e, again) in enumerate(core.episodes_metrics([0, 1, 2, 3])):
         want = core.episode_metrics(e)
-        assert list(rows[j]) == list(want)
+        assert list(again) == list(want) and set(rows[j]) == set(want)  # (the table's keys: in order of first appearance)
         assert table.present[j].tolist() == [k in want for k in table.keys]
         assert all(_same_value(rows[j][k], v) for k, v in want.items())
         assert (table.values[j][~table.present[j]] == 0.0).all()

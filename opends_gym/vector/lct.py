@@ -11,6 +11,7 @@ the resets and the rare trigger firings that log a reaction result (`lct_fire`).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numba
@@ -24,12 +25,12 @@ from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
-from .episode_rows import table_of_rows, table_rows
+from .episode_rows import table_of_rows
 from .episode_table import EpisodeTable
 from .kernels import CHUNK_ENVS
 from .lanes_known import known_from, lanes_known_rows
 from .lct_fire import fire_tables
-from .lct_score_pass import lct_score_episodes, score_episodes, table_layout, wide_keys
+from .lct_score_pass import lct_score_episodes, row_columns, score_episodes, table_layout, wide_keys
 from .lct_step import (
     INFO_F,
     INFO_I,
@@ -252,8 +253,20 @@ class LctBatch(BatchCore):
             k_from = k_to
 
     def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
-        """`episode_metrics` of the envs `es`, the same floats: `episodes_table`'s rows as dicts."""
-        return [(e, row) for e, row in zip(es, table_rows(self.episodes_table(es)), strict=True)]
+        """`episode_metrics` of the envs `es`, the same floats: `episodes_table`'s rows as dicts,
+        each with its keys in the single env's order."""
+        if self.ring is None:
+            raise RuntimeError("episode metrics were switched off (record_metrics=False)")
+        if self._iso or not es:
+            columns = self.ring.columns_of(es)
+            return [(e, self.episode_metrics(e, columns[e])) for e in es]
+        wide, passed, slow = self._scored(es)
+        signs, keys = len(self._signs[0]), self._wide_keys
+        out = []
+        for j, (e, row, p) in enumerate(zip(es, wide.tolist(), passed.tolist(), strict=True)):
+            at = row_columns(signs, p) if p >= 0 else ()
+            out.append((e, slow[j] if p < 0 else {keys[c]: math.nan if row[c] != row[c] else row[c] for c in at}))
+        return out
 
     def episodes_table(self, es: list[int]) -> EpisodeTable:
         """`episode_metrics` of the envs `es` as one table (rows equal `episodes_metrics`' dicts),
@@ -265,21 +278,22 @@ class LctBatch(BatchCore):
         if self.ring is None:
             raise RuntimeError("episode metrics were switched off (record_metrics=False)")
         if self._iso or not es:
-            columns = self.ring.columns_of(es)
-            return table_of_rows([self.episode_metrics(e, columns[e]) for e in es])
+            return table_of_rows([m for _, m in self.episodes_metrics(es)])
+        wide, passed, slow = self._scored(es)
+        if slow:  # (rare: the template's dicts next to the compiled rows)
+            return table_of_rows([m for _, m in self.episodes_metrics(es)])
+        return self._wide_table(wide, passed)
+
+    def _scored(self, es: list[int]) -> tuple[np.ndarray, np.ndarray, dict[int, dict[str, float]]]:
+        """(`lct_score_pass`' wide rows, signs passed, the template's metrics of the episodes
+        the pass left to it (passed -1: one row past a sign), by row)."""
+        assert self.ring is not None
         idx = np.asarray(es, dtype=np.int64)
         with numba.parallel_chunksize(1):  # (episodes differ in length: threads take one at a time)
             starts, data = self.ring.gather(idx, self.parallel)  # (column, row): the episodes one after another, reset rows first
             wide, passed = self._score_pass(idx, starts, data)
-        if (passed < 0).any():  # (an episode of one row past a sign: the template's code scores it)
-            rows = [self.episode_metrics(e, data[:, starts[j] : starts[j + 1]]) if passed[j] < 0 else {}
-                    for j, e in enumerate(es)]  # fmt: skip
-            fast = passed >= 0
-            if fast.any():
-                for j, row in zip(np.flatnonzero(fast), table_rows(self._wide_table(wide[fast], passed[fast])), strict=True):
-                    rows[j] = row
-            return table_of_rows(rows)
-        return self._wide_table(wide, passed)
+        slow = {j: self.episode_metrics(es[j], data[:, starts[j] : starts[j + 1]]) for j in np.flatnonzero(passed < 0).tolist()}
+        return wide, passed, slow
 
     def _wide_table(self, wide: np.ndarray, passed: np.ndarray) -> EpisodeTable:
         """The table of `lct_score_pass`' wide rows: each row's keys (by its signs passed), in
