@@ -99,8 +99,7 @@ class LctBatch(BatchCore):
         self._fire_tables = fire_tables(self.trig, self.timers, self.sign_of_model)
         self._wide_keys = wide_keys(_BASE_KEYS, len(signs))
         if record_metrics and not self._iso:  # the scoring kernel's compile (or cache load) done now, not at the first ends
-            z = self.start_z - np.array([0.0, 1.0, self._signs[0][0] + 1.0 if len(self._signs[0]) else 2.0])
-            self._score_pass(np.array([0]), np.array([0, 3]), np.stack([np.zeros(3), z, np.full(3, 10.0), np.zeros(3)]))
+            self._score_pass(np.zeros(0, dtype=np.int64))
 
     def _reset_task(self, idx: np.ndarray) -> None:
         self.revealed[idx] = -1
@@ -288,11 +287,8 @@ class LctBatch(BatchCore):
         """(`lct_score_pass`' wide rows, signs passed, the template's metrics of the episodes
         the pass left to it (passed -1: one row past a sign), by row)."""
         assert self.ring is not None
-        idx = np.asarray(es, dtype=np.int64)
-        with numba.parallel_chunksize(1):  # (episodes differ in length: threads take one at a time)
-            starts, data = self.ring.gather(idx, self.parallel)  # (column, row): the episodes one after another, reset rows first
-            wide, passed = self._score_pass(idx, starts, data)
-        slow = {j: self.episode_metrics(es[j], data[:, starts[j] : starts[j + 1]]) for j in np.flatnonzero(passed < 0).tolist()}
+        wide, passed = self._score_pass(np.asarray(es, dtype=np.int64))
+        slow = {j: self.episode_metrics(es[j]) for j in np.flatnonzero(passed < 0).tolist()}
         return wide, passed, slow
 
     def _wide_table(self, wide: np.ndarray, passed: np.ndarray) -> EpisodeTable:
@@ -309,9 +305,11 @@ class LctBatch(BatchCore):
         values[~mask] = 0.0  # (absent keys: 0, as `episode_rows.table_of_rows` leaves them)
         return EpisodeTable(keys, values, mask)
 
-    def _score_pass(self, es: np.ndarray, starts: np.ndarray, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """`lct_score_pass.score_episodes` of the gathered episodes: (wide rows, signs passed)."""
-        g, tpl, tm = self.guide, self.template, self.timers
+    def _score_pass(self, es: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`lct_score_pass.score_episodes` of the episodes of the envs `es` so far, read from
+        the ring: (wide rows, signs passed)."""
+        g, tpl, tm, ring = self.guide, self.template, self.timers, self.ring
+        assert ring is not None
         if g.kind != "lanes":
             raise ValueError("the native batch needs a task with lane bands")
         geo = tpl.geometry
@@ -323,9 +321,12 @@ class LctBatch(BatchCore):
         react = (tm.n_results, tm.result_code, tm.result_rt, tm.result_spec, tm.sign_of_spec)
         m = len(es)
         wide, passed = np.empty((m, len(self._wide_keys))), np.empty(m, dtype=np.int64)
-        args = (es, starts, data, trace_p, self._score_params, lct_p, env_p, react, wide, passed)
+        blocks, b0 = ring.block_list()
+        ring_p = (blocks, b0, tuple(ring.first[c] for c in ring.columns), ring.start, ring.steps)
+        args = (es, ring_p, trace_p, self._score_params, lct_p, env_p, react, wide, passed)
         if self.parallel:
-            lct_score_episodes(*args)
+            with numba.parallel_chunksize(1):  # (episodes differ in length: threads take one at a time)
+                lct_score_episodes(*args)
         else:
             score_episodes(0, m, *args)
         return wide, passed

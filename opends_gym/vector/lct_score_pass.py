@@ -25,7 +25,9 @@ from ..jit import kernel, parallel_kernel
 from ..metrics import episode_scores
 from ..metrics.lct_scores import J2944, lct_lane_changes, lct_scores
 from ..metrics.sums import np_sum
-from .trace import score_columns
+from .trace import TRACE_GROUP, TraceRing, score_columns
+
+BLOCK = TraceRing.BLOCK
 
 MDEV_KEYS = ("mdev_basic_m", "mdev_adapted_m", "adapted_start_before_sign_m", "adapted_length_per_lane_m", "adapted_habitual_offset_m")
 TAIL_KEYS = ("lane_changes", "lane_changes_correct", "lane_change_errors", "mean_lane_change_latency_s")
@@ -74,20 +76,41 @@ def table_layout(signs: int, passed_order: tuple[int, ...]) -> tuple[np.ndarray,
 
 
 @parallel_kernel
-def lct_score_episodes(es: np.ndarray, starts: np.ndarray, data: np.ndarray, trace_p: tuple, score_p: tuple, lct_p: tuple, env_p: tuple,
-                       react: tuple, wide: np.ndarray, passed: np.ndarray) -> None:  # fmt: skip
+def lct_score_episodes(es: np.ndarray, ring: tuple, trace_p: tuple, score_p: tuple, lct_p: tuple, env_p: tuple, react: tuple,
+                       wide: np.ndarray, passed: np.ndarray) -> None:  # fmt: skip
     """`score_episodes` with each episode on one of numba's threads."""
     for j in prange(len(es)):
-        score_episodes(j, j + 1, es, starts, data, trace_p, score_p, lct_p, env_p, react, wide, passed)
+        score_episodes(j, j + 1, es, ring, trace_p, score_p, lct_p, env_p, react, wide, passed)
 
 
 @kernel
-def score_episodes(j0: int, j1: int, es: np.ndarray, starts: np.ndarray, data: np.ndarray, trace_p: tuple, score_p: tuple,
-                   lct_p: tuple, env_p: tuple, react: tuple, wide: np.ndarray, passed: np.ndarray) -> None:  # fmt: skip
-    """Episodes j0..j1-1 (env es[j]; rows starts[j]..starts[j+1]-1 of `TraceRing.gather`'s
-    data: x, z, speed, steering) into wide[j] (`wide_keys`' columns; the sign keys of the
-    signs passed only) and passed[j] (the signs passed and scored; -1: the episode passed a
-    sign but has too few rows for the compiled fits: the caller scores it the template's way).
+def read_episode(e: int, ring: tuple) -> np.ndarray:
+    """Env e's episode so far from a grouped `TraceRing` (reset row first) as (column, row):
+    ring = (`TraceRing.block_list`'s blocks and first block number, its reset rows (one array
+    per column), start, steps). A car's rows of a block lie in runs of GROUP rows."""
+    blocks, b0, first, start, steps = ring
+    n = steps[e] + 1
+    c_n = len(first)
+    out = np.empty((c_n, n))
+    for c in range(c_n):
+        out[c, 0] = first[c][e]
+    g0 = start[e]
+    for i in range(1, n):
+        g = g0 + i - 1
+        b, r = g // BLOCK, g % BLOCK
+        block = blocks[b - b0]
+        for c in range(c_n):
+            out[c, i] = block[r // TRACE_GROUP, e, r % TRACE_GROUP, c]
+    return out
+
+
+@kernel
+def score_episodes(j0: int, j1: int, es: np.ndarray, ring: tuple, trace_p: tuple, score_p: tuple, lct_p: tuple, env_p: tuple,
+                   react: tuple, wide: np.ndarray, passed: np.ndarray) -> None:  # fmt: skip
+    """Episodes j0..j1-1 (env es[j]: its trace read straight from the ring, `read_episode`:
+    x, z, speed, steering) into wide[j] (`wide_keys`' columns; the sign keys of the signs
+    passed only) and passed[j] (the signs passed and scored; -1: the episode passed a sign
+    but has too few rows for the compiled fits: the caller scores it the template's way).
     trace_p: (dt, road sign, lane centres, half lane width, steering wheel max (deg));
     score_p: `episode_scores.scoring_params`; lct_p: (start z, metric signs' d, from lane, to
     lane, visibility, basic start before sign, length per lane, lane laterals, initial lane,
@@ -103,10 +126,10 @@ def score_episodes(j0: int, j1: int, es: np.ndarray, starts: np.ndarray, data: n
     st = np.zeros(2, dtype=np.int64)
     for j in range(j0, j1):
         e = es[j]
-        lo, hi = starts[j], starts[j + 1]
-        n = hi - lo
+        data = read_episode(e, ring)
+        n = data.shape[1]
         st[1] = n
-        x, z, speed, steer = data[0, lo:hi], data[1, lo:hi], data[2, lo:hi], data[3, lo:hi]
+        x, z, speed, steer = data[0], data[1], data[2], data[3]
         derived = np.empty((6, n))  # t, lateral, lane, offset, steering (deg), distance to the next row
         score_columns(st, x, z, steer, dt, sign, centres, half, steer_max, derived)
         t, lat, lane, off, steer_deg, ds = derived[0], derived[1], derived[2], derived[3], derived[4], derived[5]
