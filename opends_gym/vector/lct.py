@@ -322,8 +322,8 @@ class LctBatch(BatchCore):
         m = len(es)
         wide, passed = np.empty((m, len(self._wide_keys))), np.empty(m, dtype=np.int64)
         blocks, b0 = ring.block_list()
-        ring_p = (blocks, b0, tuple(ring.first[c] for c in ring.columns), ring.start, ring.steps)
-        args = (es, ring_p, trace_p, self._score_params, lct_p, env_p, react, wide, passed)
+        first = tuple(ring.first[c] for c in ring.columns)
+        args = (es, blocks, b0, first, ring.start, ring.steps, trace_p, self._score_params, lct_p, env_p, react, wide, passed)
         if self.parallel:
             with numba.parallel_chunksize(1):  # (episodes differ in length: threads take one at a time)
                 lct_score_episodes(*args)

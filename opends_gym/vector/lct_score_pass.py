@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import Any
 
 import numpy as np
 from numba import prange
@@ -76,37 +77,40 @@ def table_layout(signs: int, passed_order: tuple[int, ...]) -> tuple[np.ndarray,
 
 
 @parallel_kernel
-def lct_score_episodes(es: np.ndarray, ring: tuple, trace_p: tuple, score_p: tuple, lct_p: tuple, env_p: tuple, react: tuple,
-                       wide: np.ndarray, passed: np.ndarray) -> None:  # fmt: skip
+def lct_score_episodes(es: np.ndarray, blocks: Any, b0: int, first: tuple, start: np.ndarray, steps: np.ndarray, trace_p: tuple,
+                       score_p: tuple, lct_p: tuple, env_p: tuple, react: tuple, wide: np.ndarray, passed: np.ndarray) -> None:  # fmt: skip
     """`score_episodes` with each episode on one of numba's threads."""
     for j in prange(len(es)):
-        score_episodes(j, j + 1, es, ring, trace_p, score_p, lct_p, env_p, react, wide, passed)
+        score_episodes(j, j + 1, es, blocks, b0, first, start, steps, trace_p, score_p, lct_p, env_p, react, wide, passed)
 
 
 @kernel
-def read_episode(e: int, ring: tuple) -> np.ndarray:
+def read_episode(e: int, blocks: Any, b0: int, first: tuple, start: np.ndarray, steps: np.ndarray) -> np.ndarray:
     """Env e's episode so far from a grouped `TraceRing` (reset row first) as (column, row):
-    ring = (`TraceRing.block_list`'s blocks and first block number, its reset rows (one array
-    per column), start, steps). A car's rows of a block lie in runs of GROUP rows."""
-    blocks, b0, first, start, steps = ring
+    `TraceRing.block_list`'s blocks and first block number, its reset rows (`first`: one
+    array per column), start and steps. A car's rows of a block lie in runs of GROUP rows."""
     n = steps[e] + 1
     c_n = len(first)
     out = np.empty((c_n, n))
     for c in range(c_n):
         out[c, 0] = first[c][e]
-    g0 = start[e]
-    for i in range(1, n):
-        g = g0 + i - 1
-        b, r = g // BLOCK, g % BLOCK
-        block = blocks[b - b0]
-        for c in range(c_n):
-            out[c, i] = block[r // TRACE_GROUP, e, r % TRACE_GROUP, c]
+    g, end, i = start[e], start[e] + n - 1, 1
+    while g < end:  # a block at a time (a typed List's item costs a call)
+        block = blocks[g // BLOCK - b0]
+        r0 = g % BLOCK
+        take = min(BLOCK - r0, end - g)
+        for k in range(take):
+            r = r0 + k
+            for c in range(c_n):
+                out[c, i + k] = block[r // TRACE_GROUP, e, r % TRACE_GROUP, c]
+        g, i = g + take, i + take
     return out
 
 
 @kernel
-def score_episodes(j0: int, j1: int, es: np.ndarray, ring: tuple, trace_p: tuple, score_p: tuple, lct_p: tuple, env_p: tuple,
-                   react: tuple, wide: np.ndarray, passed: np.ndarray) -> None:  # fmt: skip
+def score_episodes(j0: int, j1: int, es: np.ndarray, blocks: Any, b0: int, first: tuple, start: np.ndarray, steps: np.ndarray,
+                   trace_p: tuple, score_p: tuple, lct_p: tuple, env_p: tuple, react: tuple, wide: np.ndarray,
+                   passed: np.ndarray) -> None:  # fmt: skip
     """Episodes j0..j1-1 (env es[j]: its trace read straight from the ring, `read_episode`:
     x, z, speed, steering) into wide[j] (`wide_keys`' columns; the sign keys of the signs
     passed only) and passed[j] (the signs passed and scored; -1: the episode passed a sign
@@ -126,7 +130,7 @@ def score_episodes(j0: int, j1: int, es: np.ndarray, ring: tuple, trace_p: tuple
     st = np.zeros(2, dtype=np.int64)
     for j in range(j0, j1):
         e = es[j]
-        data = read_episode(e, ring)
+        data = read_episode(e, blocks, b0, first, start, steps)
         n = data.shape[1]
         st[1] = n
         x, z, speed, steer = data[0], data[1], data[2], data[3]
