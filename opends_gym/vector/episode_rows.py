@@ -62,11 +62,15 @@ def metrics_arrays(tables: list[tuple[list[int], EpisodeTable]], n: int) -> dict
             order.setdefault(key, len(order))
     columns, masks = np.zeros((len(order), n)), np.zeros((len(order), n), dtype=np.bool_)
     for envs, table in tables:
-        at = np.fromiter((order[k] for k in table.keys), dtype=np.intp, count=len(table.keys))
         rows = np.asarray(envs, dtype=np.intp)
         values = table.values if table.present is None else np.where(table.present, table.values, 0.0)  # (absent: 0, as there)
-        columns[at[:, None], rows[None, :]] = values.T
-        masks[at[:, None], rows[None, :]] = True if table.present is None else table.present.T
+        at_keys = np.fromiter((order[k] for k in table.keys), dtype=np.intp, count=len(table.keys))
+        if (at_keys == np.arange(len(at_keys))).all():  # (the usual case: the keys first and in order, plain row slices)
+            columns[: len(at_keys), rows] = values.T
+            masks[: len(at_keys), rows] = True if table.present is None else table.present.T
+        else:
+            columns[at_keys[:, None], rows[None, :]] = values.T
+            masks[at_keys[:, None], rows[None, :]] = True if table.present is None else table.present.T
     out: dict[str, Any] = {}
     for j, key in enumerate(order):
         out[key], out[f"_{key}"] = columns[j], masks[j]

@@ -294,10 +294,8 @@ class LctBatch(BatchCore):
     def _wide_table(self, wide: np.ndarray, passed: np.ndarray) -> EpisodeTable:
         """The table of `lct_score_pass`' wide rows: each row's keys (by its signs passed), in
         order of first appearance."""
-        distinct, first = np.unique(passed, return_index=True)
-        order = tuple(int(p) for p in distinct[np.argsort(first)])
-        columns, present = table_layout(len(self._signs[0]), order)
-        keys = tuple(self._wide_keys[c] for c in columns.tolist())
+        order = tuple(dict.fromkeys(passed.tolist()))  # (the distinct counts in order of first appearance)
+        keys, columns, present = table_layout(self._wide_keys, len(self._signs[0]), order)
         values = wide[:, columns]
         if present is None:
             return EpisodeTable(keys, values, None)
@@ -317,7 +315,7 @@ class LctBatch(BatchCore):
         lct_p = (self.start_z, *self._signs, geo.visibility_m, tpl.basic.start_before_sign_m, tpl.basic.length_per_lane_m, self.lane_lat,
                  int(tpl.initial_lane), geo.speed_kmh / 3.6)  # fmt: skip
         consts = np.array([float(g.lanes_known), float(tpl.resets), float(tpl.collision_resets), float(tpl.reset_time_s)])
-        env_p = (self.t, self.s.fuel_used, self.collisions.astype(np.float64), consts)
+        env_p = (self.t, self.s.fuel_used, self.collisions, consts)
         react = (tm.n_results, tm.result_code, tm.result_rt, tm.result_spec, tm.sign_of_spec)
         m = len(es)
         wide, passed = np.empty((m, len(self._wide_keys))), np.empty(m, dtype=np.int64)

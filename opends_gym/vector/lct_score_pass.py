@@ -58,22 +58,23 @@ def row_columns(signs: int, passed: int) -> tuple[int, ...]:
 
 
 @functools.cache
-def table_layout(signs: int, passed_order: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray | None]:
-    """For episodes whose distinct sign counts first appear in `passed_order`: the wide
-    columns of the table's keys (in order of first appearance over the rows, as
-    `env._metrics_arrays` orders them) and each distinct count's presence row over them
-    (None: one count, every key present)."""
+def table_layout(keys: tuple[str, ...], signs: int, passed_order: tuple[int, ...]) -> tuple[tuple[str, ...], np.ndarray, np.ndarray | None]:
+    """For episodes whose distinct sign counts first appear in `passed_order`: the table's
+    keys (in order of first appearance over the rows, as `env._metrics_arrays` orders them;
+    `keys`: `wide_keys`'), their wide columns and each distinct count's presence row over
+    them (None: one count, every key present)."""
     order: dict[int, int] = {}
     for p in passed_order:
         for c in row_columns(signs, p):
             order.setdefault(c, len(order))
     columns = np.fromiter(order, dtype=np.int64, count=len(order))
+    names = tuple(keys[c] for c in order)
     if len(passed_order) == 1:
-        return columns, None
+        return names, columns, None
     present = np.zeros((max(passed_order) + 1, len(columns)), dtype=np.bool_)
     for p in passed_order:
         present[p, [order[c] for c in row_columns(signs, p)]] = True
-    return columns, present
+    return names, columns, present
 
 
 @parallel_kernel
