@@ -101,3 +101,35 @@ def test_info_episode_metrics_as_from_dicts(shards: dict[str, int]) -> None:
         for key, value in want.items():
             assert got[key].dtype == value.dtype, key
             np.testing.assert_array_equal(got[key], value, err_msg=key)
+
+
+def test_parallel_scoring_pass_equals_its_serial_twin_and_the_template() -> None:
+    """A batch of more than one chunk scores its ended episodes on numba's threads
+    (`lct_score_pass.lct_score_episodes`, each episode read straight from the trace ring):
+    the same table, bit for bit, as the serial twin, and the template env's floats."""
+    from opends_gym.vector.kernels import CHUNK_ENVS
+
+    n = 2 * CHUNK_ENVS + 3
+    env = gym.make_vec(LCT, num_envs=n, vectorization_mode="vector_entry_point", threads=1, **KW)
+    core = env.unwrapped.shards[0].core
+    assert core.parallel
+    rng = np.random.default_rng(7)
+    env.reset(seed=7)
+    scored = 0
+    for _ in range(90):  # random steering: cars leave the road at different steps; the rest end at 8 s
+        a = np.stack([rng.uniform(-0.25, 0.25, n), rng.uniform(-0.2, 1.0, n)], axis=1).astype(np.float32)
+        *_, terminated, truncated, _ = env.step(a)
+        ended = np.flatnonzero(terminated | truncated).tolist()
+        if not ended:
+            continue
+        fast = core.episodes_table(ended)
+        core.parallel = False
+        slow = core.episodes_table(ended)
+        core.parallel = True
+        assert fast.keys == slow.keys and fast.values.tobytes() == slow.values.tobytes()
+        for e, row in zip(ended[:12], table_rows(fast), strict=False):  # (the template's code is slow: a dozen per step)
+            want = core.episode_metrics(e)
+            assert set(row) == set(want) and all(_same_value(row[k], v) for k, v in want.items()), e
+        scored += len(ended)
+    env.close()
+    assert scored >= n
