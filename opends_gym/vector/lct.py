@@ -319,7 +319,7 @@ class LctBatch(BatchCore):
         react = (tm.n_results, tm.result_code, tm.result_rt, tm.result_spec, tm.sign_of_spec)
         m = len(es)
         wide, passed = np.empty((m, len(self._wide_keys))), np.empty(m, dtype=np.int64)
-        blocks, b0 = ring.block_list()
+        blocks, b0 = ring.block_addresses()
         first = tuple(ring.first[c] for c in ring.columns)
         args = (es, blocks, b0, first, ring.start, ring.steps, trace_p, self._score_params, lct_p, env_p, react, wide, passed)
         if self.parallel:

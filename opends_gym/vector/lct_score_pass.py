@@ -15,20 +15,51 @@ reduction runs over one episode's samples).
 
 from __future__ import annotations
 
+import ctypes
 import functools
 import math
 from typing import Any
 
+import numba
 import numpy as np
-from numba import prange
+from numba import prange, types
+from numba.extending import intrinsic
 
-from ..jit import kernel, parallel_kernel
+from ..jit import inline, kernel, parallel_kernel
 from ..metrics import episode_scores
 from ..metrics.lct_scores import J2944, lct_lane_changes, lct_scores
 from ..metrics.sums import np_sum
 from .trace import TRACE_GROUP, TraceRing, score_columns
 
 BLOCK = TraceRing.BLOCK
+
+if numba.config.DISABLE_JIT:  # (plain Python: the same view through ctypes)
+
+    def block_at(address: int, shape: tuple[int, int, int, int]) -> np.ndarray:
+        """The float64 array of `shape` at `address` (a `TraceRing` block)."""
+        return np.ctypeslib.as_array(ctypes.cast(int(address), ctypes.POINTER(ctypes.c_double)), shape)
+
+else:
+
+    @intrinsic
+    def _f64_pointer(typingctx: Any, address: Any) -> Any:
+        """An int64 address as a float64 pointer (for `numba.carray`)."""
+        if not isinstance(address, types.Integer):
+            return None
+        pointer = types.CPointer(types.float64)
+
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            return builder.inttoptr(args[0], context.get_value_type(pointer))
+
+        return pointer(address), codegen
+
+    @inline
+    def block_at(address: int, shape: tuple[int, int, int, int]) -> np.ndarray:
+        """The float64 array of `shape` at `address` (a `TraceRing` block, held by the ring:
+        a list of arrays as an argument would cost numba's typed list, compiled afresh in every
+        process, ~0.5 s)."""
+        return numba.carray(_f64_pointer(address), shape)
+
 
 MDEV_KEYS = ("mdev_basic_m", "mdev_adapted_m", "adapted_start_before_sign_m", "adapted_length_per_lane_m", "adapted_habitual_offset_m")
 TAIL_KEYS = ("lane_changes", "lane_changes_correct", "lane_change_errors", "mean_lane_change_latency_s")
@@ -78,7 +109,7 @@ def table_layout(keys: tuple[str, ...], signs: int, passed_order: tuple[int, ...
 
 
 @parallel_kernel
-def lct_score_episodes(es: np.ndarray, blocks: Any, b0: int, first: tuple, start: np.ndarray, steps: np.ndarray, trace_p: tuple,
+def lct_score_episodes(es: np.ndarray, blocks: np.ndarray, b0: int, first: tuple, start: np.ndarray, steps: np.ndarray, trace_p: tuple,
                        score_p: tuple, lct_p: tuple, env_p: tuple, react: tuple, wide: np.ndarray, passed: np.ndarray) -> None:  # fmt: skip
     """`score_episodes` with each episode on one of numba's threads."""
     for j in prange(len(es)):
@@ -86,18 +117,19 @@ def lct_score_episodes(es: np.ndarray, blocks: Any, b0: int, first: tuple, start
 
 
 @kernel
-def read_episode(e: int, blocks: Any, b0: int, first: tuple, start: np.ndarray, steps: np.ndarray) -> np.ndarray:
+def read_episode(e: int, blocks: np.ndarray, b0: int, first: tuple, start: np.ndarray, steps: np.ndarray) -> np.ndarray:
     """Env e's episode so far from a grouped `TraceRing` (reset row first) as (column, row):
-    `TraceRing.block_list`'s blocks and first block number, its reset rows (`first`: one
+    `TraceRing.block_addresses`' blocks and first block number, its reset rows (`first`: one
     array per column), start and steps. A car's rows of a block lie in runs of GROUP rows."""
     n = steps[e] + 1
     c_n = len(first)
+    shape = (BLOCK // TRACE_GROUP, len(start), TRACE_GROUP, c_n)
     out = np.empty((c_n, n))
     for c in range(c_n):
         out[c, 0] = first[c][e]
     g, end, i = start[e], start[e] + n - 1, 1
-    while g < end:  # a block at a time (a typed List's item costs a call)
-        block = blocks[g // BLOCK - b0]
+    while g < end:  # a block at a time
+        block = block_at(blocks[g // BLOCK - b0], shape)
         r0 = g % BLOCK
         take = min(BLOCK - r0, end - g)
         for k in range(take):
@@ -109,7 +141,7 @@ def read_episode(e: int, blocks: Any, b0: int, first: tuple, start: np.ndarray, 
 
 
 @kernel
-def score_episodes(j0: int, j1: int, es: np.ndarray, blocks: Any, b0: int, first: tuple, start: np.ndarray, steps: np.ndarray,
+def score_episodes(j0: int, j1: int, es: np.ndarray, blocks: np.ndarray, b0: int, first: tuple, start: np.ndarray, steps: np.ndarray,
                    trace_p: tuple, score_p: tuple, lct_p: tuple, env_p: tuple, react: tuple, wide: np.ndarray,
                    passed: np.ndarray) -> None:  # fmt: skip
     """Episodes j0..j1-1 (env es[j]: its trace read straight from the ring, `read_episode`:

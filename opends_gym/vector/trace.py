@@ -15,11 +15,9 @@ from __future__ import annotations
 
 import mmap
 import os
-from typing import Any
 
 import numpy as np
 from numba import prange
-from numba.typed import List
 
 from ..envs.trace import COL, Trace
 from ..jit import kernel, parallel_kernel
@@ -62,7 +60,7 @@ class TraceRing:
             )
         self.index = {c: i for i, c in enumerate(columns)}
         self.blocks: dict[int, np.ndarray] = {}  # block number (g // BLOCK) -> (BLOCK rows, n, column) or (n, BLOCK rows, column)
-        self._listed: tuple[Any, int] | None = None  # `block_list`'s
+        self._listed: tuple[np.ndarray, int] | None = None  # `block_addresses`'
         self._spare: list[np.ndarray] = []
         self.first = {c: np.zeros(n) for c in columns}  # the reset row of each env's episode
         self.g = 0  # rows written so far
@@ -122,19 +120,16 @@ class TraceRing:
         self._listed = None
         return block
 
-    def block_list(self) -> tuple[Any, int]:
-        """(every block held, in order, as one `numba.typed.List`; the number of its first), for
-        compiled code that reads episodes straight from the ring (`lct_score_pass`). Built again
-        only after a block was added (every BLOCK rows), not per call."""
+    def block_addresses(self) -> tuple[np.ndarray, int]:
+        """(the address of every block held, in order (0: none), as int64; the number of the
+        first), for compiled code that reads episodes straight from the ring
+        (`lct_score_pass.read_episode`; the blocks stay held in `blocks` while it runs). Built
+        again only after a block was added (every BLOCK rows), not per call."""
         if self._listed is None:
             lo, hi = (min(self.blocks), max(self.blocks)) if self.blocks else (0, 0)
-            empty = self._empty_block()  # (in place of a block not held: no episode's rows)
-            self._listed = (List([self.blocks.get(b, empty) for b in range(lo, hi + 1)]), lo)
+            held = [self.blocks.get(b) for b in range(lo, hi + 1)]
+            self._listed = (np.array([0 if a is None else a.ctypes.data for a in held], dtype=np.int64), lo)
         return self._listed
-
-    def _empty_block(self) -> np.ndarray:
-        c = len(self.columns)
-        return np.zeros((self.BLOCK // self.GROUP, 1, self.GROUP, c) if self.grouped else (self.BLOCK, 1, c))
 
     def column(self, e: int, c: str) -> np.ndarray:
         """Env e's episode so far for one column (reset row first)."""
