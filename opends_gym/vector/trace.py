@@ -6,7 +6,9 @@ contiguous row (all envs) of each recorded column into a time-major ring; an env
 episode is its reset row (kept aside) plus the ring rows from its first step on, which
 stay contiguous because every live env is stepped in every substep. When an episode ends
 its rows are copied into a `Trace`, and the single env's own metric code scores it, or (the
-batches with compiled scoring) `gather` copies the ended episodes' rows into one array.
+batches with compiled scoring) `gather` copies the ended episodes' rows into one array, or
+(the LCT's parallel scoring pass) each scoring thread reads its episode in place
+(`block_addresses`).
 Derived columns (time, lateral position, lane, lane offset) are not stored; `to_trace`
 computes them with the guide's formulas.
 """
@@ -17,10 +19,9 @@ import mmap
 import os
 
 import numpy as np
-from numba import prange
 
 from ..envs.trace import COL, Trace
-from ..jit import kernel, parallel_kernel
+from ..jit import kernel
 from ..sim.guide import RoadGuide
 from .kernels import lane_of
 
@@ -150,11 +151,10 @@ class TraceRing:
             g, i = g + take, i + take
         return out
 
-    def gather(self, es: list[int] | np.ndarray, parallel: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    def gather(self, es: list[int]) -> tuple[np.ndarray, np.ndarray]:
         """The episodes so far of the envs `es` one after another: (starts, data), data's
         (column, row) rows starts[j]..starts[j+1]-1 env es[j]'s episode (reset row first), for
-        scoring them in one compiled pass. Copied in compiled code a block at a time (with
-        `parallel`, each episode's rows of a block by one of numba's threads)."""
+        scoring them in one compiled pass. Copied in compiled code a block at a time."""
         idx = np.asarray(es, dtype=np.int64)
         counts = self.steps[idx] + 1
         starts = np.zeros(len(es) + 1, dtype=np.int64)
@@ -165,10 +165,7 @@ class TraceRing:
         if len(es):
             lo, hi = int(self.start[idx].min()), int((self.start[idx] + self.steps[idx]).max())
             for b in range(lo // self.BLOCK, (hi - 1) // self.BLOCK + 1) if hi > lo else ():
-                if parallel:
-                    gather_block = _gather_block_grouped_parallel if self.grouped else _gather_block_parallel
-                else:
-                    gather_block = _gather_block_grouped if self.grouped else _gather_block
+                gather_block = _gather_block_grouped if self.grouped else _gather_block
                 gather_block(self.blocks[b], b * self.BLOCK, idx, self.start, self.steps, starts, data)
         return starts, data
 
@@ -251,22 +248,6 @@ def _gather_block(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray,
         for g in range(lo, hi):
             for c in range(block.shape[2]):
                 data[c, out + g] = block[g - g0, e, c]
-
-
-@parallel_kernel
-def _gather_block_parallel(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray, steps: np.ndarray, starts: np.ndarray,
-                           data: np.ndarray) -> None:  # fmt: skip
-    """`_gather_block` with each episode on one of numba's threads."""
-    for j in prange(len(es)):
-        _gather_block(block, g0, es[j : j + 1], start, steps, starts[j : j + 2], data)
-
-
-@parallel_kernel
-def _gather_block_grouped_parallel(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray, steps: np.ndarray, starts: np.ndarray,
-                                   data: np.ndarray) -> None:  # fmt: skip
-    """`_gather_block_grouped` with each episode on one of numba's threads."""
-    for j in prange(len(es)):
-        _gather_block_grouped(block, g0, es[j : j + 1], start, steps, starts[j : j + 2], data)
 
 
 @kernel
