@@ -33,7 +33,7 @@ from .trace import TRACE_GROUP, TraceRing, score_columns
 
 BLOCK = TraceRing.BLOCK
 
-if numba.config.DISABLE_JIT:  # (plain Python: the same view through ctypes)
+if getattr(numba.config, "DISABLE_JIT", 0):  # (plain Python: the same view through ctypes)
 
     def block_at(address: int, shape: tuple[int, int, int, int]) -> np.ndarray:
         """The float64 array of `shape` at `address` (a `TraceRing` block)."""
@@ -58,7 +58,7 @@ else:
         """The float64 array of `shape` at `address` (a `TraceRing` block, held by the ring:
         a list of arrays as an argument would cost numba's typed list, compiled afresh in every
         process, ~0.5 s)."""
-        return numba.carray(_f64_pointer(address), shape)
+        return numba.carray(_f64_pointer(address), shape)  # type: ignore[call-arg]  # (typingctx: numba passes it)
 
 
 MDEV_KEYS = ("mdev_basic_m", "mdev_adapted_m", "adapted_start_before_sign_m", "adapted_length_per_lane_m", "adapted_habitual_offset_m")
