@@ -70,8 +70,8 @@ def timed_parts(parts: dict[str, float]) -> list[tuple[object, str, Callable[...
     named = [(lct, "lct_substeps", "physics pass (lct_substeps)"), (lct, "_substeps_range", "physics pass (lct_substeps)"),
              (lct, "lct_finish", "finishing pass (lct_finish)"), (lct, "_finish_range", "finishing pass (lct_finish)"),
              (actions.BatchActions, "convert", "action checks and conversion"), (env, "_check_actions", "action checks and conversion"),
-             (lct.LctBatch, "reset_rows", "resets (BatchCore.reset_rows)"), (lct.LctBatch, "episodes_metrics", "episode scoring"),
-             (env, "_metrics_arrays", "episode_metrics arrays")]  # fmt: skip
+             (lct.LctBatch, "reset_rows", "resets (BatchCore.reset_rows)"), (lct.LctBatch, "episodes_table", "episode scoring"),
+             (env, "metrics_arrays", "episode_metrics arrays"), (env, "_metrics_arrays", "episode_metrics arrays")]  # fmt: skip
     undo = []
     for obj, name, label in named:
         fn = getattr(obj, name)

@@ -302,7 +302,7 @@ class NativeRow:
     steps_per_s: float  # env-steps of the whole batch per wall second
     cpu_share: float  # this process's CPU time over wall time
     ends_per_k: float  # episodes ended per 1,000 env-steps
-    scoring_us: float  # CPU microseconds (of the scoring thread) per ended episode in `BatchCore.episodes_metrics`
+    scoring_us: float  # CPU microseconds per ended episode in the core's `episodes_table` (else `episodes_metrics`)
 
     @property
     def steps_per_cpu_s(self) -> float:
@@ -311,8 +311,9 @@ class NativeRow:
 
 def measure_native_task(case: Case, n: int, seconds: float, metrics: bool) -> NativeRow:
     """One native batch of `n` envs with random actions and resets, with or without metrics:
-    its rate, CPU share, how often episodes end and what scoring one costs (the CPU time of the
-    thread inside each shard's `episodes_metrics`: other programs on the host do not count)."""
+    its rate, CPU share, how often episodes end and what scoring one costs (the CPU time inside
+    each shard's `episodes_table` or `episodes_metrics`: of the calling thread, or of the
+    process for a core scoring on numba's threads; other programs on the host do not count)."""
     vec: Any = gym.make_vec(case.env_id, num_envs=n, vectorization_mode="vector_entry_point", record_metrics=metrics)
     scoring = [0.0, 0]
     for shard in vec.unwrapped.shards:
@@ -320,14 +321,20 @@ def measure_native_task(case: Case, n: int, seconds: float, metrics: bool) -> Na
         if core is None:
             continue
 
-        def timed(es: list[int], _score: Callable[[list[int]], Any] = core.episodes_metrics) -> Any:
-            t = time.thread_time()
+        # the table where the core hands one over (`shards.ended_metrics`); a core that scores on numba's threads
+        # (`parallel`: then the batch's only shard, and the calling thread waits) is timed by the process's CPU time
+        name = "episodes_table" if hasattr(core, "episodes_table") else "episodes_metrics"
+        clock = time.process_time if getattr(core, "parallel", False) else time.thread_time
+        score = getattr(core, name)
+
+        def timed(es: list[int], _score: Callable[[list[int]], Any] = score, _clock: Any = clock) -> Any:
+            t = _clock()
             out = _score(es)
-            scoring[0] += time.thread_time() - t
+            scoring[0] += _clock() - t
             scoring[1] += len(es)
             return out
 
-        core.episodes_metrics = timed
+        setattr(core, name, timed)
     try:
         vec.reset(seed=0)
         vec.action_space.seed(0)
@@ -623,8 +630,9 @@ def main() -> None:
         "",
         "Measured back to back in this run. `cpu %` is this process's CPU time over wall time (the host is shared: below "
         "the core count, other programs took the rest), `env-steps / CPU s` the rate per CPU second, and the shares of the "
-        "LCT's rate compare each task with the LCT's row of the same metrics setting. Scoring: CPU time of the scoring "
-        "thread in `BatchCore.episodes_metrics` per ended episode (the single env's metric code, in Python).",
+        "LCT's rate compare each task with the LCT's row of the same metrics setting. Scoring: CPU time per ended episode "
+        "in the core's `episodes_table` (else `episodes_metrics`): of the scoring thread, or of the process where the "
+        "core scores on numba's threads (the LCT's).",
         "",
     ]
     text = "\n".join([*header, *main_table, "", *goal_intro, *goal_table, *native_intro, *native_table, *scale_intro, *scale_table, ""])

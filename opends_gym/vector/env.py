@@ -49,7 +49,8 @@ from gymnasium.vector.utils import batch_space
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from .actions import first_nonfinite
 from .core import BatchCore
-from .shards import LocalShard, ProcessShard
+from .episode_rows import metrics_arrays, table_rows
+from .shards import LocalShard, ProcessShard, ShardMetrics
 from .trace import _physical_memory
 
 
@@ -212,17 +213,33 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
             shard.close()
 
     # ------------------------------------------------------------------ outputs
-    def _info_dict(self, values: dict[str, np.ndarray], ended_metrics: list[list[tuple[int, dict[str, float]]]]) -> dict[str, Any]:
+    def _info_dict(self, values: dict[str, np.ndarray], ended_metrics: list[ShardMetrics]) -> dict[str, Any]:
         """Info arrays with their `_key` masks, plus `episode_metrics` of the episodes that
-        ended (each shard's list of (env in the shard, metrics))."""
+        ended (each shard's `shards.ShardMetrics`: a table, or a list of (env in the shard,
+        metrics)). Tables become the info arrays without a dict per episode."""
         full = np.ones(self.num_envs, dtype=bool)
         info: dict[str, Any] = {name: item for k, v in values.items() for name, item in ((k, v), (f"_{k}", full))}
-        if any(ended_metrics):
-            ended = [(sl.start + e, values_e) for sl, shard_metrics in zip(self._slices, ended_metrics) for e, values_e in shard_metrics]
+        parts = [(sl, part) for sl, part in zip(self._slices, ended_metrics) if part]
+        if parts:
             mask = np.zeros(self.num_envs, dtype=bool)
-            mask[[e for e, _ in ended]] = True
-            info["episode_metrics"], info["_episode_metrics"] = _metrics_arrays(ended, self.num_envs), mask
+            if all(isinstance(part, tuple) for _, part in parts):
+                tables = [([sl.start + e for e in part[0]], part[1]) for sl, part in parts if isinstance(part, tuple)]
+                for envs, _ in tables:
+                    mask[envs] = True
+                info["episode_metrics"] = metrics_arrays(tables, self.num_envs)
+            else:  # (a core without `episodes_table`: its dicts' value types decide the arrays')
+                ended = [(sl.start + e, m) for sl, part in parts for e, m in _as_dicts(part)]
+                mask[[e for e, _ in ended]] = True
+                info["episode_metrics"] = _metrics_arrays(ended, self.num_envs)
+            info["_episode_metrics"] = mask
         return info
+
+
+def _as_dicts(part: ShardMetrics) -> list[tuple[int, dict[str, float]]]:
+    """A shard's ended-episode metrics as (env in the shard, metrics) pairs."""
+    if isinstance(part, tuple):
+        return list(zip(part[0], table_rows(part[1]), strict=True))
+    return part
 
 
 def _metrics_arrays(ended: list[tuple[int, dict[str, float]]], n: int) -> dict[str, Any]:

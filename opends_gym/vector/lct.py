@@ -12,7 +12,6 @@ the resets and the rare trigger firings that log a reaction result (`lct_fire`).
 from __future__ import annotations
 
 import math
-import re
 from typing import Any
 
 import numba
@@ -22,14 +21,16 @@ from ..envs.base import LANE_KEEPING_OFFSET_M
 from ..envs.lct import LaneChangeTestEnv
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from ..metrics import episode_scores
-from ..metrics.lct_scores import J2944, lct_lane_changes, lct_scores
 from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..sim.triggers.core import CompiledAction
 from .actions import BatchControls
 from .core import BatchCore
+from .episode_rows import table_of_rows
+from .episode_table import EpisodeTable
 from .kernels import CHUNK_ENVS
 from .lanes_known import known_from, lanes_known_rows
 from .lct_fire import fire_tables
+from .lct_score_pass import lct_score_episodes, row_columns, score_episodes, table_layout, wide_keys
 from .lct_step import (
     INFO_F,
     INFO_I,
@@ -43,13 +44,12 @@ from .lct_step import (
     lct_substeps,
 )
 from .platoon import _BASE_KEYS
-from .trace import TraceRing, score_columns
+from .trace import TraceRing
 
 # the info keys of a step, in `BatchCore.info`'s order
 INFO_KEYS = ("sim_time_s", "speed_kmh", "lateral_offset_m", "lane_index", "fuel_used_l", "collisions", "reaction_result", "reaction_time_s",
              "mean_deviation_m", "sdlp_m", "headway_s", "ttc_s", "lanes_known", "resets", "reset_time_s", "progress_m",
              "new_collisions")  # fmt: skip
-MDEV_KEYS = ("mdev_basic_m", "mdev_adapted_m", "adapted_start_before_sign_m", "adapted_length_per_lane_m", "adapted_habitual_offset_m")
 StepArrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray], list[int]]
 
 
@@ -97,9 +97,9 @@ class LctBatch(BatchCore):
                        np.array([s.to_lane for s in signs], dtype=np.int64))  # fmt: skip
         self._iso = cfg.scoring == "iso26022"  # (ISO 26022's segment scores: the template's code)
         self._fire_tables = fire_tables(self.trig, self.timers, self.sign_of_model)
-        if record_metrics and not self._iso:  # the scoring kernels' compile (or cache load) queued now, not at the first ends
-            z = self.start_z - np.array([0.0, 1.0, self._signs[0][0] + 1.0 if len(self._signs[0]) else 2.0])
-            self._scores(np.array([0, 3]), np.stack([np.zeros(3), z, np.full(3, 10.0), np.zeros(3)]))
+        self._wide_keys = wide_keys(_BASE_KEYS, len(signs))
+        if record_metrics and not self._iso:  # the scoring kernel's compile (or cache load) done now, not at the first ends
+            self._score_pass(np.zeros(0, dtype=np.int64))
 
     def _reset_task(self, idx: np.ndarray) -> None:
         self.revealed[idx] = -1
@@ -252,102 +252,82 @@ class LctBatch(BatchCore):
             k_from = k_to
 
     def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
-        """`episode_metrics` of the envs `es`, the same floats, in compiled passes over all of
-        them: the generic trace metrics (`metrics.episode_scores`), the LCT's scoring of
-        instructed lane changes (`metrics.lct_scores.lct_scores`) and, for the episodes that
-        passed a sign, the lane-change fits and MDEV (`lct_lane_changes`). Episodes scored by
-        ISO 26022 (`scoring="iso26022"`) are scored by the template env's own code."""
+        """`episode_metrics` of the envs `es`, the same floats: `episodes_table`'s rows as dicts,
+        each with its keys in the single env's order."""
         if self.ring is None:
             raise RuntimeError("episode metrics were switched off (record_metrics=False)")
-        if not es:
-            return []
-        if self._iso:
+        if self._iso or not es:
             columns = self.ring.columns_of(es)
             return [(e, self.episode_metrics(e, columns[e])) for e in es]
-        starts, data = self.ring.gather(es)  # (column, row): the episodes one after another, reset rows first
-        base, lct, passed, mdev, fits = self._scores(starts, data)
-        gaps = self._score_params[4]
+        wide, passed, slow = self._scored(es)
+        signs, keys = len(self._signs[0]), self._wide_keys
         out = []
-        for j, e in enumerate(es):
-            reached, presented, n_passed = lct[j, J2944 + len(gaps) :].tolist()
-            if n_passed and not passed[j]:
-                out.append((e, self.episode_metrics(e, data[:, starts[j] : starts[j + 1]])))
-                continue
-            row = [math.nan if v != v else v for v in base[j].tolist()]  # (NaNs as math.nan)
-            out.append((e, self._assemble(e, row, reached, presented, mdev[j].tolist(), fits[j, : int(passed[j])].tolist())))
+        for j, (e, row, p) in enumerate(zip(es, wide.tolist(), passed.tolist(), strict=True)):
+            at = row_columns(signs, p) if p >= 0 else ()
+            out.append((e, slow[j] if p < 0 else {keys[c]: math.nan if row[c] != row[c] else row[c] for c in at}))
         return out
 
-    def _scores(self, starts: np.ndarray, data: np.ndarray) -> tuple[np.ndarray, ...]:
-        """The compiled scoring passes over the episodes in `data` (`TraceRing.gather`'s):
-        (generic keys, LCT keys, signs passed and scored, MDEV rows, fits)."""
-        counts = np.diff(starts)
-        x, z, speed, steer = data
-        derived = np.empty((6, len(x)))  # t, lateral, lane, offset, steering (deg), distance to the next row
-        g = self.guide
+    def episodes_table(self, es: list[int]) -> EpisodeTable:
+        """`episode_metrics` of the envs `es` as one table (rows equal `episodes_metrics`' dicts),
+        scored in one parallel compiled pass (`lct_score_pass`): the generic trace metrics
+        (`metrics.episode_scores`), the LCT's scoring of instructed lane changes
+        (`metrics.lct_scores.lct_scores`) and, for the episodes that passed a sign, the
+        lane-change fits and MDEV (`lct_lane_changes`). Episodes scored by ISO 26022
+        (`scoring="iso26022"`) are scored by the template env's own code."""
+        if self.ring is None:
+            raise RuntimeError("episode metrics were switched off (record_metrics=False)")
+        if self._iso or not es:
+            return table_of_rows([m for _, m in self.episodes_metrics(es)])
+        wide, passed, slow = self._scored(es)
+        if slow:  # (rare: the template's dicts next to the compiled rows)
+            return table_of_rows([m for _, m in self.episodes_metrics(es)])
+        return self._wide_table(wide, passed)
+
+    def _scored(self, es: list[int]) -> tuple[np.ndarray, np.ndarray, dict[int, dict[str, float]]]:
+        """(`lct_score_pass`' wide rows, signs passed, the template's metrics of the episodes
+        the pass left to it (passed -1: one row past a sign), by row)."""
+        assert self.ring is not None
+        wide, passed = self._score_pass(np.asarray(es, dtype=np.int64))
+        slow = {j: self.episode_metrics(es[j]) for j in np.flatnonzero(passed < 0).tolist()}
+        return wide, passed, slow
+
+    def _wide_table(self, wide: np.ndarray, passed: np.ndarray) -> EpisodeTable:
+        """The table of `lct_score_pass`' wide rows: each row's keys (by its signs passed), in
+        order of first appearance."""
+        order = tuple(dict.fromkeys(passed.tolist()))  # (the distinct counts in order of first appearance)
+        keys, columns, present = table_layout(self._wide_keys, len(self._signs[0]), order)
+        values = wide[:, columns]
+        if present is None:
+            return EpisodeTable(keys, values, None)
+        mask = present[passed]
+        values[~mask] = 0.0  # (absent keys: 0, as `episode_rows.table_of_rows` leaves them)
+        return EpisodeTable(keys, values, mask)
+
+    def _score_pass(self, es: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`lct_score_pass.score_episodes` of the episodes of the envs `es` so far, read from
+        the ring: (wide rows, signs passed)."""
+        g, tpl, tm, ring = self.guide, self.template, self.timers, self.ring
+        assert ring is not None
         if g.kind != "lanes":
             raise ValueError("the native batch needs a task with lane bands")
-        score_columns(starts, x, z, steer, self.dt, g.sign, self.centres, g.lane_width_m / 2.0, STEERING_WHEEL_MAX_DEG, derived)
-        t, lat, lane, off, steer_deg, ds = derived
-        m = len(starts) - 1
-        inf, nan = np.full(len(x), math.inf), np.full(len(x), math.nan)  # headway, TTC, gap; the lead's speed: no traffic
-        base = np.empty((m, len(episode_scores.KEYS)))
-        b, a, zi, p, gaps, thw, ttc = self._score_params
-        # (SAE J2944 and the reversal rates: the LCT's own, below, without the instructed lane changes)
-        episode_scores.episode_scores(starts, t, ds, speed, steer_deg, inf, nan, inf, inf, lat, lane, off, b, a, zi, p, gaps, thw, ttc,
-                                      base, False)  # fmt: skip
-        lct = np.empty((m, J2944 + len(gaps) + 3))
-        tpl = self.template
         geo = tpl.geometry
-        lct_scores(starts, t, z, lat, steer_deg, self.start_z, *self._signs, geo.visibility_m, tpl.basic.start_before_sign_m,
-                   tpl.basic.length_per_lane_m, self.lane_lat, int(tpl.initial_lane), b, a, zi, p, gaps, lct)  # fmt: skip
-        base[:, 9 : 14 + len(gaps)] = lct[:, : J2944 + len(gaps)]
-        passed = lct[:, J2944 + len(gaps) + 2].astype(np.int64)
-        passed[counts < 2] = 0  # (not scored by `lct_mdev`: the template's code, below)
-        mdev, fits = np.full((m, 5), math.nan), np.zeros((m, len(self._signs[0]), 2))
-        if passed.any():
-            lct_lane_changes(starts, z, lat, self.start_z, *self._signs, passed, geo.visibility_m, tpl.basic.start_before_sign_m,
-                             tpl.basic.length_per_lane_m, self.lane_lat, int(tpl.initial_lane), mdev, fits)  # fmt: skip
-        return base, lct, passed, mdev, fits
-
-    def _assemble(self, e: int, row: list[float], reached: float, presented: float, mdev: list[float],
-                  fits: list[list[float]]) -> dict[str, float]:  # fmt: skip
-        """Env e's `LaneChangeTestEnv.episode_metrics` dict (its keys in order) from its
-        scores (`fits`: each passed sign's latency (m) and reached flag)."""
-        reactions = self.timers.results_of(e) if self.timers.results[e] else []
-        correct = [r.reaction_time_s for r in reactions if r.result == 1]
-        tpl = self.template
-        values = [
-            float(self.t[e]), row[0], row[1], float(self.s.fuel_used[e]), float(self.collisions[e]), *row[2:6], float(len(reactions)),
-            float(len(correct)), float(sum(1 for r in reactions if r.result == -1)), float(sum(1 for r in reactions if r.result == -2)),
-            float(np.mean(correct)) if correct else math.nan, float(self.guide.lanes_known), row[6], row[7], presented, row[8],
-            float(tpl.resets), float(tpl.collision_resets), tpl.reset_time_s, *row[9:],
-        ]  # fmt: skip
-        out = dict(zip(_BASE_KEYS, values, strict=True))
-        out["signs_reached"] = reached
-        if not fits:
-            out.update({"mdev_basic_m": math.nan, "mdev_adapted_m": math.nan})
+        trace_p = (self.dt, g.sign, self.centres, g.lane_width_m / 2.0, STEERING_WHEEL_MAX_DEG)
+        lct_p = (self.start_z, *self._signs, geo.visibility_m, tpl.basic.start_before_sign_m, tpl.basic.length_per_lane_m, self.lane_lat,
+                 int(tpl.initial_lane), geo.speed_kmh / 3.6)  # fmt: skip
+        consts = np.array([float(g.lanes_known), float(tpl.resets), float(tpl.collision_resets), float(tpl.reset_time_s)])
+        env_p = (self.t, self.s.fuel_used, self.collisions, consts)
+        react = (tm.n_results, tm.result_code, tm.result_rt, tm.result_spec, tm.sign_of_spec)
+        m = len(es)
+        wide, passed = np.empty((m, len(self._wide_keys))), np.empty(m, dtype=np.int64)
+        blocks, b0 = ring.block_addresses()
+        first = tuple(ring.first[c] for c in ring.columns)
+        args = (es, blocks, b0, first, ring.start, ring.steps, trace_p, self._score_params, lct_p, env_p, react, wide, passed)
+        if self.parallel:
+            with numba.parallel_chunksize(1):  # (episodes differ in length: threads take one at a time)
+                lct_score_episodes(*args)
         else:
-            out.update(zip(MDEV_KEYS, [math.nan if v != v else v for v in mdev], strict=True))
-        timer = {}  # `LaneChangeTestEnv._timer_results`
-        for r in reactions:
-            found = re.match(r"sign (\d+):", r.comment or "")
-            if found:
-                timer[int(found.group(1))] = int(r.result)
-        latencies = []
-        speed_mps = tpl.geometry.speed_kmh / 3.6
-        for k, (latency_m, hit) in enumerate(fits):
-            latency_s = latency_m / speed_mps if math.isfinite(latency_m) else math.nan
-            if math.isfinite(latency_s):
-                latencies.append(latency_s)
-            out[f"sign{k:02d}_latency_s"] = latency_s
-            out[f"sign{k:02d}_reached"] = hit
-            out[f"sign{k:02d}_timer_result"] = float(timer.get(k, 0))
-        right = sum(1 for _, hit in fits if hit)
-        out["lane_changes"] = float(len(fits))
-        out["lane_changes_correct"] = float(right)
-        out["lane_change_errors"] = float(len(fits) - right)
-        out["mean_lane_change_latency_s"] = float(np.mean(latencies)) if latencies else math.nan
-        return out
+            score_episodes(0, m, *args)
+        return wide, passed
 
     def _on_action_rows(self, es: np.ndarray, act: CompiledAction, trigger: int) -> None:
         if act.name == "manipulateObject":

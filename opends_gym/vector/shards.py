@@ -25,10 +25,14 @@ import numpy as np
 
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from .core import BatchCore
+from .episode_table import EpisodeTable
 from .kernels import ego_features
 
-# obs, reward, terminated, truncated, info arrays, [(env in shard, episode metrics)], error
+# obs, reward, terminated, truncated, info arrays, ended episodes' metrics (`ShardMetrics`), error
 StepResult = tuple[Any, ...]
+# the ended episodes' metrics of a shard's step: (envs in the shard, their table) from a core with `episodes_table`, else
+# [(env in shard, metrics dict)] (empty: none ended)
+ShardMetrics = tuple[list[int], EpisodeTable] | list[tuple[int, dict[str, Any]]]
 SHARD_ERRORS = (ValueError, RuntimeError, FloatingPointError)  # bad input from the caller: raised in the caller
 
 
@@ -38,8 +42,7 @@ def step_shard(core: BatchCore, actions: np.ndarray, resetting: np.ndarray, k: i
         fused = getattr(core, "step_and_reset", None)
         if fused is not None:  # the batch steps, resets and fills its outputs itself (`LctBatch.step_and_reset`)
             obs, reward, terminated, truncated, values, ended = fused(actions, resetting, obs_size)
-            metrics = core.episodes_metrics(ended) if core.record_metrics and ended else []
-            return obs, reward, terminated, truncated, values, metrics, None
+            return obs, reward, terminated, truncated, values, ended_metrics(core, ended), None
         stepping = ~resetting
         reward, terminated, truncated, values = core.step_rows(actions, stepping)
         if resetting.any():
@@ -48,10 +51,20 @@ def step_shard(core: BatchCore, actions: np.ndarray, resetting: np.ndarray, k: i
             values = {key: np.where(resetting, fresh[key], v) for key, v in values.items()}
         reward = np.where(stepping, reward, 0.0)
         ended = np.flatnonzero(terminated | truncated).tolist()
-        metrics = core.episodes_metrics(ended) if core.record_metrics and ended else []
-        return observe(core, k, obs_size), reward, terminated, truncated, values, metrics, None
+        return observe(core, k, obs_size), reward, terminated, truncated, values, ended_metrics(core, ended), None
     except SHARD_ERRORS as e:
         return (None,) * 6 + (e,)
+
+
+def ended_metrics(core: BatchCore, ended: list[int]) -> ShardMetrics:
+    """The metrics of the episodes that ended: the core's table where it has `episodes_table`
+    (no dict per episode), else its `episodes_metrics` dicts."""
+    if not core.record_metrics or not ended:
+        return []
+    table = getattr(core, "episodes_table", None)
+    if table is not None:
+        return ended, table(ended)
+    return core.episodes_metrics(ended)
 
 
 def reset_shard(core: BatchCore, seeds: list[int | None], k: int, obs_size: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:

@@ -14,6 +14,7 @@ on flat ground only, so the 3-D distance limit is the distance in the ground pla
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -107,6 +108,12 @@ class TimerBatch:
         self.start_lane = np.full(n, -1, dtype=np.int64)
         self.results: list[list[tuple[int, int, float, float, float, float]]] = [[] for _ in range(n)]  # see `_score`
         self.n_results = np.zeros(n, dtype=np.int64)
+        # each env's results this episode as arrays too (code, reaction time rounded to the ns, spec), for the compiled
+        # episode scoring (`lct_score_pass`): columns 0..n_results-1; widened when an episode logs more
+        self.result_code = np.zeros((n, 4), dtype=np.int64)
+        self.result_rt = np.zeros((n, 4))
+        self.result_spec = np.zeros((n, 4), dtype=np.int64)
+        self.sign_of_spec = np.zeros(0, dtype=np.int64)  # the sign number in each spec's comment ('sign NN: ...'; -1: none)
         self.last_result = np.zeros(n)  # the latest result's code and reaction time (s)
         self.last_rt = np.zeros(n)  # (rounded to the nanosecond, as ReactionResult)
         self.table = np.zeros((0, N_TABLE))  # one row per spec (columns `kernels.T_*`)
@@ -121,6 +128,8 @@ class TimerBatch:
             raise ValueError(f"the native batch supports one reaction timer id per task, not {sorted(self.timer_ids)}")
         self._spec_index[key] = len(self.specs)
         self.specs.append(spec)
+        found = re.match(r"sign (\d+):", spec.comment or "")  # (`LaneChangeTestEnv._timer_results`' reading)
+        self.sign_of_spec = np.append(self.sign_of_spec, int(found.group(1)) if found else -1)
         fields: tuple[str, ...] = ("kind", "time_limit_s", "distance_limit_m", "target_lane", "min_steering", "allow_brake")
         fields += ("hold_s", "target_speed_mps", "must_press_brake", "allow_lane_change")  # (in the order of `kernels.T_*`)
         self.table = np.array([[float(getattr(s, f)) for f in fields] for s in self.specs]).reshape(-1, N_TABLE)
@@ -175,6 +184,12 @@ class TimerBatch:
         """Log a result: as a plain tuple (the `ReactionResult` is built when asked for, by
         `results_of`: most are never read) and as env e's latest result and reaction time."""
         self.results[e].append((int(self.spec[e]), result, rt_s, start, t, started_at))
+        k = int(self.n_results[e])
+        if k == self.result_code.shape[1]:  # (rare: twice the columns)
+            self.result_code = np.concatenate([self.result_code, np.zeros_like(self.result_code)], axis=1)
+            self.result_rt = np.concatenate([self.result_rt, np.zeros_like(self.result_rt)], axis=1)
+            self.result_spec = np.concatenate([self.result_spec, np.zeros_like(self.result_spec)], axis=1)
+        self.result_code[e, k], self.result_rt[e, k], self.result_spec[e, k] = result, round(rt_s, 9), self.spec[e]
         self.n_results[e] += 1
         self.last_result[e], self.last_rt[e] = result, round(rt_s, 9)
 

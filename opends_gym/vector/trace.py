@@ -6,7 +6,9 @@ contiguous row (all envs) of each recorded column into a time-major ring; an env
 episode is its reset row (kept aside) plus the ring rows from its first step on, which
 stay contiguous because every live env is stepped in every substep. When an episode ends
 its rows are copied into a `Trace`, and the single env's own metric code scores it, or (the
-batches with compiled scoring) `gather` copies the ended episodes' rows into one array.
+batches with compiled scoring) `gather` copies the ended episodes' rows into one array, or
+(the LCT's parallel scoring pass) each scoring thread reads its episode in place
+(`block_addresses`).
 Derived columns (time, lateral position, lane, lane offset) are not stored; `to_trace`
 computes them with the guide's formulas.
 """
@@ -59,6 +61,7 @@ class TraceRing:
             )
         self.index = {c: i for i, c in enumerate(columns)}
         self.blocks: dict[int, np.ndarray] = {}  # block number (g // BLOCK) -> (BLOCK rows, n, column) or (n, BLOCK rows, column)
+        self._listed: tuple[np.ndarray, int] | None = None  # `block_addresses`'
         self._spare: list[np.ndarray] = []
         self.first = {c: np.zeros(n) for c in columns}  # the reset row of each env's episode
         self.g = 0  # rows written so far
@@ -115,7 +118,19 @@ class TraceRing:
         shape = (self.BLOCK // self.GROUP, self.n, self.GROUP, c) if self.grouped else (self.BLOCK, self.n, c)
         block = self._spare.pop() if self._spare else _fresh_block(shape)
         self.blocks[b] = block
+        self._listed = None
         return block
+
+    def block_addresses(self) -> tuple[np.ndarray, int]:
+        """(the address of every block held, in order (0: none), as int64; the number of the
+        first), for compiled code that reads episodes straight from the ring
+        (`lct_score_pass.read_episode`; the blocks stay held in `blocks` while it runs). Built
+        again only after a block was added (every BLOCK rows), not per call."""
+        if self._listed is None:
+            lo, hi = (min(self.blocks), max(self.blocks)) if self.blocks else (0, 0)
+            held = [self.blocks.get(b) for b in range(lo, hi + 1)]
+            self._listed = (np.array([0 if a is None else a.ctypes.data for a in held], dtype=np.int64), lo)
+        return self._listed
 
     def column(self, e: int, c: str) -> np.ndarray:
         """Env e's episode so far for one column (reset row first)."""
