@@ -11,8 +11,13 @@ Units: metres, seconds, m/s; `t` is each env's simulation time.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numba import types
+from numba.core import cgutils
+from numba.core import config as numba_config
+from numba.extending import intrinsic
 
 from ..jit import inline, kernel, py_hypot
 from ..sim.geometry2d import boxes_overlap
@@ -41,6 +46,42 @@ def chunk_count(n: int) -> int:
     enough that taking one costs little next to stepping it."""
     c = (n + CHUNK_ENVS - 1) // CHUNK_ENVS
     return c if c > 1 else 1
+
+
+@intrinsic
+def _fetch_add_one(typingctx: Any, counter: Any, index: Any) -> Any:
+    """counter[index] += 1 as one atomic operation (LLVM's atomicrmw); returns the old value."""
+    if not (isinstance(counter, types.Array) and counter.dtype == types.int64 and isinstance(index, types.Integer)):
+        return None
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        ary_t = signature.args[0]
+        ary = context.make_array(ary_t)(context, builder, args[0])
+        i = context.cast(builder, args[1], signature.args[1], types.intp)
+        ptr = cgutils.get_item_pointer(context, builder, ary_t, ary, [i])
+        return builder.atomic_rmw("add", ptr, context.get_constant(types.int64, 1), "monotonic")
+
+    return types.int64(counter, index), codegen
+
+
+_CONFIG: Any = numba_config
+if _CONFIG.DISABLE_JIT:  # (plain Python: `prange` is `range`, one thread)
+
+    def next_chunk(counter: np.ndarray) -> int:
+        """See below."""
+        c = int(counter[0])
+        counter[0] = c + 1
+        return c
+
+else:
+
+    @inline
+    def next_chunk(counter: np.ndarray) -> int:
+        """The next chunk of a parallel step for the thread that asks (`counter[0]`: chunks
+        handed out so far): threads take chunks one at a time, so one that a busy core or a
+        slow chunk (resets, triggers) holds up takes fewer. (numba's workqueue threading layer
+        gives each thread a fixed share of a `prange` loop, whatever `parallel_chunksize`.)"""
+        return _fetch_add_one(counter, 0)  # type: ignore[call-arg]
 
 
 @kernel

@@ -37,6 +37,7 @@ from .lct_step import (
     _observation_range,
     _outcomes_range,
     _substeps_range,
+    finish_chunks,
     lct_finish,
     lct_observation,
     lct_outcomes,
@@ -184,9 +185,8 @@ class LctBatch(BatchCore):
         sub = self._substeps_args(False, 0, self.repeat, self._live, block_a, block_b, row0, self._controls)[2:]
         fin = self._finish_args(self._rows, outputs)
         chunks = self._chunk_done
-        with numba.parallel_chunksize(1):  # threads take the chunks one at a time: a busy core holds up one chunk, not half
-            call = lct_step if self.parallel else lct_step_serial
-            bad, parked, ran = call(a, resetting, self._rows, chunks, self._prep_args(), sub, fin)
+        call = lct_step if self.parallel else lct_step_serial  # (threads take chunks one at a time: `kernels.next_chunk`)
+        bad, parked, ran = call(numba.get_num_threads(), a, resetting, self._rows, chunks, self._prep_args(g0 + self.repeat), sub, fin)
         if bad >= 0:
             raise ValueError(f"env {bad}: action contains NaN or infinity: {np.asarray(a[bad], dtype=np.float64).tolist()}")
         resets = resetting.any()
@@ -196,8 +196,8 @@ class LctBatch(BatchCore):
             ran = self._step_rest(parked, ran, block_a, block_b, row0, outputs)
         if ring is not None:
             ring.g = g0 + ran
-            if resets:
-                ring.start[resetting] = ring.g  # (`TraceRing.reset_rows`: step rows begin at the next write)
+            if resets and ran != self.repeat:  # (every car stopped early: `TraceRing.reset_rows`' start is the next write)
+                ring.start[resetting] = ring.g
         return self._returns(outputs)
 
     def _step_rest(self, parked: int, ran: int, block_a: np.ndarray, block_b: np.ndarray, row0: int, outputs: tuple) -> int:
@@ -216,11 +216,7 @@ class LctBatch(BatchCore):
             args = self._substeps_args(True, 0, self.repeat, self._live, block_a, block_b, row0, self._controls)
             parked, resumed = lct_substeps(*args) if self.parallel else _substeps_range(0, self.n, *args)
             ran = max(ran, resumed)
-        fin = self._finish_args(self._rows, outputs)
-        n = self.n
-        chunks = _chunks(n) if self.parallel else 1
-        for c in np.flatnonzero(~self._chunk_done[:chunks]).tolist():
-            _finish_range(c * n // chunks, (c + 1) * n // chunks, *fin)
+        finish_chunks(self._chunk_done if self.parallel else self._chunk_done[:1], self.n, *self._finish_args(self._rows, outputs))
         return ran
 
     def _step_blocks(self, a: np.ndarray, resetting: np.ndarray, size: int) -> StepArrays:
@@ -250,8 +246,9 @@ class LctBatch(BatchCore):
         info = {key: info[key] for key in INFO_KEYS}
         return out, reward, terminated, truncated, info, np.flatnonzero(terminated | truncated).tolist()
 
-    def _prep_args(self) -> tuple:
-        """`lct_step`'s `prep`: `lct_step._prepare_range`'s arguments after `rows`."""
+    def _prep_args(self, g_end: int) -> tuple:
+        """`lct_step`'s `prep`: `lct_step._prepare_range`'s arguments after `rows` (`g_end`: the
+        trace ring's row count after a whole policy step)."""
         s, p, trig, tm, rl, g = self.s, self.p, self.trig, self.timers, self.rl, self.guide
         ring = self.ring
         first = tuple(ring.first[c] for c in self.trace_columns) if ring is not None else (self._no_first,) * 4
@@ -264,7 +261,8 @@ class LctBatch(BatchCore):
                 (self.t, self.progress, rl["n"], rl["mean"], rl["m2"], rl["area"], rl["dist"], self.area, self.step_reward),
                 (self.revealed, self.has_prev, self.last_s), (g.sign, g.start_xz[1]),
                 (self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset), ring is not None, first,
-                ring.steps if ring is not None else self._no_steps, self.draws)  # fmt: skip
+                ring.steps if ring is not None else self._no_steps, (ring.start if ring is not None else self._no_steps, g_end),
+                self.draws)  # fmt: skip
 
     def _finish_args(self, stepping: np.ndarray, outputs: tuple[np.ndarray, ...]) -> tuple:
         """`lct_finish`'s arguments for the envs `stepping` (the others were reset) and the output arrays."""

@@ -27,7 +27,7 @@ from ..jit import borrowing_kernel, inline, kernel, parallel_kernel
 from ..sim.ego.kernels import wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from .ego import ego_step_wheels
-from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, timer_step, volume_fires
+from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, next_chunk, timer_step, volume_fires
 from .lanes_known import lanes_known_at
 from .lct_fire import fire_inline
 from .trace import TRACE_GROUP
@@ -415,15 +415,16 @@ def _finish_range(lo: int, hi: int, outcome: tuple, obs: tuple, copies: tuple, i
 
 
 @parallel_kernel
-def lct_step(a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: np.ndarray, prep: tuple, sub: tuple,
+def lct_step(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: np.ndarray, prep: tuple, sub: tuple,
              fin: tuple) -> tuple[int, int, int]:  # fmt: skip
     """A whole policy step with NEXT_STEP autoreset in one parallel pass: the actions of the
     stepping envs checked (before any env moves), then chunk by chunk the resets and controls
     (`_prepare_range`, its arguments `prep`), the physics steps (`_substeps_range`, `sub`:
     its arguments after lo and hi, not resuming, from physics step 0) and, where no car of the
     chunk waits for Python (a parked car or a reaction timer that ended), the step's outputs
-    (`_finish_range`, `fin`; `finished[c]` set). Returns (the first env whose action holds NaN
-    or infinity, -1: none, and then nothing ran; cars parked; most physics steps run).
+    (`_finish_range`, `fin`; `finished[c]` set). Each of numba's threads (`workers`: their
+    number) takes chunks one at a time until none is left (`kernels.next_chunk`). Returns (the first env whose action holds
+    NaN or infinity, -1: none, and then nothing ran; cars parked; most physics steps run).
 
     (The tuples are unpacked here and packed again in the loop: numba's parallel loop takes
     a tuple of arrays, not a tuple of such tuples.)"""
@@ -450,6 +451,7 @@ def lct_step(a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: n
         p_ring,
         first,
         p_ring_steps,
+        ring_start,
         draws,
     ) = prep
     (
@@ -515,7 +517,8 @@ def lct_step(a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: n
     (outcome, obs, copies, info_f, info_i, known, known_lanes) = fin
     chunks = chunk_count(n)
     parked_c, ran_c = np.zeros(chunks, dtype=np.int64), np.zeros(chunks, dtype=np.int64)
-    for c in prange(chunks):
+    taken = np.zeros(1, dtype=np.int64)  # chunks handed out (`next_chunk`)
+    for _ in prange(min(workers, chunks)):
         prep_c = (
             p_live,
             controls,
@@ -535,6 +538,7 @@ def lct_step(a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: n
             p_ring,
             first,
             p_ring_steps,
+            ring_start,
             draws,
         )
         sub_c = (
@@ -598,20 +602,35 @@ def lct_step(a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: n
             fire,
         )
         fin_c = (outcome, obs, copies, info_f, info_i, known, known_lanes)
-        lo, hi = c * n // chunks, (c + 1) * n // chunks
-        parked_c[c], ran_c[c], finished[c] = _step_chunk(lo, hi, a, resetting, rows, prep_c, sub_c, fin_c)
+        while True:
+            c = next_chunk(taken)
+            if c >= chunks:
+                break
+            lo, hi = c * n // chunks, (c + 1) * n // chunks
+            parked_c[c], ran_c[c], finished[c] = _step_chunk(lo, hi, a, resetting, rows, prep_c, sub_c, fin_c)
     return -1, parked_c.sum(), ran_c.max()
 
 
 @kernel
-def lct_step_serial(a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: np.ndarray, prep: tuple, sub: tuple,
+def lct_step_serial(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: np.ndarray, prep: tuple, sub: tuple,
                     fin: tuple) -> tuple[int, int, int]:  # fmt: skip
-    """`lct_step` in this thread, as one chunk (a batch of one chunk, or stepped in a Python thread)."""
+    """`lct_step` in this thread, as one chunk (a batch of one chunk, or stepped in a Python thread; `workers` unused)."""
     bad = _first_bad(a, resetting)
     if bad >= 0:
         return bad, 0, 0
     parked, ran, finished[0] = _step_chunk(0, len(resetting), a, resetting, rows, prep, sub, fin)
     return -1, parked, ran
+
+
+@kernel
+def finish_chunks(finished: np.ndarray, n: int, outcome: tuple, obs: tuple, copies: tuple, info_f: np.ndarray, info_i: np.ndarray,
+                  known: np.ndarray, lanes: tuple[bool, float]) -> None:  # fmt: skip
+    """`_finish_range` of the chunks of n envs (`chunk_count`, or one) that `lct_step` did not
+    finish (`finished`), after Python fired their parked cars' triggers and scored their timers."""
+    chunks = len(finished)
+    for c in range(chunks):
+        if not finished[c]:
+            _finish_range(c * n // chunks, (c + 1) * n // chunks, outcome, obs, copies, info_f, info_i, known, lanes)
 
 
 @borrowing_kernel
@@ -645,14 +664,15 @@ def _step_chunk(lo: int, hi: int, a: np.ndarray, resetting: np.ndarray, rows: np
 def _prepare_range(lo: int, hi: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, live: np.ndarray, controls: tuple,
                    held: np.ndarray, pose: tuple, initial: tuple, ego: tuple, gear: np.ndarray, cruise_on: np.ndarray, trig: tuple,
                    timer: tuple, counters: tuple, measures: tuple, task: tuple, road: tuple, lanes: tuple, ring: bool, first: tuple,
-                   ring_steps: np.ndarray, draws: np.ndarray) -> None:  # fmt: skip
+                   ring_steps: np.ndarray, ring_start: tuple, draws: np.ndarray) -> None:  # fmt: skip
     """Before the physics steps of the envs lo..hi-1: the controls of those that step (the
     floats of `actions.continuous_controls`, and the buttons held of `BatchActions.convert`),
     `rows` and `live` set (True: it steps), and `BatchCore.reset_rows` (seed None) of those
     `resetting`, with `LctBatch._reset_task`: the world seed drawn later (`draws`, see
     `BatchCore._world_seed`), the car at its start (`ego.reset_rows`), triggers, timers
     (`TimerBatch.reset_rows`, less its Python lists), counters, lane measures and trace
-    reset row (`_record_row(first=True)`; the ring's `start` is set by the caller)."""
+    reset row (`_record_row(first=True)`, `ring_start`: the ring's `start` and the row g after
+    the policy step, which the caller corrects when no car ran all its physics steps)."""
     steer, gas, brake = controls
     x, y, z, yaw, u, v, r, rpm, prev_v, fuel_used, fuel_left, steer_in, gas_in, brake_in, cruise_target, cruise_int = ego
     locks, counts, paused, started, started_at = trig
@@ -665,6 +685,7 @@ def _prepare_range(lo: int, hi: int, a: np.ndarray, resetting: np.ndarray, rows:
     first_x, first_z, first_u, first_steer = first
     px, py, pz, pyaw = pose
     speed, gear0, rpm0, fuel0 = initial
+    start, g_end = ring_start
     width = a.shape[1]
     for e in range(lo, hi):
         if not resetting[e]:
@@ -703,3 +724,4 @@ def _prepare_range(lo: int, hi: int, a: np.ndarray, resetting: np.ndarray, rows:
         if ring:
             first_x[e], first_z[e], first_u[e], first_steer[e] = x[e], z[e], u[e], steer_in[e]
             ring_steps[e] = 0
+            start[e] = g_end
