@@ -67,21 +67,22 @@ def _fetch_add_one(typingctx: Any, counter: Any, index: Any) -> Any:
 _CONFIG: Any = numba_config
 if _CONFIG.DISABLE_JIT:  # (plain Python: `prange` is `range`, one thread)
 
-    def next_chunk(counter: np.ndarray) -> int:
+    def take_next(counter: np.ndarray, i: int) -> int:
         """See below."""
-        c = int(counter[0])
-        counter[0] = c + 1
+        c = int(counter[i])
+        counter[i] = c + 1
         return c
 
 else:
 
     @inline
-    def next_chunk(counter: np.ndarray) -> int:
-        """The next chunk of a parallel step for the thread that asks (`counter[0]`: chunks
-        handed out so far): threads take chunks one at a time, so one that a busy core or a
-        slow chunk (resets, triggers) holds up takes fewer. (numba's workqueue threading layer
-        gives each thread a fixed share of a `prange` loop, whatever `parallel_chunksize`.)"""
-        return _fetch_add_one(counter, 0)  # type: ignore[call-arg]
+    def take_next(counter: np.ndarray, i: int) -> int:
+        """counter[i] += 1 for a parallel step's threads at once (an atomic add); returns the
+        old value: the next chunk for the thread that asks (threads take chunks one at a time,
+        so one that a busy core or a slow chunk holds up takes fewer; numba's workqueue
+        threading layer gives each thread a fixed share of a `prange` loop, whatever
+        `parallel_chunksize`), or the next free slot of a list the threads fill."""
+        return _fetch_add_one(counter, i)  # type: ignore[call-arg]
 
 
 @kernel

@@ -2,11 +2,12 @@
 
 Why: signs are revealed by their trigger boxes (`manipulateObject visible`), so each env
 keeps the highest sign index revealed; the normative-path deviation, the reward and the
-running MDEV accumulate per physics step, with the single env's formulas. The physics steps
-of a policy step run as one compiled pass (`lct_substeps`); then the autoresets (Python, for
-the ended envs only) and one more pass for every env's reward, flags, observation and info
-(`lct_finish`), so a step's Python does the same work whatever the batch size, apart from
-the resets and the rare trigger firings that log a reaction result (`lct_fire`).
+running MDEV accumulate per physics step, with the single env's formulas. A policy step is
+one compiled parallel pass (`lct_step`): the action check, and chunk by chunk the autoresets,
+the controls, the physics steps and every env's reward, flags, observation and info, so a
+step's Python does the same small work whatever the batch size, apart from the rare trigger
+firings that log a reaction result and the reaction timers that end (their chunks are
+finished after Python handled them, `_step_rest`).
 """
 
 from __future__ import annotations
@@ -102,6 +103,10 @@ class LctBatch(BatchCore):
         self._live, self._rows = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)  # `lct_step`'s scratch: envs stepping (live: still)
         self._controls = (np.zeros(n), np.zeros(n), np.zeros(n))  # steering, gas, brake
         self._chunk_done = np.zeros(_chunks(n), dtype=bool)  # chunks whose outputs `lct_step` wrote
+        self._lists, self._counts = np.zeros((2, n), dtype=np.int64), np.zeros(3, dtype=np.int64)  # envs reset, envs that ended
+        # (numba's threads at most: `lct_step`'s workers; with fewer threads set, a thread runs several, the first takes all chunks)
+        config: Any = numba.config
+        self._workers = int(config.NUMBA_NUM_THREADS)
         self._no_first = np.zeros(0)
         self._park = np.full(n, -1, dtype=np.int64)  # the physics step where a car waits for its triggers to fire (-1: none)
         self._score_params = episode_scores.scoring_params(cfg.physics_hz, self.off_road_limit, self.guide.road_edges_m)
@@ -184,21 +189,24 @@ class LctBatch(BatchCore):
             row0 = g0 = 0
         sub = self._substeps_args(False, 0, self.repeat, self._live, block_a, block_b, row0, self._controls)[2:]
         fin = self._finish_args(self._rows, outputs)
+        if len(fin[0]) != 31:
+            raise TypeError("lct_step._list_ended reads terminated and truncated at 29 and 30 of the outcome tuple")
         chunks = self._chunk_done
-        call = lct_step if self.parallel else lct_step_serial  # (threads take chunks one at a time: `kernels.next_chunk`)
-        bad, parked, ran = call(numba.get_num_threads(), a, resetting, self._rows, chunks, self._prep_args(g0 + self.repeat), sub, fin)
+        call = lct_step if self.parallel else lct_step_serial  # (threads take chunks one at a time: `kernels.take_next`)
+        lists, counts = self._lists, self._counts
+        bad, parked, ran = call(self._workers, a, resetting, self._rows, chunks, lists, counts, self._prep_args(g0 + self.repeat), sub, fin)
         if bad >= 0:
             raise ValueError(f"env {bad}: action contains NaN or infinity: {np.asarray(a[bad], dtype=np.float64).tolist()}")
-        resets = resetting.any()
+        resets = int(counts[1])
         if resets:  # (`TimerBatch.reset_rows`' Python lists; nothing in `lct_step` reads them)
-            self.timers.clear_results(np.flatnonzero(resetting))
+            self.timers.clear_results(lists[0, :resets])
         if not chunks.all() if self.parallel else not chunks[0]:
             ran = self._step_rest(parked, ran, block_a, block_b, row0, outputs)
         if ring is not None:
             ring.g = g0 + ran
             if resets and ran != self.repeat:  # (every car stopped early: `TraceRing.reset_rows`' start is the next write)
                 ring.start[resetting] = ring.g
-        return self._returns(outputs)
+        return self._returns(outputs, sorted(lists[1, : counts[2]].tolist()))
 
     def _step_rest(self, parked: int, ran: int, block_a: np.ndarray, block_b: np.ndarray, row0: int, outputs: tuple) -> int:
         """`step_and_reset` after `lct_step`, for the chunks whose cars wait for Python: score
@@ -216,7 +224,8 @@ class LctBatch(BatchCore):
             args = self._substeps_args(True, 0, self.repeat, self._live, block_a, block_b, row0, self._controls)
             parked, resumed = lct_substeps(*args) if self.parallel else _substeps_range(0, self.n, *args)
             ran = max(ran, resumed)
-        finish_chunks(self._chunk_done if self.parallel else self._chunk_done[:1], self.n, *self._finish_args(self._rows, outputs))
+        done = self._chunk_done if self.parallel else self._chunk_done[:1]
+        finish_chunks(done, self.n, self._lists, self._counts, *self._finish_args(self._rows, outputs))
         return ran
 
     def _step_blocks(self, a: np.ndarray, resetting: np.ndarray, size: int) -> StepArrays:
@@ -239,12 +248,13 @@ class LctBatch(BatchCore):
         return (np.empty((n, size), dtype=np.float32), np.empty(n), np.empty(n, dtype=bool), np.empty(n, dtype=bool),
                 np.empty((len(INFO_F), n)), np.empty((len(INFO_I), n), dtype=np.int64), np.empty(n, dtype=bool))  # fmt: skip
 
-    def _returns(self, outputs: tuple[np.ndarray, ...]) -> StepArrays:
+    def _returns(self, outputs: tuple[np.ndarray, ...], ended: list[int] | None = None) -> StepArrays:
+        """`step_and_reset`'s returns from the output arrays (`ended`: the envs whose episode ended, when listed already)."""
         out, reward, terminated, truncated, info_f, info_i, known = outputs
         info = dict(zip(INFO_F, info_f)) | dict(zip(INFO_I, info_i))
         info["lanes_known"] = known
         info = {key: info[key] for key in INFO_KEYS}
-        return out, reward, terminated, truncated, info, np.flatnonzero(terminated | truncated).tolist()
+        return out, reward, terminated, truncated, info, np.flatnonzero(terminated | truncated).tolist() if ended is None else ended
 
     def _prep_args(self, g_end: int) -> tuple:
         """`lct_step`'s `prep`: `lct_step._prepare_range`'s arguments after `rows` (`g_end`: the

@@ -27,7 +27,7 @@ from ..jit import borrowing_kernel, inline, kernel, parallel_kernel
 from ..sim.ego.kernels import wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from .ego import ego_step_wheels
-from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, next_chunk, timer_step, volume_fires
+from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, take_next, timer_step, volume_fires
 from .lanes_known import lanes_known_at
 from .lct_fire import fire_inline
 from .trace import TRACE_GROUP
@@ -415,15 +415,17 @@ def _finish_range(lo: int, hi: int, outcome: tuple, obs: tuple, copies: tuple, i
 
 
 @parallel_kernel
-def lct_step(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: np.ndarray, prep: tuple, sub: tuple,
-             fin: tuple) -> tuple[int, int, int]:  # fmt: skip
+def lct_step(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: np.ndarray, lists: np.ndarray,
+             counts: np.ndarray, prep: tuple, sub: tuple, fin: tuple) -> tuple[int, int, int]:  # fmt: skip
     """A whole policy step with NEXT_STEP autoreset in one parallel pass: the actions of the
     stepping envs checked (before any env moves), then chunk by chunk the resets and controls
     (`_prepare_range`, its arguments `prep`), the physics steps (`_substeps_range`, `sub`:
     its arguments after lo and hi, not resuming, from physics step 0) and, where no car of the
     chunk waits for Python (a parked car or a reaction timer that ended), the step's outputs
     (`_finish_range`, `fin`; `finished[c]` set). Each of numba's threads (`workers`: their
-    number) takes chunks one at a time until none is left (`kernels.next_chunk`). Returns (the first env whose action holds
+    number) takes chunks one at a time until none is left (`kernels.take_next`). The envs
+    reset go to row 0 of `lists`, those whose episode ended in a finished chunk to row 1, in
+    no order (`counts[1]`, `counts[2]`: how many). Returns (the first env whose action holds
     NaN or infinity, -1: none, and then nothing ran; cars parked; most physics steps run).
 
     (The tuples are unpacked here and packed again in the loop: numba's parallel loop takes
@@ -517,7 +519,7 @@ def lct_step(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarra
     (outcome, obs, copies, info_f, info_i, known, known_lanes) = fin
     chunks = chunk_count(n)
     parked_c, ran_c = np.zeros(chunks, dtype=np.int64), np.zeros(chunks, dtype=np.int64)
-    taken = np.zeros(1, dtype=np.int64)  # chunks handed out (`next_chunk`)
+    counts[0], counts[1], counts[2] = 0, 0, 0  # chunks handed out, envs listed in rows 0 and 1 of `lists`
     for _ in prange(min(workers, chunks)):
         prep_c = (
             p_live,
@@ -603,34 +605,38 @@ def lct_step(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarra
         )
         fin_c = (outcome, obs, copies, info_f, info_i, known, known_lanes)
         while True:
-            c = next_chunk(taken)
+            c = take_next(counts, 0)
             if c >= chunks:
                 break
             lo, hi = c * n // chunks, (c + 1) * n // chunks
-            parked_c[c], ran_c[c], finished[c] = _step_chunk(lo, hi, a, resetting, rows, prep_c, sub_c, fin_c)
+            parked_c[c], ran_c[c], finished[c] = _step_chunk(lo, hi, a, resetting, rows, lists, counts, prep_c, sub_c, fin_c)
     return -1, parked_c.sum(), ran_c.max()
 
 
 @kernel
-def lct_step_serial(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: np.ndarray, prep: tuple, sub: tuple,
-                    fin: tuple) -> tuple[int, int, int]:  # fmt: skip
+def lct_step_serial(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: np.ndarray, lists: np.ndarray,
+                    counts: np.ndarray, prep: tuple, sub: tuple, fin: tuple) -> tuple[int, int, int]:  # fmt: skip
     """`lct_step` in this thread, as one chunk (a batch of one chunk, or stepped in a Python thread; `workers` unused)."""
     bad = _first_bad(a, resetting)
     if bad >= 0:
         return bad, 0, 0
-    parked, ran, finished[0] = _step_chunk(0, len(resetting), a, resetting, rows, prep, sub, fin)
+    counts[0], counts[1], counts[2] = 0, 0, 0
+    parked, ran, finished[0] = _step_chunk(0, len(resetting), a, resetting, rows, lists, counts, prep, sub, fin)
     return -1, parked, ran
 
 
 @kernel
-def finish_chunks(finished: np.ndarray, n: int, outcome: tuple, obs: tuple, copies: tuple, info_f: np.ndarray, info_i: np.ndarray,
-                  known: np.ndarray, lanes: tuple[bool, float]) -> None:  # fmt: skip
+def finish_chunks(finished: np.ndarray, n: int, lists: np.ndarray, counts: np.ndarray, outcome: tuple, obs: tuple, copies: tuple,
+                  info_f: np.ndarray, info_i: np.ndarray, known: np.ndarray, lanes: tuple[bool, float]) -> None:  # fmt: skip
     """`_finish_range` of the chunks of n envs (`chunk_count`, or one) that `lct_step` did not
-    finish (`finished`), after Python fired their parked cars' triggers and scored their timers."""
+    finish (`finished`), after Python fired their parked cars' triggers and scored their
+    timers; their ended envs listed as `lct_step` lists them."""
     chunks = len(finished)
     for c in range(chunks):
         if not finished[c]:
-            _finish_range(c * n // chunks, (c + 1) * n // chunks, outcome, obs, copies, info_f, info_i, known, lanes)
+            lo, hi = c * n // chunks, (c + 1) * n // chunks
+            _finish_range(lo, hi, outcome, obs, copies, info_f, info_i, known, lanes)
+            _list_ended(lo, hi, outcome, lists, counts)
 
 
 @borrowing_kernel
@@ -645,10 +651,13 @@ def _first_bad(a: np.ndarray, resetting: np.ndarray) -> int:
 
 
 @borrowing_kernel
-def _step_chunk(lo: int, hi: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, prep: tuple, sub: tuple,
-                fin: tuple) -> tuple[int, int, bool]:  # fmt: skip
+def _step_chunk(lo: int, hi: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, lists: np.ndarray, counts: np.ndarray,
+                prep: tuple, sub: tuple, fin: tuple) -> tuple[int, int, bool]:  # fmt: skip
     """`lct_step` for the envs lo..hi-1: (cars parked, most physics steps run, outputs written)."""
     _prepare_range(lo, hi, a, resetting, rows, *prep)
+    for e in range(lo, hi):
+        if resetting[e]:
+            lists[0, take_next(counts, 1)] = e
     parked, ran = _substeps_range(lo, hi, False, 0, *sub)
     done = sub[33]  # (`timers.done`: a timer that ended is scored by Python first)
     for e in range(lo, hi):
@@ -657,7 +666,18 @@ def _step_chunk(lo: int, hi: int, a: np.ndarray, resetting: np.ndarray, rows: np
     if parked:
         return parked, ran, False
     _finish_range(lo, hi, *fin)
+    _list_ended(lo, hi, fin[0], lists, counts)
     return parked, ran, True
+
+
+@borrowing_kernel
+def _list_ended(lo: int, hi: int, outcome: tuple, lists: np.ndarray, counts: np.ndarray) -> None:
+    """The envs lo..hi-1 whose episode ended (`outcome`'s terminated and truncated, its last
+    two) into row 1 of `lists` (`lct_step`)."""
+    terminated, truncated = outcome[29], outcome[30]
+    for e in range(lo, hi):
+        if terminated[e] or truncated[e]:
+            lists[1, take_next(counts, 2)] = e
 
 
 @borrowing_kernel
