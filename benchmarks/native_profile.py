@@ -9,9 +9,10 @@ unless set) and splits it:
   per policy step, in one compiled loop, random steering and pedals as the random actions':
   the floor for any batch that computes the single env's floats;
 * the whole step without and with the per-step traces (`record_metrics`), and from a
-  profile of the latter the share of the compiled step kernels (`lct_substeps`,
-  `lct_finish`; before it `lct_outcomes` and `lct_observation`) and of the rest (Python
-  glue, trigger firing, resets, episode scoring);
+  profile of the latter the share of the compiled step kernels (`lct_step`, the one pass
+  that checks, resets, steps and finishes; before it `lct_substeps` and `lct_finish`, and
+  `lct_outcomes` and `lct_observation`) and of the rest (Python glue, trigger firing,
+  episode scoring);
 * `--parts`: the step's parts by CPU time (each part's calls timed with `process_time`:
   the compiled physics pass, the finishing pass, action checks and conversion, resets,
   episode scoring, the episode-metrics arrays, the rest), in ns per env-step.
@@ -67,7 +68,8 @@ def timed_parts(parts: dict[str, float]) -> list[tuple[object, str, Callable[...
     to put back."""
     from opends_gym.vector import actions, env, lct
 
-    named = [(lct, "lct_substeps", "physics pass (lct_substeps)"), (lct, "_substeps_range", "physics pass (lct_substeps)"),
+    named = [(lct, "lct_step", "one-pass step (lct_step)"), (lct, "lct_step_serial", "one-pass step (lct_step)"),
+             (lct, "lct_substeps", "physics pass (lct_substeps)"), (lct, "_substeps_range", "physics pass (lct_substeps)"),
              (lct, "lct_finish", "finishing pass (lct_finish)"), (lct, "_finish_range", "finishing pass (lct_finish)"),
              (actions.BatchActions, "convert", "action checks and conversion"), (env, "_check_actions", "action checks and conversion"),
              (lct.LctBatch, "reset_rows", "resets (BatchCore.reset_rows)"), (lct.LctBatch, "episodes_table", "episode scoring"),
@@ -147,7 +149,7 @@ def main() -> None:
             prof.runcall(lambda: [step() for _ in range(args.steps)])
             stats = pstats.Stats(prof).stats  # type: ignore[attr-defined]
             total = sum(v[2] for v in stats.values())
-            names = ("lct_substeps", "lct_outcomes", "lct_observation", "lct_finish")
+            names = ("lct_step", "lct_substeps", "lct_outcomes", "lct_observation", "lct_finish")
             kernels = sum(v[2] for (_, _, name), v in stats.items() if name in names)
             share = 100 * kernels / total
             print(f"    compiled step kernels {share:.0f} % of the wall time (cProfile), the rest (Python) {100 - share:.0f} %")

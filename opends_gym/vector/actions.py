@@ -66,6 +66,21 @@ class BatchActions:
         return BatchControls(steer, gas, brake, pressed, signal)
 
 
+def action_block(actions: np.ndarray, n: int, width: int) -> np.ndarray:
+    """The (n, width) actions as a C-ordered float array for a compiled pass: float32 and
+    float64 as given (each float32 widens to the float64 `np.asarray` would give), others
+    converted to float64."""
+    a = np.asarray(actions)
+    if a.dtype not in (np.float32, np.float64):
+        try:
+            a = a.astype(np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"actions must be numbers, got dtype {a.dtype}") from None
+    if a.shape != (n, width):
+        raise ValueError(f"actions must have shape ({n}, {width}), got {a.shape}")
+    return a if a.flags.c_contiguous else np.ascontiguousarray(a)
+
+
 @kernel
 def first_nonfinite(a: np.ndarray, rows: np.ndarray) -> int:
     """The first env of `rows` whose action row of `a` holds NaN or infinity (-1: none)."""

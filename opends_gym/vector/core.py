@@ -72,6 +72,7 @@ class BatchCore:
         max_steps = int(math.ceil(cfg.max_episode_s / self.dt)) + 2 * self.repeat
         self.ring = TraceRing(n, self.trace_columns, max_steps) if record_metrics else None
         self.rngs: list[np.random.Generator | None] = [None] * n
+        self.draws = np.zeros(n, dtype=np.int64)  # world seeds of resets in compiled code, drawn at the next `_world_seed`
         self.step_count = np.zeros(n, dtype=np.int64)
         self.t: np.ndarray = np.zeros(n)
         self.collisions = np.zeros(n, dtype=np.int64)
@@ -152,6 +153,7 @@ class BatchCore:
             seed = seeds[j] if seeds is not None else None
             if seed is not None or self.rngs[e] is None:
                 self.rngs[e], _ = seeding.np_random(seed)
+                self.draws[e] = 0
             self._world_seed(e)
         ego.reset_rows(self.p, self.s, idx)
         self.trig.reset_rows(idx)
@@ -171,9 +173,18 @@ class BatchCore:
         self._record_row(self._mask(idx), first=True)
 
     def _world_seed(self, e: int) -> None:
+        rng = self.rng(e)
+        rng.integers(0, 2**31 - 1)  # World.reset(seed=...): the batch's worlds use no randomness
+
+    def rng(self, e: int) -> np.random.Generator:
+        """Env e's generator, after the world seeds that compiled resets left to draw (`draws`:
+        their values are not used, so they are drawn when the generator is next read)."""
         rng = self.rngs[e]
         assert rng is not None
-        rng.integers(0, 2**31 - 1)  # World.reset(seed=...): the batch's worlds use no randomness
+        for _ in range(int(self.draws[e])):
+            rng.integers(0, 2**31 - 1)
+        self.draws[e] = 0
+        return rng
 
     def _mask(self, idx: np.ndarray) -> np.ndarray:
         m = np.zeros(self.n, dtype=bool)

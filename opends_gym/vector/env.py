@@ -183,7 +183,9 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         a = np.asarray(actions)
         if a.shape != self.action_space.shape:
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {a.shape}")
-        _check_actions(a, ~self._autoreset)  # every shard's, before any shard steps
+        first = self.shards[0]
+        if len(self.shards) > 1 or not getattr(getattr(first, "core", None), "checks_actions", False):
+            _check_actions(a, ~self._autoreset)  # every shard's, before any shard steps (a lone batch that checks them: its step)
         jobs = [(shard, a[sl], self._autoreset[sl]) for shard, sl in zip(self.shards, self._slices)]
         # start the other shards (worker processes or pool threads), step the first one here, then collect
         collect: list[Callable[[], Any]] = []

@@ -11,8 +11,13 @@ Units: metres, seconds, m/s; `t` is each env's simulation time.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numba import types
+from numba.core import cgutils
+from numba.core import config as numba_config
+from numba.extending import intrinsic
 
 from ..jit import inline, kernel, py_hypot
 from ..sim.geometry2d import boxes_overlap
@@ -41,6 +46,43 @@ def chunk_count(n: int) -> int:
     enough that taking one costs little next to stepping it."""
     c = (n + CHUNK_ENVS - 1) // CHUNK_ENVS
     return c if c > 1 else 1
+
+
+@intrinsic
+def _fetch_add_one(typingctx: Any, counter: Any, index: Any) -> Any:
+    """counter[index] += 1 as one atomic operation (LLVM's atomicrmw); returns the old value."""
+    if not (isinstance(counter, types.Array) and counter.dtype == types.int64 and isinstance(index, types.Integer)):
+        return None
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        ary_t = signature.args[0]
+        ary = context.make_array(ary_t)(context, builder, args[0])
+        i = context.cast(builder, args[1], signature.args[1], types.intp)
+        ptr = cgutils.get_item_pointer(context, builder, ary_t, ary, [i])
+        return builder.atomic_rmw("add", ptr, context.get_constant(types.int64, 1), "monotonic")
+
+    return types.int64(counter, index), codegen
+
+
+_CONFIG: Any = numba_config
+if _CONFIG.DISABLE_JIT:  # (plain Python: `prange` is `range`, one thread)
+
+    def take_next(counter: np.ndarray, i: int) -> int:
+        """See below."""
+        c = int(counter[i])
+        counter[i] = c + 1
+        return c
+
+else:
+
+    @inline
+    def take_next(counter: np.ndarray, i: int) -> int:
+        """counter[i] += 1 for a parallel step's threads at once (an atomic add); returns the
+        old value: the next chunk for the thread that asks (threads take chunks one at a time,
+        so one that a busy core or a slow chunk holds up takes fewer; numba's workqueue
+        threading layer gives each thread a fixed share of a `prange` loop, whatever
+        `parallel_chunksize`), or the next free slot of a list the threads fill."""
+        return _fetch_add_one(counter, i)  # type: ignore[call-arg]
 
 
 @kernel

@@ -2,11 +2,12 @@
 
 Why: signs are revealed by their trigger boxes (`manipulateObject visible`), so each env
 keeps the highest sign index revealed; the normative-path deviation, the reward and the
-running MDEV accumulate per physics step, with the single env's formulas. The physics steps
-of a policy step run as one compiled pass (`lct_substeps`); then the autoresets (Python, for
-the ended envs only) and one more pass for every env's reward, flags, observation and info
-(`lct_finish`), so a step's Python does the same work whatever the batch size, apart from
-the resets and the rare trigger firings that log a reaction result (`lct_fire`).
+running MDEV accumulate per physics step, with the single env's formulas. A policy step is
+one compiled parallel pass (`lct_step`): the action check, and chunk by chunk the autoresets,
+the controls, the physics steps and every env's reward, flags, observation and info, so a
+step's Python does the same small work whatever the batch size, apart from the rare trigger
+firings that log a reaction result and the reaction timers that end (their chunks are
+finished after Python handled them, `_step_rest`).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from ..metrics import episode_scores
 from ..sim.controls import STEERING_WHEEL_MAX_DEG
 from ..sim.triggers.core import CompiledAction
-from .actions import BatchControls
+from .actions import BatchControls, action_block, first_nonfinite
 from .core import BatchCore
 from .episode_rows import table_of_rows
 from .episode_table import EpisodeTable
@@ -38,9 +39,12 @@ from .lct_step import (
     _observation_range,
     _outcomes_range,
     _substeps_range,
+    finish_chunks,
     lct_finish,
     lct_observation,
     lct_outcomes,
+    lct_step,
+    lct_step_serial,
     lct_substeps,
 )
 from .platoon import _BASE_KEYS
@@ -53,9 +57,15 @@ INFO_KEYS = ("sim_time_s", "speed_kmh", "lateral_offset_m", "lane_index", "fuel_
 StepArrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray], list[int]]
 
 
+def _chunks(n: int) -> int:
+    """`kernels.chunk_count` in Python."""
+    return max(1, (n + CHUNK_ENVS - 1) // CHUNK_ENVS)
+
+
 class LctBatch(BatchCore):
     handled_actions = frozenset({"setupLaneChangeReactionTimer", "manipulateObject"})
     parallel_kernels = True  # its step kernels use numba's threads (`parallel`)
+    checks_actions = True  # `step_and_reset` refuses NaN and infinity before any env moves (`NativeVectorEnv.step` relies on it)
 
     def __init__(self, template: LaneChangeTestEnv, n: int, record_metrics: bool = True) -> None:
         super().__init__(template, n, record_metrics)
@@ -90,6 +100,14 @@ class LctBatch(BatchCore):
         # the step's kernels run chunks of envs on numba's threads (False: their serial twins, for Python threads and for
         # a batch of one chunk, which a parallel launch would only delay: waking the pool costs more than stepping it)
         self.parallel = n > CHUNK_ENVS
+        self._live, self._rows = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)  # `lct_step`'s scratch: envs stepping (live: still)
+        self._controls = (np.zeros(n), np.zeros(n), np.zeros(n))  # steering, gas, brake
+        self._chunk_done = np.zeros(_chunks(n), dtype=bool)  # chunks whose outputs `lct_step` wrote
+        self._lists, self._counts = np.zeros((2, n), dtype=np.int64), np.zeros(3, dtype=np.int64)  # envs reset, envs that ended
+        # (numba's threads at most: `lct_step`'s workers; with fewer threads set, a thread runs several, the first takes all chunks)
+        config: Any = numba.config
+        self._workers = int(config.NUMBA_NUM_THREADS)
+        self._no_first = np.zeros(0)
         self._park = np.full(n, -1, dtype=np.int64)  # the physics step where a car waits for its triggers to fire (-1: none)
         self._score_params = episode_scores.scoring_params(cfg.physics_hz, self.off_road_limit, self.guide.road_edges_m)
         signs = env.metric_signs
@@ -149,29 +167,117 @@ class LctBatch(BatchCore):
 
     def step_and_reset(self, actions: np.ndarray, resetting: np.ndarray, size: int) -> StepArrays:
         """`shards.step_shard`'s step with NEXT_STEP autoreset: the envs not `resetting` step,
-        the others reset, then one compiled pass (`lct_finish`) writes every env's reward,
-        flags, observation and info (a reset env's are those of its fresh state, as
-        `BatchCore.info` gives them after `reset_rows`). The info arrays are rows of two
-        blocks allocated per step (the caller may keep them). Returns (obs, reward, terminated,
-        truncated, info, envs whose episode ended)."""
+        the others reset, then every env's reward, flags, observation and info are written (a
+        reset env's are those of its fresh state, as `BatchCore.info` gives them after
+        `reset_rows`). One compiled parallel pass (`lct_step`) checks the actions, resets,
+        steps and writes the outputs chunk by chunk; Python only fires the rare triggers that
+        log a reaction result and scores ended timers, then finishes their chunks. The info
+        arrays are rows of two blocks allocated per step (the caller may keep them). Returns
+        (obs, reward, terminated, truncated, info, envs whose episode ended)."""
         if size != len(EGO_NAMES) + self.template.config.nearby_vehicles * len(VEHICLE_NAMES) + 3:
             raise ValueError(f"the LCT observation has 7 ego features, vehicle slots and 3 stimulus values, not {size} values")
+        a = action_block(actions, self.n, self.actions.width)
+        if self.repeat > TraceRing.BLOCK:  # (a policy step longer than a ring block: a block at a time)
+            return self._step_blocks(a, resetting, size)
+        ring = self.ring
+        outputs = self._outputs(size)
+        if ring is not None:
+            block_a, block_b = ring.reserve(self.repeat)
+            row0, g0 = ring.g % ring.BLOCK, ring.g
+        else:
+            block_a = block_b = self._no_block
+            row0 = g0 = 0
+        sub = self._substeps_args(False, 0, self.repeat, self._live, block_a, block_b, row0, self._controls)[2:]
+        fin = self._finish_args(self._rows, outputs)
+        if len(fin[0]) != 31:
+            raise TypeError("lct_step._list_ended reads terminated and truncated at 29 and 30 of the outcome tuple")
+        chunks = self._chunk_done
+        call = lct_step if self.parallel else lct_step_serial  # (threads take chunks one at a time: `kernels.take_next`)
+        lists, counts = self._lists, self._counts
+        bad, parked, ran = call(self._workers, a, resetting, self._rows, chunks, lists, counts, self._prep_args(g0 + self.repeat), sub, fin)
+        if bad >= 0:
+            raise ValueError(f"env {bad}: action contains NaN or infinity: {np.asarray(a[bad], dtype=np.float64).tolist()}")
+        resets = int(counts[1])
+        if resets:  # (`TimerBatch.reset_rows`' Python lists; nothing in `lct_step` reads them)
+            self.timers.clear_results(lists[0, :resets])
+        if not chunks.all() if self.parallel else not chunks[0]:
+            ran = self._step_rest(parked, ran, block_a, block_b, row0, outputs)
+        if ring is not None:
+            ring.g = g0 + ran
+            if resets and ran != self.repeat:  # (every car stopped early: `TraceRing.reset_rows`' start is the next write)
+                ring.start[resetting] = ring.g
+        return self._returns(outputs, sorted(lists[1, : counts[2]].tolist()))
+
+    def _step_rest(self, parked: int, ran: int, block_a: np.ndarray, block_b: np.ndarray, row0: int, outputs: tuple) -> int:
+        """`step_and_reset` after `lct_step`, for the chunks whose cars wait for Python: score
+        the timers that ended, fire the parked cars' triggers and step them on
+        (`lct_substeps`, resuming, as `_substeps`), then write those chunks' outputs. Returns
+        the most physics steps run."""
+        trig, timers = self.trig, self.timers
+        while True:
+            if timers.done.any():
+                timers.score_ended(trig.started_at)
+            if not parked:
+                break
+            env = np.flatnonzero(trig.contact >= 0)
+            trig.fire(self.t, env, trig.contact[env], self._run_action)
+            args = self._substeps_args(True, 0, self.repeat, self._live, block_a, block_b, row0, self._controls)
+            parked, resumed = lct_substeps(*args) if self.parallel else _substeps_range(0, self.n, *args)
+            ran = max(ran, resumed)
+        done = self._chunk_done if self.parallel else self._chunk_done[:1]
+        finish_chunks(done, self.n, self._lists, self._counts, *self._finish_args(self._rows, outputs))
+        return ran
+
+    def _step_blocks(self, a: np.ndarray, resetting: np.ndarray, size: int) -> StepArrays:
+        """`step_and_reset` as separate passes: the physics steps a ring block at a time
+        (`_substeps`), the resets (`reset_rows`), then the outputs (`_finish`)."""
         stepping = ~resetting
-        c = self.actions.convert(actions, stepping, checked=True)  # (`NativeVectorEnv.step` refused NaN and infinity before any shard)
-        # one chunk-size block for both parallel passes (threads take the chunks one at a time: a busy core holds up one chunk,
-        # not half the batch); entering one costs 15-40 µs of Python here
+        bad = first_nonfinite(a, stepping)
+        if bad >= 0:
+            raise ValueError(f"env {bad}: action contains NaN or infinity: {np.asarray(a[bad], dtype=np.float64).tolist()}")
+        c = self.actions.convert(np.asarray(a, dtype=np.float64), stepping, checked=True)
         with numba.parallel_chunksize(1):
             self._substeps(stepping.copy(), c)
             if resetting.any():
                 self.reset_rows(np.flatnonzero(resetting), None)
             return self._finish(stepping, size)
 
-    def _finish(self, stepping: np.ndarray, size: int) -> StepArrays:
-        """`step_and_reset`'s outputs (`lct_finish`)."""
-        n, s, tm = self.n, self.s, self.timers
-        reward, terminated, truncated = np.empty(n), np.empty(n, dtype=bool), np.empty(n, dtype=bool)
-        out = np.empty((n, size), dtype=np.float32)
-        info_f, info_i, known = np.empty((len(INFO_F), n)), np.empty((len(INFO_I), n), dtype=np.int64), np.empty(n, dtype=bool)
+    def _outputs(self, size: int) -> tuple[np.ndarray, ...]:
+        """A step's output arrays: (obs, reward, terminated, truncated, info floats, info ints, lanes known)."""
+        n = self.n
+        return (np.empty((n, size), dtype=np.float32), np.empty(n), np.empty(n, dtype=bool), np.empty(n, dtype=bool),
+                np.empty((len(INFO_F), n)), np.empty((len(INFO_I), n), dtype=np.int64), np.empty(n, dtype=bool))  # fmt: skip
+
+    def _returns(self, outputs: tuple[np.ndarray, ...], ended: list[int] | None = None) -> StepArrays:
+        """`step_and_reset`'s returns from the output arrays (`ended`: the envs whose episode ended, when listed already)."""
+        out, reward, terminated, truncated, info_f, info_i, known = outputs
+        info = dict(zip(INFO_F, info_f)) | dict(zip(INFO_I, info_i))
+        info["lanes_known"] = known
+        info = {key: info[key] for key in INFO_KEYS}
+        return out, reward, terminated, truncated, info, np.flatnonzero(terminated | truncated).tolist() if ended is None else ended
+
+    def _prep_args(self, g_end: int) -> tuple:
+        """`lct_step`'s `prep`: `lct_step._prepare_range`'s arguments after `rows` (`g_end`: the
+        trace ring's row count after a whole policy step)."""
+        s, p, trig, tm, rl, g = self.s, self.p, self.trig, self.timers, self.rl, self.guide
+        ring = self.ring
+        first = tuple(ring.first[c] for c in self.trace_columns) if ring is not None else (self._no_first,) * 4
+        return (self._live, self._controls, self.actions.held, p.reset_pose,
+                (p.initial_speed, p.initial_gear, p.initial_rpm, p.initial_fuel),
+                (s.x, s.y, s.z, s.yaw, s.u, s.v, s.r, s.rpm, s.prev_v, s.fuel_used, s.fuel_left, s.steer_in, s.gas_in, s.brake_in,
+                 s.cruise_target, s.cruise_int), s.gear, s.cruise_on,
+                (trig.locks, trig.counts, trig.paused, trig.started, trig.started_at), (tm.active, tm.kind, tm.n_results),
+                (self.step_count, self.collisions, self.collisions_seen, self.reaction_cursor, self.new_collisions),
+                (self.t, self.progress, rl["n"], rl["mean"], rl["m2"], rl["area"], rl["dist"], self.area, self.step_reward),
+                (self.revealed, self.has_prev, self.last_s), (g.sign, g.start_xz[1]),
+                (self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset), ring is not None, first,
+                ring.steps if ring is not None else self._no_steps, (ring.start if ring is not None else self._no_steps, g_end),
+                self.draws)  # fmt: skip
+
+    def _finish_args(self, stepping: np.ndarray, outputs: tuple[np.ndarray, ...]) -> tuple:
+        """`lct_finish`'s arguments for the envs `stepping` (the others were reset) and the output arrays."""
+        s, tm = self.s, self.timers
+        out, reward, terminated, truncated, info_f, info_i, known = outputs
         outcome = (stepping, self.guide.sign, self.guide.start_xz[1], s.z, s.u, self.last_s, self.progress, self.collisions,
                    self.collisions_seen, self.new_collisions, tm.n_results, self.reaction_cursor, tm.last_result, tm.last_rt,
                    self.rl["n"], self.rl["m2"], self.has_prev, self.prev_d, self.area, self.lat, self.off_road_limit, self.step_reward,
@@ -180,15 +286,17 @@ class LctBatch(BatchCore):
         obs = (out, s.u, s.yaw, self.guide.road_heading, self.offset, self.lat, self.lane, s.steer_in, s.r, s.z, self.revealed,
                self.sign_z, self.sign_lane, self.lane_lat)  # fmt: skip
         copies = (self.t, self.offset, s.fuel_used, self.headway, self.ttc, self.lane, self.collisions)
-        args = (outcome, obs, copies, info_f, info_i, known, known_from(self.guide))
+        return outcome, obs, copies, info_f, info_i, known, known_from(self.guide)
+
+    def _finish(self, stepping: np.ndarray, size: int) -> StepArrays:
+        """`step_and_reset`'s outputs (`lct_finish`)."""
+        outputs = self._outputs(size)
+        args = self._finish_args(stepping, outputs)
         if self.parallel:
             lct_finish(*args)
         else:
-            _finish_range(0, n, *args)
-        info = dict(zip(INFO_F, info_f)) | dict(zip(INFO_I, info_i))
-        info["lanes_known"] = known
-        info = {key: info[key] for key in INFO_KEYS}
-        return out, reward, terminated, truncated, info, np.flatnonzero(terminated | truncated).tolist()
+            _finish_range(0, self.n, *args)
+        return self._returns(outputs)
 
     def observation(self, k: int, size: int) -> np.ndarray:
         """The ego features, empty vehicle slots and the sign stimulus (`lct_observation`)."""
@@ -213,11 +321,7 @@ class LctBatch(BatchCore):
             self._substeps(live, c)
 
     def _substeps(self, live: np.ndarray, c: BatchControls) -> None:
-        s, trig, timers, ring, g = self.s, self.trig, self.timers, self.ring, self.guide
-        ego_f = (s.x, s.z, s.yaw, s.u, s.v, s.r, s.rpm, s.prev_v, s.fuel_used, s.fuel_left, s.steer_in, s.gas_in, s.brake_in,
-                 s.cruise_target, s.cruise_int)  # fmt: skip
-        timer_f = (timers.start_t, timers.start_x, timers.start_z, timers.peak, timers.hold_since, timers.tlim, timers.dlim)
-        fire = (*self._fire_tables, trig.counts, trig.started, trig.started_at, self.revealed, timers.kind, timers.armed_t)
+        trig, timers, ring = self.trig, self.timers, self.ring
         k_from = 0
         while k_from < self.repeat:
             k_to = min(self.repeat, k_from + TraceRing.BLOCK)
@@ -225,17 +329,7 @@ class LctBatch(BatchCore):
             row0 = ring.g % ring.BLOCK - k_from if ring is not None else 0
             steps, resume = k_from, False
             while True:
-                args = (
-                    resume, k_from, k_to, self.dt, live, self._park, self.step_count, self.t, trig.paused, self.p.car, self.p.engine_on,
-                    self.p.suppress_cruise_off, self.p.min_speed, ego_f, s.gear, s.cruise_on, c.steer, c.gas, c.brake, self.car_shift,
-                    self.car_half[0], self.car_half[1], trig.vols, trig.vol_triggers, trig.locks, trig.near, trig.contact,
-                    bool(timers.specs), timers.active, timers.spec, timer_f, timers.braked, timers.start_lane,
-                    timers.table, timers.band_table, timers.done, timers.done_t, g.sign, self.centres, g.lane_width_m / 2.0,
-                    LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, (self.rl["n"], self.rl["mean"], self.rl["m2"]),
-                    ring is not None, block_a, block_b, row0, ring.steps if ring is not None else self._no_steps, self.start_z,
-                    self.norm, self.norm_d0, self.norm_step, self.scale, self.has_prev,
-                    (self.prev_d, self.prev_dev, self.area, self.step_reward), self.off_road_limit, self._steering, fire,
-                )  # fmt: skip
+                args = self._substeps_args(resume, k_from, k_to, live, block_a, block_b, row0, (c.steer, c.gas, c.brake))
                 parked, ran = lct_substeps(*args) if self.parallel else _substeps_range(0, self.n, *args)
                 steps = max(steps, ran)
                 if timers.done.any():  # (before firing: a timer a trigger re-arms is scored first)
@@ -250,6 +344,27 @@ class LctBatch(BatchCore):
             if steps < k_to:  # every car stopped early
                 break
             k_from = k_to
+
+    def _substeps_args(self, resume: bool, k_from: int, k_to: int, live: np.ndarray, block_a: np.ndarray, block_b: np.ndarray, row0: int,
+                       controls: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple:  # fmt: skip
+        """`lct_substeps`' arguments after `resume`, k_from and k_to (the envs `live` step; trace rows from `row0` of the blocks)."""
+        s, trig, timers, ring, g = self.s, self.trig, self.timers, self.ring, self.guide
+        ego_f = (s.x, s.z, s.yaw, s.u, s.v, s.r, s.rpm, s.prev_v, s.fuel_used, s.fuel_left, s.steer_in, s.gas_in, s.brake_in,
+                 s.cruise_target, s.cruise_int)  # fmt: skip
+        timer_f = (timers.start_t, timers.start_x, timers.start_z, timers.peak, timers.hold_since, timers.tlim, timers.dlim)
+        fire = (*self._fire_tables, trig.counts, trig.started, trig.started_at, self.revealed, timers.kind, timers.armed_t)
+        steer, gas, brake = controls
+        return (
+            resume, k_from, k_to, self.dt, live, self._park, self.step_count, self.t, trig.paused, self.p.car, self.p.engine_on,
+            self.p.suppress_cruise_off, self.p.min_speed, ego_f, s.gear, s.cruise_on, steer, gas, brake, self.car_shift,
+            self.car_half[0], self.car_half[1], trig.vols, trig.vol_triggers, trig.locks, trig.near, trig.contact,
+            bool(timers.specs), timers.active, timers.spec, timer_f, timers.braked, timers.start_lane,
+            timers.table, timers.band_table, timers.done, timers.done_t, g.sign, self.centres, g.lane_width_m / 2.0,
+            LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, (self.rl["n"], self.rl["mean"], self.rl["m2"]),
+            ring is not None, block_a, block_b, row0, ring.steps if ring is not None else self._no_steps, self.start_z,
+            self.norm, self.norm_d0, self.norm_step, self.scale, self.has_prev,
+            (self.prev_d, self.prev_dev, self.area, self.step_reward), self.off_road_limit, self._steering, fire,
+        )  # fmt: skip
 
     def episodes_metrics(self, es: list[int]) -> list[tuple[int, dict[str, float]]]:
         """`episode_metrics` of the envs `es`, the same floats: `episodes_table`'s rows as dicts,

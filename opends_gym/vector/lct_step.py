@@ -23,11 +23,11 @@ import math
 import numpy as np
 from numba import prange
 
-from ..jit import borrowing_kernel, inline, parallel_kernel
+from ..jit import borrowing_kernel, inline, kernel, parallel_kernel
 from ..sim.ego.kernels import wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from .ego import ego_step_wheels
-from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, timer_step, volume_fires
+from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, take_next, timer_step, volume_fires
 from .lanes_known import lanes_known_at
 from .lct_fire import fire_inline
 from .trace import TRACE_GROUP
@@ -412,3 +412,336 @@ def _finish_range(lo: int, hi: int, outcome: tuple, obs: tuple, copies: tuple, i
             c_headway[e], c_ttc[e], 0.0  # fmt: skip
         info_i[0, e], info_i[1, e], info_i[2, e] = c_lane[e], c_collisions[e], 0
         known[e] = lanes_known_at(lanes, last_s[e])  # (`vector.lanes_known`: lanes = known_from(guide))
+
+
+@parallel_kernel
+def lct_step(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: np.ndarray, lists: np.ndarray,
+             counts: np.ndarray, prep: tuple, sub: tuple, fin: tuple) -> tuple[int, int, int]:  # fmt: skip
+    """A whole policy step with NEXT_STEP autoreset in one parallel pass: the actions of the
+    stepping envs checked (before any env moves), then chunk by chunk the resets and controls
+    (`_prepare_range`, its arguments `prep`), the physics steps (`_substeps_range`, `sub`:
+    its arguments after lo and hi, not resuming, from physics step 0) and, where no car of the
+    chunk waits for Python (a parked car or a reaction timer that ended), the step's outputs
+    (`_finish_range`, `fin`; `finished[c]` set). Each of numba's threads (`workers`: their
+    number) takes chunks one at a time until none is left (`kernels.take_next`). The envs
+    reset go to row 0 of `lists`, those whose episode ended in a finished chunk to row 1, in
+    no order (`counts[1]`, `counts[2]`: how many). Returns (the first env whose action holds
+    NaN or infinity, -1: none, and then nothing ran; cars parked; most physics steps run).
+
+    (The tuples are unpacked here and packed again in the loop: numba's parallel loop takes
+    a tuple of arrays, not a tuple of such tuples.)"""
+    n = len(resetting)
+    bad = _first_bad(a, resetting)
+    if bad >= 0:
+        return bad, 0, 0
+    (
+        p_live,
+        controls,
+        held,
+        pose,
+        initial,
+        ego0,
+        p_gear,
+        p_cruise_on,
+        trig,
+        timer,
+        counters,
+        measures,
+        task,
+        road,
+        lanes,
+        p_ring,
+        first,
+        p_ring_steps,
+        ring_start,
+        draws,
+    ) = prep
+    (
+        k_to,
+        dt,
+        live,
+        park,
+        step_count,
+        t,
+        paused,
+        car,
+        engine_on,
+        suppress_cruise_off,
+        min_speed,
+        ego,
+        gear,
+        cruise_on,
+        steer,
+        gas,
+        brake,
+        shift,
+        hx,
+        hz,
+        vols,
+        vol_triggers,
+        locks,
+        near,
+        contact,
+        timers,
+        active,
+        spec,
+        timer_f,
+        braked,
+        start_lane,
+        timer_table,
+        bands,
+        done,
+        done_t,
+        sign,
+        centres,
+        half_width,
+        keep_m,
+        lat,
+        lane,
+        offset,
+        sdlp,
+        ring,
+        block_a,
+        block_b,
+        row0,
+        ring_steps,
+        start_z,
+        norm,
+        d0,
+        norm_step,
+        scale,
+        has_prev,
+        path,
+        off_road,
+        steering,
+        fire,
+    ) = sub
+    (outcome, obs, copies, info_f, info_i, known, known_lanes) = fin
+    chunks = chunk_count(n)
+    parked_c, ran_c = np.zeros(chunks, dtype=np.int64), np.zeros(chunks, dtype=np.int64)
+    counts[0], counts[1], counts[2] = 0, 0, 0  # chunks handed out, envs listed in rows 0 and 1 of `lists`
+    for _ in prange(min(workers, chunks)):
+        prep_c = (
+            p_live,
+            controls,
+            held,
+            pose,
+            initial,
+            ego0,
+            p_gear,
+            p_cruise_on,
+            trig,
+            timer,
+            counters,
+            measures,
+            task,
+            road,
+            lanes,
+            p_ring,
+            first,
+            p_ring_steps,
+            ring_start,
+            draws,
+        )
+        sub_c = (
+            k_to,
+            dt,
+            live,
+            park,
+            step_count,
+            t,
+            paused,
+            car,
+            engine_on,
+            suppress_cruise_off,
+            min_speed,
+            ego,
+            gear,
+            cruise_on,
+            steer,
+            gas,
+            brake,
+            shift,
+            hx,
+            hz,
+            vols,
+            vol_triggers,
+            locks,
+            near,
+            contact,
+            timers,
+            active,
+            spec,
+            timer_f,
+            braked,
+            start_lane,
+            timer_table,
+            bands,
+            done,
+            done_t,
+            sign,
+            centres,
+            half_width,
+            keep_m,
+            lat,
+            lane,
+            offset,
+            sdlp,
+            ring,
+            block_a,
+            block_b,
+            row0,
+            ring_steps,
+            start_z,
+            norm,
+            d0,
+            norm_step,
+            scale,
+            has_prev,
+            path,
+            off_road,
+            steering,
+            fire,
+        )
+        fin_c = (outcome, obs, copies, info_f, info_i, known, known_lanes)
+        while True:
+            c = take_next(counts, 0)
+            if c >= chunks:
+                break
+            lo, hi = c * n // chunks, (c + 1) * n // chunks
+            parked_c[c], ran_c[c], finished[c] = _step_chunk(lo, hi, a, resetting, rows, lists, counts, prep_c, sub_c, fin_c)
+    return -1, parked_c.sum(), ran_c.max()
+
+
+@kernel
+def lct_step_serial(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: np.ndarray, lists: np.ndarray,
+                    counts: np.ndarray, prep: tuple, sub: tuple, fin: tuple) -> tuple[int, int, int]:  # fmt: skip
+    """`lct_step` in this thread, as one chunk (a batch of one chunk, or stepped in a Python thread; `workers` unused)."""
+    bad = _first_bad(a, resetting)
+    if bad >= 0:
+        return bad, 0, 0
+    counts[0], counts[1], counts[2] = 0, 0, 0
+    parked, ran, finished[0] = _step_chunk(0, len(resetting), a, resetting, rows, lists, counts, prep, sub, fin)
+    return -1, parked, ran
+
+
+@kernel
+def finish_chunks(finished: np.ndarray, n: int, lists: np.ndarray, counts: np.ndarray, outcome: tuple, obs: tuple, copies: tuple,
+                  info_f: np.ndarray, info_i: np.ndarray, known: np.ndarray, lanes: tuple[bool, float]) -> None:  # fmt: skip
+    """`_finish_range` of the chunks of n envs (`chunk_count`, or one) that `lct_step` did not
+    finish (`finished`), after Python fired their parked cars' triggers and scored their
+    timers; their ended envs listed as `lct_step` lists them."""
+    chunks = len(finished)
+    for c in range(chunks):
+        if not finished[c]:
+            lo, hi = c * n // chunks, (c + 1) * n // chunks
+            _finish_range(lo, hi, outcome, obs, copies, info_f, info_i, known, lanes)
+            _list_ended(lo, hi, outcome, lists, counts)
+
+
+@borrowing_kernel
+def _first_bad(a: np.ndarray, resetting: np.ndarray) -> int:
+    """`actions.first_nonfinite` of the envs not `resetting`."""
+    for e in range(a.shape[0]):
+        if not resetting[e]:
+            for j in range(a.shape[1]):
+                if not math.isfinite(a[e, j]):
+                    return e
+    return -1
+
+
+@borrowing_kernel
+def _step_chunk(lo: int, hi: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, lists: np.ndarray, counts: np.ndarray,
+                prep: tuple, sub: tuple, fin: tuple) -> tuple[int, int, bool]:  # fmt: skip
+    """`lct_step` for the envs lo..hi-1: (cars parked, most physics steps run, outputs written)."""
+    _prepare_range(lo, hi, a, resetting, rows, *prep)
+    for e in range(lo, hi):
+        if resetting[e]:
+            lists[0, take_next(counts, 1)] = e
+    parked, ran = _substeps_range(lo, hi, False, 0, *sub)
+    done = sub[33]  # (`timers.done`: a timer that ended is scored by Python first)
+    for e in range(lo, hi):
+        if done[e]:
+            return parked, ran, False
+    if parked:
+        return parked, ran, False
+    _finish_range(lo, hi, *fin)
+    _list_ended(lo, hi, fin[0], lists, counts)
+    return parked, ran, True
+
+
+@borrowing_kernel
+def _list_ended(lo: int, hi: int, outcome: tuple, lists: np.ndarray, counts: np.ndarray) -> None:
+    """The envs lo..hi-1 whose episode ended (`outcome`'s terminated and truncated, its last
+    two) into row 1 of `lists` (`lct_step`)."""
+    terminated, truncated = outcome[29], outcome[30]
+    for e in range(lo, hi):
+        if terminated[e] or truncated[e]:
+            lists[1, take_next(counts, 2)] = e
+
+
+@borrowing_kernel
+def _prepare_range(lo: int, hi: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, live: np.ndarray, controls: tuple,
+                   held: np.ndarray, pose: tuple, initial: tuple, ego: tuple, gear: np.ndarray, cruise_on: np.ndarray, trig: tuple,
+                   timer: tuple, counters: tuple, measures: tuple, task: tuple, road: tuple, lanes: tuple, ring: bool, first: tuple,
+                   ring_steps: np.ndarray, ring_start: tuple, draws: np.ndarray) -> None:  # fmt: skip
+    """Before the physics steps of the envs lo..hi-1: the controls of those that step (the
+    floats of `actions.continuous_controls`, and the buttons held of `BatchActions.convert`),
+    `rows` and `live` set (True: it steps), and `BatchCore.reset_rows` (seed None) of those
+    `resetting`, with `LctBatch._reset_task`: the world seed drawn later (`draws`, see
+    `BatchCore._world_seed`), the car at its start (`ego.reset_rows`), triggers, timers
+    (`TimerBatch.reset_rows`, less its Python lists), counters, lane measures and trace
+    reset row (`_record_row(first=True)`, `ring_start`: the ring's `start` and the row g after
+    the policy step, which the caller corrects when no car ran all its physics steps)."""
+    steer, gas, brake = controls
+    x, y, z, yaw, u, v, r, rpm, prev_v, fuel_used, fuel_left, steer_in, gas_in, brake_in, cruise_target, cruise_int = ego
+    locks, counts, paused, started, started_at = trig
+    active, kind, n_results = timer
+    step_count, collisions, collisions_seen, cursor, new_collisions = counters
+    t, progress, rl_n, rl_mean, rl_m2, rl_area, rl_dist, area, step_reward = measures
+    revealed, has_prev, last_s = task
+    sign, origin_z = road
+    centres, half_width, keep_m, lat, lane, offset = lanes
+    first_x, first_z, first_u, first_steer = first
+    px, py, pz, pyaw = pose
+    speed, gear0, rpm0, fuel0 = initial
+    start, g_end = ring_start
+    width = a.shape[1]
+    for e in range(lo, hi):
+        if not resetting[e]:
+            rows[e], live[e] = True, True
+            s, p = a[e, 0], a[e, 1]
+            steer[e] = -1.0 if s < -1.0 else 1.0 if s > 1.0 else s
+            p = -1.0 if p < -1.0 else 1.0 if p > 1.0 else p
+            gas[e] = p if p > 0.0 or p != p else 0.0
+            brake[e] = -p if -p > 0.0 or p != p else 0.0
+            for j in range(2, width):
+                held[e, j - 2] = a[e, j] > 0.0
+            continue
+        rows[e], live[e] = False, False
+        for j in range(2, width):
+            held[e, j - 2] = False
+        draws[e] += 1
+        x[e], y[e], z[e], yaw[e] = px, py, pz, pyaw
+        u[e], v[e], r[e] = speed, 0.0, 0.0
+        gear[e], rpm[e], prev_v[e] = gear0, rpm0, speed
+        fuel_used[e], fuel_left[e] = 0.0, fuel0
+        steer_in[e], gas_in[e], brake_in[e] = 0.0, 0.0, 0.0
+        cruise_on[e], cruise_target[e], cruise_int[e] = speed > 0.0, speed, 0.0
+        for i in range(locks.shape[1]):
+            locks[e, i] = -math.inf
+        for i in range(counts.shape[1]):
+            counts[e, i] = 0
+        paused[e], started[e], started_at[e] = False, False, 0.0
+        active[e], kind[e], n_results[e] = False, -1, 0
+        step_count[e], collisions[e], collisions_seen[e], cursor[e], new_collisions[e] = 0, 0, 0, 0, 0
+        t[e], progress[e], rl_area[e], rl_dist[e] = 0.0, 0.0, 0.0, 0.0
+        last_s[e] = -sign * (z[e] - origin_z)
+        revealed[e], area[e], step_reward[e], has_prev[e] = -1, 0.0, 0.0, False
+        lat[e], lane[e], offset[e], rl_n[e], rl_mean[e], rl_m2[e], _, _ = lane_measures(
+            x[e], z[e], True, sign, centres, half_width, keep_m, offset[e], 0.0, 0.0, 0.0, False, 0.0, 0.0, 0.0, 0.0
+        )
+        if ring:
+            first_x[e], first_z[e], first_u[e], first_steer[e] = x[e], z[e], u[e], steer_in[e]
+            ring_steps[e] = 0
+            start[e] = g_end

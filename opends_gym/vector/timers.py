@@ -138,11 +138,16 @@ class TimerBatch:
         """A new episode: a new ReactionCenter, no timer objects."""
         self.active[idx] = False
         self.kind[idx] = -1
+        self.clear_results(idx)
+        self.n_results[idx] = 0
+
+    def clear_results(self, idx: np.ndarray) -> None:
+        """`reset_rows`' part in Python: the results lists of the envs `idx` emptied (a compiled
+        reset, `vector.lct_step`, does the rest)."""
         results = self.results
         for i in np.atleast_1d(idx).tolist():
             if results[i]:  # (replaced only when used: fewer objects for Python's garbage collector)
                 results[i] = []
-        self.n_results[idx] = 0
 
     # ------------------------------------------------------------------ arming (rare)
     def setup(self, es: np.ndarray, key: int, t: np.ndarray, x: np.ndarray, z: np.ndarray, u: np.ndarray, started_at: np.ndarray) -> None:
