@@ -41,6 +41,7 @@ from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore
 from .episode_table import EpisodeTable
 from .kernels import CHUNK_ENVS
+from .platoon_controls import step_controls
 from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
 from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
 from .platoon_reset import reset_envs
@@ -94,6 +95,7 @@ class PlatoonBatch(BatchCore):
     needs_distance = True
     has_traffic = True
     parallel_kernels = True  # its step pass runs chunks of envs on numba's threads (`parallel`)
+    checks_actions = True  # `step_and_reset` refuses NaN and infinity before any env moves (`NativeVectorEnv.step` relies on it)
     has_extra_metrics = False  # the task adds its own metrics (`_extra_table`, keys `extra_keys`)
     extra_keys: tuple[str, ...] = ()
 
@@ -135,6 +137,7 @@ class PlatoonBatch(BatchCore):
         self.prng_seed = np.zeros(n, dtype=np.int64)
         self._prng_built = np.zeros(n, dtype=bool)  # prng[e] is not None
         self._seeded = np.zeros(n, dtype=bool)  # reset once (`reset_rows`: an autoreset of these is compiled)
+        self._c = BatchControls(np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64))  # `_controls`
         cfg: Any = template.config
         self.dev_cap, self.dev_per_m = cfg.reward_deviation_cap_m, cfg.reward_deviation_per_m
         self.progress_per_m, self.off_road_penalty = cfg.reward_progress_per_m, cfg.off_road_penalty
@@ -423,6 +426,24 @@ class PlatoonBatch(BatchCore):
             self.dirty[e] = True
             self._changed[e, slot] = 0
 
+    def _controls(self, actions: np.ndarray, stepping: np.ndarray) -> BatchControls:
+        """`BatchActions.convert(actions, stepping)` in one compiled pass (`step_controls`),
+        into arrays kept from step to step (no reader keeps them)."""
+        try:
+            a = np.asarray(actions, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"actions must be numbers, got dtype {np.asarray(actions).dtype}") from None
+        width = self.actions.width
+        if a.shape != (self.n, width):
+            raise ValueError(f"actions must have shape ({self.n}, {width}), got {a.shape}")
+        a = a if a.flags.c_contiguous else np.ascontiguousarray(a)
+        c = self._c
+        bad = step_controls(a, stepping, self.actions.name == "continuous_buttons", self.actions.held, c.steer, c.gas, c.brake, c.pressed,
+                            c.signal)  # fmt: skip
+        if bad >= 0:
+            raise ValueError(f"env {bad}: action contains NaN or infinity: {a[bad].tolist()}")
+        return c
+
     # ------------------------------------------------------------------ outputs
     def step_and_reset(self, actions: np.ndarray, resetting: np.ndarray, size: int) -> StepArrays:
         """`shards.step_shard`'s step with NEXT_STEP autoreset: the envs not `resetting` step
@@ -432,7 +453,7 @@ class PlatoonBatch(BatchCore):
         per step (the caller may keep them). Returns (obs, reward, terminated, truncated,
         info, envs whose episode ended)."""
         stepping = ~resetting
-        c = self.actions.convert(actions, stepping)
+        c = self._controls(actions, stepping)
         self._physics_steps(stepping.copy(), c)
         if resetting.any():
             self.reset_rows(np.flatnonzero(resetting), None)
