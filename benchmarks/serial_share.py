@@ -32,7 +32,7 @@ from opends_gym.vector import lct, platoon
 
 # the step kernels each task's batch module calls (those it has: older versions have others)
 _PLATOON = ("platoon_step", "platoon_step_serial", "platoon_substeps", "_substeps_range", "platoon_finish", "_finish_range",
-            "lead_measures", "_lead_range", "lead_rows", "reset_envs", "step_controls")  # fmt: skip
+            "lead_measures", "_lead_range", "lead_rows", "reset_envs", "reset_range", "step_controls")  # fmt: skip
 KERNELS: dict[str, tuple[ModuleType, tuple[str, ...]]] = {
     "LaneChangeTest": (lct, ("lct_step", "lct_step_serial", "lct_substeps", "lct_finish", "_substeps_range", "_finish_range")),
     "BrakeReaction": (platoon, _PLATOON),

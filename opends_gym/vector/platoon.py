@@ -44,7 +44,7 @@ from .kernels import CHUNK_ENVS
 from .platoon_controls import step_controls
 from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
 from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
-from .platoon_reset import reset_envs
+from .platoon_reset import reset_envs, reset_range
 from .platoon_step import _lead_range, lead_measures, lead_rows
 from .trace import TRACE_GROUP, TraceRing, score_columns
 from .traffic import FlatTraffic
@@ -230,18 +230,22 @@ class PlatoonBatch(BatchCore):
         self.timers.clear_results(idx[self.timers.n_results[idx] > 0])
         s, p, trig, tm, rl, g, tr = self.s, self.p, self.trig, self.timers, self.rl, self.guide, self.traffic
         st, st0 = tr.st, tr.st0
-        reset_envs(np.asarray(idx, dtype=np.int64), p.reset_pose, (p.initial_speed, p.initial_gear, p.initial_rpm, p.initial_fuel),
-                   (s.x, s.y, s.z, s.yaw, s.u, s.v, s.r, s.rpm, s.prev_v, s.fuel_used, s.fuel_left, s.steer_in, s.gas_in, s.brake_in,
-                    s.cruise_target, s.cruise_int), s.gear, s.cruise_on,
-                   (trig.locks, trig.counts, trig.paused, trig.started, trig.started_at), (tm.active, tm.kind, tm.n_results),
-                   self.actions.held, (self.step_count, self.collisions, self.collisions_seen, self.reaction_cursor, self.new_collisions),
-                   (self.t, self.progress, rl["n"], rl["mean"], rl["m2"], rl["area"], rl["dist"], self.last_s), (g.sign, g.start_xz[1]),
-                   (self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, self.prev_x, self.prev_z),
-                   (st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, st.stuck_hist, tr.c),
-                   (st0.f, st0.i, st0.b, st0.pos, st0.end_xz, st0.light_xz, st0.ext_cmd, st0.stuck_hist), tr.hitting,
-                   (self.on, self.n_stimuli, self.n_brake_stimuli, self.reward_acc, self.seen, self.dirty), self._signs()[0],
-                   (st.pos, st.yaw, st.speed, st.enabled, self._half_len, tr.c, tr.ego_length, self.lead_j, self.lead_gap, self.lead_v,
-                    self.headway, self.ttc, self.gap_m, self.lead_speed_mps), self.draws)  # fmt: skip
+        args = (np.asarray(idx, dtype=np.int64), p.reset_pose, (p.initial_speed, p.initial_gear, p.initial_rpm, p.initial_fuel),
+                (s.x, s.y, s.z, s.yaw, s.u, s.v, s.r, s.rpm, s.prev_v, s.fuel_used, s.fuel_left, s.steer_in, s.gas_in, s.brake_in,
+                 s.cruise_target, s.cruise_int), s.gear, s.cruise_on,
+                (trig.locks, trig.counts, trig.paused, trig.started, trig.started_at), (tm.active, tm.kind, tm.n_results),
+                self.actions.held, (self.step_count, self.collisions, self.collisions_seen, self.reaction_cursor, self.new_collisions),
+                (self.t, self.progress, rl["n"], rl["mean"], rl["m2"], rl["area"], rl["dist"], self.last_s), (g.sign, g.start_xz[1]),
+                (self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, self.prev_x, self.prev_z),
+                (st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, st.stuck_hist, tr.c),
+                (st0.f, st0.i, st0.b, st0.pos, st0.end_xz, st0.light_xz, st0.ext_cmd, st0.stuck_hist), tr.hitting,
+                (self.on, self.n_stimuli, self.n_brake_stimuli, self.reward_acc, self.seen, self.dirty), self._signs()[0],
+                (st.pos, st.yaw, st.speed, st.enabled, self._half_len, tr.c, tr.ego_length, self.lead_j, self.lead_gap, self.lead_v,
+                 self.headway, self.ttc, self.gap_m, self.lead_speed_mps), self.draws)  # fmt: skip
+        if self.parallel:  # (chunks of the envs reset on numba's threads)
+            reset_envs(*args)
+        else:
+            reset_range(0, len(idx), *args)
         if self.ring is not None:
             self._write_trace(self._mask(idx), first=True)
 
