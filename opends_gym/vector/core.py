@@ -182,9 +182,13 @@ class BatchCore:
         rng = self.rngs[e]
         assert rng is not None
         for _ in range(int(self.draws[e])):
-            rng.integers(0, 2**31 - 1)
+            self._draw_world_seed(e, rng)
         self.draws[e] = 0
         return rng
+
+    def _draw_world_seed(self, e: int, rng: np.random.Generator) -> None:
+        """The draws of one reset's world seed from env e's generator `rng` (`rng`, `draws`)."""
+        rng.integers(0, 2**31 - 1)  # World.reset(seed=...): the batch's worlds use no randomness
 
     def _mask(self, idx: np.ndarray) -> np.ndarray:
         m = np.zeros(self.n, dtype=bool)

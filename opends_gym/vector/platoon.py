@@ -41,8 +41,10 @@ from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore
 from .episode_table import EpisodeTable
 from .kernels import CHUNK_ENVS
+from .platoon_controls import step_controls
 from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
 from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
+from .platoon_reset import reset_envs, reset_range
 from .platoon_step import _lead_range, lead_measures, lead_rows
 from .trace import TRACE_GROUP, TraceRing, score_columns
 from .traffic import FlatTraffic
@@ -93,6 +95,7 @@ class PlatoonBatch(BatchCore):
     needs_distance = True
     has_traffic = True
     parallel_kernels = True  # its step pass runs chunks of envs on numba's threads (`parallel`)
+    checks_actions = True  # `step_and_reset` refuses NaN and infinity before any env moves (`NativeVectorEnv.step` relies on it)
     has_extra_metrics = False  # the task adds its own metrics (`_extra_table`, keys `extra_keys`)
     extra_keys: tuple[str, ...] = ()
 
@@ -132,6 +135,9 @@ class PlatoonBatch(BatchCore):
         self.n_brake_stimuli = np.zeros(n, dtype=np.int64)  # the brake light and emergency brake stimuli among them
         self.prng: list[np.random.Generator | None] = [None] * n  # built from `prng_seed` when first drawn from
         self.prng_seed = np.zeros(n, dtype=np.int64)
+        self._prng_built = np.zeros(n, dtype=bool)  # prng[e] is not None
+        self._seeded = np.zeros(n, dtype=bool)  # reset once (`reset_rows`: an autoreset of these is compiled)
+        self._c = BatchControls(np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64))  # `_controls`
         cfg: Any = template.config
         self.dev_cap, self.dev_per_m = cfg.reward_deviation_cap_m, cfg.reward_deviation_per_m
         self.progress_per_m, self.off_road_penalty = cfg.reward_progress_per_m, cfg.off_road_penalty
@@ -193,13 +199,55 @@ class PlatoonBatch(BatchCore):
 
     # ------------------------------------------------------------------ reset
     def _world_seed(self, e: int) -> None:
-        rng = self.rngs[e]
-        assert rng is not None
         # `World.reset(seed=...)`'s draw (unused: the batch's worlds use no randomness), then the seed of the env's
-        # stimulus generator (the single env seeds it at reset). Building the generator costs ~10x the draw and most
-        # episodes under random actions end before their first stimulus, so it is built on first use (`_prng`).
+        # stimulus generator (the single env seeds it at reset): both drawn when the env's generator is next read
+        # (`_draw_world_seed`; `_prng` reads it), as a compiled reset leaves them (`platoon_reset`). Most episodes under
+        # random actions end before their first stimulus, so neither the draws nor the generator are made for them.
+        self.draws[e] += 1
+
+    def _draw_world_seed(self, e: int, rng: np.random.Generator) -> None:
         rng.integers(0, 2**31 - 1)
-        self.prng_seed[e] = rng.integers(0, 2**31 - 1)
+        self.prng_seed[e] = rng.integers(0, 2**31 - 1)  # (a later reset's overwrites an earlier one's: the last is the episode's)
+
+    def reset_rows(self, idx: np.ndarray, seeds: list[int | None] | None) -> None:
+        """`BatchCore.reset_rows`; an autoreset (seeds None) of envs reset before is one compiled
+        call (`platoon_reset.reset_envs`), Python only emptying the lists that hold something."""
+        if seeds is None and self._seeded[idx].all():
+            self._autoreset(idx)
+            return
+        super().reset_rows(idx, seeds)
+        self._seeded[idx] = True
+
+    def _autoreset(self, idx: np.ndarray) -> None:
+        stimuli, objs, prng = self.stimuli, self.objs, self.prng
+        for e in idx[self.n_stimuli[idx] > 0].tolist():  # (lists replaced only when used: fewer objects for Python's garbage collector)
+            stimuli[e] = []
+            objs[e] = [None] * SLOTS
+        built = idx[self._prng_built[idx]]
+        for e in built.tolist():
+            prng[e] = None
+        self._prng_built[built] = False
+        self.timers.clear_results(idx[self.timers.n_results[idx] > 0])
+        s, p, trig, tm, rl, g, tr = self.s, self.p, self.trig, self.timers, self.rl, self.guide, self.traffic
+        st, st0 = tr.st, tr.st0
+        args = (np.asarray(idx, dtype=np.int64), p.reset_pose, (p.initial_speed, p.initial_gear, p.initial_rpm, p.initial_fuel),
+                (s.x, s.y, s.z, s.yaw, s.u, s.v, s.r, s.rpm, s.prev_v, s.fuel_used, s.fuel_left, s.steer_in, s.gas_in, s.brake_in,
+                 s.cruise_target, s.cruise_int), s.gear, s.cruise_on,
+                (trig.locks, trig.counts, trig.paused, trig.started, trig.started_at), (tm.active, tm.kind, tm.n_results),
+                self.actions.held, (self.step_count, self.collisions, self.collisions_seen, self.reaction_cursor, self.new_collisions),
+                (self.t, self.progress, rl["n"], rl["mean"], rl["m2"], rl["area"], rl["dist"], self.last_s), (g.sign, g.start_xz[1]),
+                (self.centres, g.lane_width_m / 2.0, LANE_KEEPING_OFFSET_M, self.lat, self.lane, self.offset, self.prev_x, self.prev_z),
+                (st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, st.stuck_hist, tr.c),
+                (st0.f, st0.i, st0.b, st0.pos, st0.end_xz, st0.light_xz, st0.ext_cmd, st0.stuck_hist), tr.hitting,
+                (self.on, self.n_stimuli, self.n_brake_stimuli, self.reward_acc, self.seen, self.dirty), self._signs()[0],
+                (st.pos, st.yaw, st.speed, st.enabled, self._half_len, tr.c, tr.ego_length, self.lead_j, self.lead_gap, self.lead_v,
+                 self.headway, self.ttc, self.gap_m, self.lead_speed_mps), self.draws)  # fmt: skip
+        if self.parallel:  # (chunks of the envs reset on numba's threads)
+            reset_envs(*args)
+        else:
+            reset_range(0, len(idx), *args)
+        if self.ring is not None:
+            self._write_trace(self._mask(idx), first=True)
 
     def _reset_task(self, idx: np.ndarray) -> None:
         stimuli, objs, prng = self.stimuli, self.objs, self.prng
@@ -208,6 +256,7 @@ class PlatoonBatch(BatchCore):
             if stimuli[e]:
                 stimuli[e] = []
                 objs[e] = [None] * SLOTS
+        self._prng_built[idx] = False
         self.traffic.reset_rows(idx, self.traffic.st0)
         self.on[idx] = False
         self.n_stimuli[idx] = 0
@@ -261,7 +310,9 @@ class PlatoonBatch(BatchCore):
         """Env e's stimulus generator (`ThreeVehiclePlatoonEnv`'s, seeded at reset)."""
         rng = self.prng[e]
         if rng is None:
+            self.rng(e)  # (the world seeds left to draw: the last sets `prng_seed`)
             rng = self.prng[e] = np.random.default_rng(int(self.prng_seed[e]))
+            self._prng_built[e] = True
         return rng
 
     def _start(self, e: int, kind: str) -> None:
@@ -379,6 +430,24 @@ class PlatoonBatch(BatchCore):
             self.dirty[e] = True
             self._changed[e, slot] = 0
 
+    def _controls(self, actions: np.ndarray, stepping: np.ndarray) -> BatchControls:
+        """`BatchActions.convert(actions, stepping)` in one compiled pass (`step_controls`),
+        into arrays kept from step to step (no reader keeps them)."""
+        try:
+            a = np.asarray(actions, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"actions must be numbers, got dtype {np.asarray(actions).dtype}") from None
+        width = self.actions.width
+        if a.shape != (self.n, width):
+            raise ValueError(f"actions must have shape ({self.n}, {width}), got {a.shape}")
+        a = a if a.flags.c_contiguous else np.ascontiguousarray(a)
+        c = self._c
+        bad = step_controls(a, stepping, self.actions.name == "continuous_buttons", self.actions.held, c.steer, c.gas, c.brake, c.pressed,
+                            c.signal)  # fmt: skip
+        if bad >= 0:
+            raise ValueError(f"env {bad}: action contains NaN or infinity: {a[bad].tolist()}")
+        return c
+
     # ------------------------------------------------------------------ outputs
     def step_and_reset(self, actions: np.ndarray, resetting: np.ndarray, size: int) -> StepArrays:
         """`shards.step_shard`'s step with NEXT_STEP autoreset: the envs not `resetting` step
@@ -388,7 +457,7 @@ class PlatoonBatch(BatchCore):
         per step (the caller may keep them). Returns (obs, reward, terminated, truncated,
         info, envs whose episode ended)."""
         stepping = ~resetting
-        c = self.actions.convert(actions, stepping)
+        c = self._controls(actions, stepping)
         self._physics_steps(stepping.copy(), c)
         if resetting.any():
             self.reset_rows(np.flatnonzero(resetting), None)
