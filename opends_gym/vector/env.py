@@ -49,7 +49,7 @@ from gymnasium.vector.utils import batch_space
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
 from .actions import first_nonfinite
 from .core import BatchCore
-from .episode_rows import metrics_arrays, table_rows
+from .episode_rows import InfoBlocks, metrics_arrays, table_rows
 from .shards import LocalShard, ProcessShard, ShardMetrics
 from .trace import _physical_memory
 
@@ -154,6 +154,7 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         self.render_mode = None
         self._autoreset = np.zeros(num_envs, dtype=bool)
         self._started = False
+        self._info_blocks = InfoBlocks()  # `episode_metrics`' blocks, reused once the caller holds none of their arrays
 
     # ------------------------------------------------------------------ API
     def reset(
@@ -228,7 +229,7 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
                 tables = [([sl.start + e for e in part[0]], part[1]) for sl, part in parts if isinstance(part, tuple)]
                 for envs, _ in tables:
                     mask[envs] = True
-                info["episode_metrics"] = metrics_arrays(tables, self.num_envs)
+                info["episode_metrics"] = metrics_arrays(tables, self.num_envs, self._info_blocks)
             else:  # (a core without `episodes_table`: its dicts' value types decide the arrays')
                 ended = [(sl.start + e, m) for sl, part in parts for e, m in _as_dicts(part)]
                 mask[[e for e, _ in ended]] = True

@@ -8,7 +8,9 @@ are built from the table only where a caller asks for them.
 
 from __future__ import annotations
 
+import functools
 import math
+import sys
 from typing import Any
 
 import numpy as np
@@ -51,16 +53,61 @@ def table_of_rows(rows: list[dict[str, Any]]) -> EpisodeTable:
     return EpisodeTable(keys, values, present)
 
 
-def metrics_arrays(tables: list[tuple[list[int], EpisodeTable]], n: int) -> dict[str, Any]:
+class InfoBlocks:
+    """Reusable (key, env) blocks for `metrics_arrays`: a step's `episode_metrics` arrays are
+    rows of two blocks, and zeroing two fresh dense blocks of keys x envs for the few envs
+    that ended cost ~140 µs per step at 4,096 envs (~35 ns per env-step). A block is taken
+    again only when nothing outside holds it (`sys.getrefcount`: every array handed out is a
+    view whose base is the block, so a caller that keeps any of a step's arrays, or the
+    info dict, keeps its blocks out of reuse); then only the cells written last time are
+    cleared. Blocks a caller holds are never written again."""
+
+    POOL = 4  # blocks kept: the caller's last info holds one pair, the one before is free again
+
+    def __init__(self) -> None:
+        self._pool: list[list] = []  # [values block, mask block, keys written, envs written]
+
+    def take(self, keys: int, n: int, envs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(values, masks) of at least `keys` rows of `n` envs, zero and False, for writing
+        the rows of `envs` (the cells to clear next time)."""
+        small = -1  # a free entry too small for `keys`: replaced by a larger one
+        for i, entry in enumerate(self._pool):
+            columns, masks, k_old, e_old = entry
+            # only the pool holds a block: its refs are the entry, the local name and getrefcount's argument
+            if sys.getrefcount(columns) != 3 or sys.getrefcount(masks) != 3 or columns.shape[1] != n:
+                continue
+            if columns.shape[0] < keys:
+                small = i
+                continue
+            columns[:k_old, e_old] = 0.0
+            masks[:k_old, e_old] = False
+            entry[2], entry[3] = keys, envs
+            return columns, masks
+        columns, masks = np.zeros((keys, n)), np.zeros((keys, n), dtype=np.bool_)
+        if small >= 0:
+            self._pool[small] = [columns, masks, keys, envs]
+        elif len(self._pool) < self.POOL:
+            self._pool.append([columns, masks, keys, envs])
+        return columns, masks
+
+
+def metrics_arrays(tables: list[tuple[list[int], EpisodeTable]], n: int, blocks: InfoBlocks | None = None) -> dict[str, Any]:
     """`episode_metrics` info of the tables (each with its rows' envs in the whole batch):
     each key's float64 column over the n envs and its `_key` mask, keys in order of first
     appearance over the rows (what `env._metrics_arrays` gives for the same rows as dicts of
-    floats)."""
-    order: dict[str, int] = {}
-    for _, table in tables:
-        for key in table.keys:
-            order.setdefault(key, len(order))
-    columns, masks = np.zeros((len(order), n)), np.zeros((len(order), n), dtype=np.bool_)
+    floats). `blocks`: reuse the blocks the caller no longer holds."""
+    if len(tables) == 1:  # (one shard: its table's keys are the order)
+        order = dict(zip(tables[0][1].keys, range(len(tables[0][1].keys))))
+    else:
+        order = {}
+        for _, table in tables:
+            for key in table.keys:
+                order.setdefault(key, len(order))
+    if blocks is None:
+        columns, masks = np.zeros((len(order), n)), np.zeros((len(order), n), dtype=np.bool_)
+    else:
+        written = np.concatenate([np.asarray(envs, dtype=np.intp) for envs, _ in tables])
+        columns, masks = blocks.take(len(order), n, written)
     for envs, table in tables:
         rows = np.asarray(envs, dtype=np.intp)
         values = table.values if table.present is None else np.where(table.present, table.values, 0.0)  # (absent: 0, as there)
@@ -71,7 +118,12 @@ def metrics_arrays(tables: list[tuple[list[int], EpisodeTable]], n: int) -> dict
         else:
             columns[at_keys[:, None], rows[None, :]] = values.T
             masks[at_keys[:, None], rows[None, :]] = True if table.present is None else table.present.T
-    out: dict[str, Any] = {}
-    for j, key in enumerate(order):
-        out[key], out[f"_{key}"] = columns[j], masks[j]
-    return out
+    views: list[np.ndarray] = [columns] * (2 * len(order))  # (iterating a block gives its rows as views, in C)
+    views[0::2], views[1::2] = list(columns[: len(order)]), list(masks[: len(order)])
+    return dict(zip(_names(tuple(order)), views, strict=True))
+
+
+@functools.lru_cache(maxsize=64)
+def _names(keys: tuple[str, ...]) -> tuple[str, ...]:
+    """Each key then its `_key` mask name (a step's keys repeat: the few layouts of a task)."""
+    return tuple(name for key in keys for name in (key, f"_{key}"))
