@@ -29,7 +29,9 @@ Unless the user chose a threading layer (`NUMBA_THREADING_LAYER`), importing thi
 picks numba's `workqueue` layer: GNU OpenMP's threads spin while they wait, and on a host
 whose cores are busy with other programs a 4,096-env LCT step took 120-170 ms with it
 instead of 20 ms (2 threads, 2 cores, load 11), and a process forked after it started
-cannot use it. The workqueue layer must not be entered from two Python threads at once:
+cannot use it. On a host whose cores are the batch's alone, OpenMP's layer scaled better
+(`NUMBA_THREADING_LAYER=omp`: 16 threads gave 8.9-11.2x the one-thread rate with metrics
+against workqueue's 7.1x, docs/performance.md). The workqueue layer must not be entered from two Python threads at once:
 batches stepped in threads call their kernels' serial twins (`vector.env`).
 
 numba's `math.sin/cos/tan/atan/atan2/tanh/sqrt` call the same C library functions as
