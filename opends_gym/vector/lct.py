@@ -374,12 +374,15 @@ class LctBatch(BatchCore):
         if self._iso or not es:
             columns = self.ring.columns_of(es)
             return [(e, self.episode_metrics(e, columns[e])) for e in es]
-        wide, passed, slow = self._scored(es)
+        return list(zip(es, self._row_dicts(*self._scored(es)), strict=True))
+
+    def _row_dicts(self, wide: np.ndarray, passed: np.ndarray, slow: dict[int, dict[str, float]]) -> list[dict[str, float]]:
+        """`_scored`'s rows as dicts, each with its keys in the single env's order."""
         signs, keys = len(self._signs[0]), self._wide_keys
         out = []
-        for j, (e, row, p) in enumerate(zip(es, wide.tolist(), passed.tolist(), strict=True)):
+        for j, (row, p) in enumerate(zip(wide.tolist(), passed.tolist(), strict=True)):
             at = row_columns(signs, p) if p >= 0 else ()
-            out.append((e, slow[j] if p < 0 else {keys[c]: math.nan if row[c] != row[c] else row[c] for c in at}))
+            out.append(slow[j] if p < 0 else {keys[c]: math.nan if row[c] != row[c] else row[c] for c in at})
         return out
 
     def episodes_table(self, es: list[int]) -> EpisodeTable:
@@ -394,8 +397,8 @@ class LctBatch(BatchCore):
         if self._iso or not es:
             return table_of_rows([m for _, m in self.episodes_metrics(es)])
         wide, passed, slow = self._scored(es)
-        if slow:  # (rare: the template's dicts next to the compiled rows)
-            return table_of_rows([m for _, m in self.episodes_metrics(es)])
+        if slow:  # (rare: the template's dicts next to the compiled rows, scored once)
+            return table_of_rows(self._row_dicts(wide, passed, slow))
         return self._wide_table(wide, passed)
 
     def _scored(self, es: list[int]) -> tuple[np.ndarray, np.ndarray, dict[int, dict[str, float]]]:
