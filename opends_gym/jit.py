@@ -45,14 +45,19 @@ results: kernels use only what Python and numba agree on.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import functools
 import hashlib
 import math
 import os
+import pickle
 import queue
+import subprocess
+import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from types import FunctionType
 from typing import Any, TypeVar, cast
 
 import numba
@@ -161,9 +166,112 @@ def _boxed(value: Any) -> Any:
     return value
 
 
+class _Twins:
+    """Each kernel's Python twin: its `py_func` with the kernels it calls (module globals)
+    bound to their twins, so that a kernel running as Python calls Python functions directly.
+    Through the kernels themselves each nested call would pass numba's dispatcher (typing
+    every argument, then `_compile_for_args`), which made a native LCT step of 4,096 envs
+    take 3-8 s instead of ~1 s. A twin reads a copy of its module's globals taken at its
+    first call: numba too takes globals as constants when it compiles."""
+
+    def __init__(self, ours: set[int]) -> None:
+        self.ours = ours  # ids of this module's kernels
+        self.made: dict[int, Callable[..., Any]] = {}
+        self.spaces: dict[int, dict[str, Any]] = {}
+
+    def of(self, dispatcher: Any) -> Callable[..., Any]:
+        twin = self.made.get(id(dispatcher))
+        if twin is None:
+            fn = dispatcher.py_func
+            twin = FunctionType(fn.__code__, self._space(fn.__globals__), fn.__name__, fn.__defaults__, fn.__closure__)
+            twin.__kwdefaults__ = fn.__kwdefaults__
+            self.made[id(dispatcher)] = twin
+        return twin
+
+    def _space(self, module_globals: dict[str, Any]) -> dict[str, Any]:
+        space = self.spaces.get(id(module_globals))
+        if space is None:
+            space = self.spaces[id(module_globals)] = dict(module_globals)
+            for name, value in module_globals.items():
+                if id(value) in self.ours:
+                    space[name] = self.of(value)  # (a circle ends at the space or twin already made)
+        return space
+
+
+class _CompileChild:
+    """A child Python process (`opends_gym.jit_child`) that compiles kernels into the
+    machine's cache, for the background thread to load. Why: numba's compile is mostly
+    Python, and in a thread it shares this process's interpreter lock with the steps that
+    run as Python meanwhile: each ran at half speed or worse (a native LCT batch's 4,096-env
+    step took 3-8 s, and its compile stretched past 9 minutes while the batch stepped on).
+    In a child both run at once, on two cores. Any failure (no child, an error in it, a
+    kernel it cannot import) returns False and the thread compiles the kernel itself.
+    The child ends when this process does (a control pipe closes), unless `detach` handed
+    it the compiles still to do."""
+
+    def __init__(self) -> None:
+        self.proc: subprocess.Popen[bytes] | None = None
+        self.control = -1  # our end of the control pipe
+        self.broken = False
+
+    @staticmethod
+    def job(dispatcher: Any, signature: tuple[Any, ...]) -> tuple[str, str, tuple[Any, ...]] | None:
+        """What the child needs to find and compile a kernel; None for a kernel it cannot import."""
+        fn = dispatcher.py_func
+        return None if "<locals>" in fn.__qualname__ else (fn.__module__, fn.__qualname__, signature)
+
+    def _start(self) -> subprocess.Popen[bytes]:
+        if self.proc is None or self.proc.poll() is not None:
+            theirs, self.control = os.pipe()
+            try:
+                self.proc = subprocess.Popen(
+                    [sys.executable, "-m", "opends_gym.jit_child", str(theirs)],
+                    stdin=subprocess.PIPE,
+                    stdout=subprocess.PIPE,
+                    stderr=subprocess.DEVNULL,
+                    pass_fds=(theirs,),
+                    env={**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)},
+                )
+            finally:
+                os.close(theirs)
+        return self.proc
+
+    def compile(self, dispatcher: Any, signature: tuple[Any, ...]) -> bool:
+        job = self.job(dispatcher, signature)
+        if self.broken or job is None:
+            return False
+        try:
+            proc = self._start()
+            assert proc.stdin is not None and proc.stdout is not None
+            pickle.dump(job, proc.stdin)
+            proc.stdin.flush()
+            return proc.stdout.readline().strip() == b"ok"
+        except (OSError, ValueError, pickle.PicklingError, AssertionError):  # (ValueError: a pipe closed by `detach`)
+            self.broken = True
+            return False
+
+    def detach(self, jobs: list[tuple[str, str, tuple[Any, ...]]]) -> bool:
+        """At exit: leave `jobs` to the child, which compiles them (after the one it is on)
+        into the cache after this process has gone, then ends. False if there is no child."""
+        proc = self.proc
+        if proc is None or proc.poll() is not None or proc.stdin is None:
+            return False
+        try:
+            os.write(self.control, b"detach")
+            for job in jobs:
+                pickle.dump(job, proc.stdin)
+            proc.stdin.close()
+        except (OSError, ValueError, pickle.PicklingError):
+            return False
+        return True
+
+
 class _Background:
     """One daemon thread that compiles (or loads from the cache) the kernels called from
-    Python before their machine code exists; meanwhile those calls run the Python function.
+    Python before their machine code exists; meanwhile those calls run the Python function
+    (its `_Twins` twin). The thread has the native batch's kernels (`opends_gym.vector`,
+    minutes of compiling) compiled in a child process (`_CompileChild`) and then loads them
+    from the cache; the others it compiles itself.
 
     How: numba's dispatcher, finding no machine code for the argument types of a call, asks
     its `_compile_for_args(*args)` for a callable and calls it; a non-compiled callable is
@@ -176,8 +284,11 @@ class _Background:
     is raised as before."""
 
     def __init__(self) -> None:
+        self.hooked: set[int] = set()
+        self.twins = _Twins(self.hooked)
         self._fresh()
         self.local = threading.local()
+        self.in_call = 0  # > 0 inside `compile_in_call`
         self.python_calls = 0  # top-level kernel calls that ran as Python (a count, for tests)
         self.compiled = 0
 
@@ -191,12 +302,14 @@ class _Background:
         self.lock = threading.Lock()
         self.busy = threading.Lock()  # held while compiling: a fork waits for it (see below)
         self.stopping = False
+        self.child = _CompileChild()
 
     def enabled(self) -> bool:
-        return os.environ.get("OPENDS_GYM_JIT_BACKGROUND", "1") not in ("0", "false", "no")
+        return self.in_call == 0 and os.environ.get("OPENDS_GYM_JIT_BACKGROUND", "1") not in ("0", "false", "no")
 
     def hook(self, dispatcher: Any) -> None:
         original = dispatcher._compile_for_args
+        self.hooked.add(id(dispatcher))
 
         def compile_for_args(*args: Any, **kws: Any) -> Any:
             if getattr(self.local, "python_depth", 0) > 0:  # inside a kernel running as Python
@@ -205,7 +318,7 @@ class _Background:
                 return original(*args, **kws)
             types = tuple(dispatcher.typeof_pyval(a) for a in args)
             self.submit(dispatcher, types)
-            return self._as_python(dispatcher.py_func)
+            return self._as_python(self.twins.of(dispatcher))
 
         dispatcher._compile_for_args = compile_for_args
 
@@ -237,6 +350,8 @@ class _Background:
             try:
                 with self.busy:
                     if not self.stopping:
+                        if dispatcher.py_func.__module__.startswith(_IN_CHILD):
+                            self.child.compile(dispatcher, types)  # (then loaded from the cache below)
                         dispatcher.compile(types)
                         self.compiled += 1
             except Exception:  # the caller's thread compiles it again and raises
@@ -252,11 +367,29 @@ class _Background:
         return self.jobs.unfinished_tasks
 
     def finish(self, timeout_s: float = 120.0) -> None:
-        """At exit: let the queued compiles finish (at most `timeout_s`), so their machine
-        code lands in the cache and the next process loads it instead of running Python; a
-        short-lived process (one `opends-gym run`) would otherwise never fill the cache."""
+        """At exit: let the queued compiles finish, so their machine code lands in the cache
+        and the next process loads it instead of running Python; a short-lived process (one
+        `opends-gym run`) would otherwise never fill the cache. The native batch's go to the
+        compile child, which finishes them after this process has gone (they take minutes);
+        this process waits for the others at most `timeout_s`."""
         if self.thread is None or not self.pending():
             return
+        rest: list[tuple[Any, tuple[Any, ...]]] = []
+        handed: list[tuple[Any, tuple[Any, ...]]] = []
+        while True:
+            try:
+                item = self.jobs.get_nowait()
+            except queue.Empty:
+                break
+            self.jobs.task_done()
+            in_child = item[0].py_func.__module__.startswith(_IN_CHILD) and self.child.job(*item) is not None
+            (handed if in_child else rest).append(item)
+        detached = self.child.detach([job for job in (self.child.job(*item) for item in handed) if job is not None])
+        if detached and not rest:
+            self.stopping = True  # (the thread may be waiting on the child's current compile: not for us to wait)
+            return
+        for item in rest if detached else rest + handed:
+            self.jobs.put(item)
         done = threading.Event()
 
         def join() -> None:
@@ -267,6 +400,9 @@ class _Background:
         done.wait(timeout_s)
         self.stopping = True  # (a compile still running is cut off with the process: numba writes its cache files whole or not at all)
 
+
+# kernels compiled in `_CompileChild`: the native batch's, whose compile takes minutes
+_IN_CHILD = ("opends_gym.vector",)
 
 _BACKGROUND = _Background()
 atexit.register(_BACKGROUND.finish)
@@ -286,17 +422,23 @@ def wait_compiled() -> None:
     _BACKGROUND.wait()
 
 
+@contextlib.contextmanager
+def compile_in_call() -> Iterator[None]:
+    """Inside, kernels without machine code compile in their call, as numba does, instead of
+    running as Python meanwhile: for `opends-gym compile`, whose native batches would
+    otherwise step as Python until the compile child is done."""
+    _BACKGROUND.in_call += 1
+    try:
+        yield
+    finally:
+        _BACKGROUND.in_call -= 1
+
+
 def compile_status() -> dict[str, int]:
     """How the kernels ran so far in this process: `python_calls` (kernel calls that ran as
     Python while their compile was pending), `compiled` (background compiles finished),
     `pending` (queued or running)."""
     return {"python_calls": _BACKGROUND.python_calls, "compiled": _BACKGROUND.compiled, "pending": _BACKGROUND.pending()}
-
-
-# kernels that compile in their first call, as numba does: the native batch's loops over
-# hundreds or thousands of envs run as Python would take longer than their compile (and
-# slow it, holding the GIL), so a batch waits for its machine code once per machine
-_COMPILE_IN_CALL = ("opends_gym.vector",)
 
 
 _KERNELS: list[Any] = []  # every kernel this module made, for `cache_stats`
@@ -317,8 +459,7 @@ def cache_stats() -> dict[str, int]:
 
 def _background(dispatcher: Any) -> Any:
     _KERNELS.append(dispatcher)
-    module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
-    if hasattr(dispatcher, "_compile_for_args") and not module.startswith(_COMPILE_IN_CALL):  # (NUMBA_DISABLE_JIT: a function)
+    if hasattr(dispatcher, "_compile_for_args"):  # (NUMBA_DISABLE_JIT: a function)
         _BACKGROUND.hook(dispatcher)
     return dispatcher
 
@@ -330,9 +471,7 @@ def kernel(fn: F) -> F:
 
 def parallel_kernel(fn: F) -> F:
     """A `kernel` whose `prange` loops run in parallel (see the module docstring)."""
-    dispatcher = njit(cache=True, nogil=True, parallel=True)(fn)
-    _KERNELS.append(dispatcher)
-    return cast(F, dispatcher)
+    return cast(F, _background(njit(cache=True, nogil=True, parallel=True)(fn)))
 
 
 def borrowing_kernel(fn: F) -> F:

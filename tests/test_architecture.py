@@ -17,6 +17,7 @@ LAYERS = [
     "hints",
     "extras",
     "resources",
+    "jit_child",
     "jit",
     "task",
     "sim",

@@ -230,14 +230,21 @@ def _drive_single(group: Group) -> None:
 def _drive_native(group: Group) -> None:
     """A batch of one chunk (serial kernels) and one of more (numba-parallel kernels), each
     stepped until every env has ended an episode and been reset (or MAX_STEPS)."""
+    from .. import jit
+
+    tasks: list[dict[str, Any]] = [dict(group.kwargs)]
+    if group.env_id == "OpenDS/DrivingTask-v0" and "task" not in group.kwargs:
+        tasks = [{"task": str(t)} for t in _traffic_tasks()]
+    with jit.compile_in_call():  # (here the compile is the point: not a batch stepping as Python meanwhile)
+        _drive_native_tasks(group, tasks)
+
+
+def _drive_native_tasks(group: Group, tasks: list[dict[str, Any]]) -> None:
     import gymnasium as gym
     import numpy as np
 
     from ..vector.kernels import CHUNK_ENVS
 
-    tasks: list[dict[str, Any]] = [dict(group.kwargs)]
-    if group.env_id == "OpenDS/DrivingTask-v0" and "task" not in group.kwargs:
-        tasks = [{"task": str(t)} for t in _traffic_tasks()]
     for kwargs in tasks:
         for n in (2, CHUNK_ENVS + 1):
             env = gym.make_vec(group.env_id, num_envs=n, vectorization_mode="vector_entry_point", max_episode_s=SHORT_EPISODE_S, **kwargs)

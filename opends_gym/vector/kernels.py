@@ -16,8 +16,7 @@ from typing import Any
 import numpy as np
 from numba import types
 from numba.core import cgutils
-from numba.core import config as numba_config
-from numba.extending import intrinsic
+from numba.extending import intrinsic, overload
 
 from ..jit import inline, kernel, py_hypot
 from ..sim.geometry2d import boxes_overlap
@@ -64,25 +63,26 @@ def _fetch_add_one(typingctx: Any, counter: Any, index: Any) -> Any:
     return types.int64(counter, index), codegen
 
 
-_CONFIG: Any = numba_config
-if _CONFIG.DISABLE_JIT:  # (plain Python: `prange` is `range`, one thread)
+def take_next(counter: np.ndarray, i: int) -> int:
+    """counter[i] += 1 for a parallel step's threads at once (an atomic add); returns the
+    old value: the next chunk for the thread that asks (threads take chunks one at a time,
+    so one that a busy core or a slow chunk holds up takes fewer; numba's workqueue
+    threading layer gives each thread a fixed share of a `prange` loop, whatever
+    `parallel_chunksize`), or the next free slot of a list the threads fill. As Python (a
+    kernel running as Python while it compiles, `opends_gym.jit`) there is one thread."""
+    c = int(counter[i])
+    counter[i] = c + 1
+    return c
 
-    def take_next(counter: np.ndarray, i: int) -> int:
-        """See below."""
-        c = int(counter[i])
-        counter[i] = c + 1
-        return c
 
-else:
+@overload(take_next, inline="always")
+def _take_next_compiled(counter: Any, i: Any) -> Any:
+    """`take_next` in compiled kernels: the atomic add."""
 
-    @inline
-    def take_next(counter: np.ndarray, i: int) -> int:
-        """counter[i] += 1 for a parallel step's threads at once (an atomic add); returns the
-        old value: the next chunk for the thread that asks (threads take chunks one at a time,
-        so one that a busy core or a slow chunk holds up takes fewer; numba's workqueue
-        threading layer gives each thread a fixed share of a `prange` loop, whatever
-        `parallel_chunksize`), or the next free slot of a list the threads fill."""
-        return _fetch_add_one(counter, i)  # type: ignore[call-arg]
+    def atomic(counter: Any, i: Any) -> Any:  # (the same parameters as the typing function: numba compares them)
+        return _fetch_add_one(counter, i)  # type: ignore[call-arg]  # (typingctx: numba passes it)
+
+    return atomic
 
 
 @kernel

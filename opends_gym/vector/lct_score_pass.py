@@ -23,9 +23,9 @@ from typing import Any
 import numba
 import numpy as np
 from numba import prange, types
-from numba.extending import intrinsic
+from numba.extending import intrinsic, overload
 
-from ..jit import inline, kernel, parallel_kernel
+from ..jit import kernel, parallel_kernel
 from ..metrics import episode_scores
 from ..metrics.lct_scores import J2944, lct_lane_changes, lct_scores
 from ..metrics.sums import np_sum
@@ -33,32 +33,36 @@ from .trace import TRACE_GROUP, TraceRing, score_columns
 
 BLOCK = TraceRing.BLOCK
 
-if getattr(numba.config, "DISABLE_JIT", 0):  # (plain Python: the same view through ctypes)
 
-    def block_at(address: int, shape: tuple[int, int, int, int]) -> np.ndarray:
-        """The float64 array of `shape` at `address` (a `TraceRing` block)."""
-        return np.ctypeslib.as_array(ctypes.cast(int(address), ctypes.POINTER(ctypes.c_double)), shape)
+def block_at(address: int, shape: tuple[int, int, int, int]) -> np.ndarray:
+    """The float64 array of `shape` at `address` (a `TraceRing` block, held by the ring: a
+    list of arrays as an argument would cost numba's typed list, compiled afresh in every
+    process, ~0.5 s). As Python (a kernel running as Python while it compiles,
+    `opends_gym.jit`): the same view through ctypes."""
+    return np.ctypeslib.as_array(ctypes.cast(int(address), ctypes.POINTER(ctypes.c_double)), shape)
 
-else:
 
-    @intrinsic
-    def _f64_pointer(typingctx: Any, address: Any) -> Any:
-        """An int64 address as a float64 pointer (for `numba.carray`)."""
-        if not isinstance(address, types.Integer):
-            return None
-        pointer = types.CPointer(types.float64)
+@intrinsic
+def _f64_pointer(typingctx: Any, address: Any) -> Any:
+    """An int64 address as a float64 pointer (for `numba.carray`)."""
+    if not isinstance(address, types.Integer):
+        return None
+    pointer = types.CPointer(types.float64)
 
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            return builder.inttoptr(args[0], context.get_value_type(pointer))
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        return builder.inttoptr(args[0], context.get_value_type(pointer))
 
-        return pointer(address), codegen
+    return pointer(address), codegen
 
-    @inline
-    def block_at(address: int, shape: tuple[int, int, int, int]) -> np.ndarray:
-        """The float64 array of `shape` at `address` (a `TraceRing` block, held by the ring:
-        a list of arrays as an argument would cost numba's typed list, compiled afresh in every
-        process, ~0.5 s)."""
+
+@overload(block_at, inline="always")
+def _block_at_compiled(address: Any, shape: Any) -> Any:
+    """`block_at` in compiled kernels: a pointer cast."""
+
+    def view(address: Any, shape: Any) -> Any:  # (the same parameters as the typing function: numba compares them)
         return numba.carray(_f64_pointer(address), shape)  # type: ignore[call-arg]  # (typingctx: numba passes it)
+
+    return view
 
 
 MDEV_KEYS = ("mdev_basic_m", "mdev_adapted_m", "adapted_start_before_sign_m", "adapted_length_per_lane_m", "adapted_habitual_offset_m")
