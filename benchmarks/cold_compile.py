@@ -50,8 +50,8 @@ def main() -> None:
         for run in ("cold", "warm"):
             seconds, out = _run(compile_cmd, cache)
             print(f"## opends-gym compile, {run} cache: {seconds:.1f} s wall (the command itself included)\n\n{out}", flush=True)
-        print("| batch | envs | import s | make_vec+reset s | first step s | slowest later s | kernels compiled | loaded |")
-        print("|---|---:|---:|---:|---:|---:|---:|---:|")
+        print("| batch | envs | import s | make_vec+reset s | first step s | slowest later s | kernels compiled | loaded | python calls |")
+        print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
         for env_id, most, extra in BATCHES:
             n = min(args.num_envs, most or args.num_envs)
             _, out = _run([sys.executable, str(ROOT / "benchmarks" / "cold_native.py"), env_id, str(n), *extra], cache)

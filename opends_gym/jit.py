@@ -18,8 +18,10 @@ kernels (issue 9). The settings matter for results, so they live here, once:
   first step of a new process while numba loads its typing registries (0.3-0.6 s), does
   not freeze for the compile (4-18 s on an idle host; `benchmarks/cold_start.py`); see
   `_Background`. A process finishes the queued compiles at exit, so the cache fills once
-  per machine. The native batch's kernels (`opends_gym.vector`) compile in their first
-  call, as before: a batch of thousands of envs run as Python is slower than its compile.
+  per machine. The native batch's kernels (`opends_gym.vector`) take minutes to compile:
+  a child process compiles them (`_CompileChild`), so the batch's steps, as Python
+  meanwhile, get a core of their own, and at exit the child is left to finish them.
+  `opends-gym compile` fills the cache ahead (`compile_in_call`).
 
 `parallel_kernel` adds numba's `parallel=True` for the native batch's whole-batch steps:
 their `prange` loops run chunks of envs on numba's thread pool (`NUMBA_NUM_THREADS`, by
