@@ -13,15 +13,14 @@ kernels (issue 9). The settings matter for results, so they live here, once:
 * `nogil=True`: the native batch steps shards in threads;
 * compiled in the background (`OPENDS_GYM_JIT_BACKGROUND`, default on): a kernel called
   from Python for argument types it has no machine code for yet runs as plain Python (its
-  `py_func`, with the same results, see below) while one background thread compiles it (or
-  loads it from the cache) and swaps it in. So the first step after a fresh install, or the
-  first step of a new process while numba loads its typing registries (0.3-0.6 s), does
-  not freeze for the compile (4-18 s on an idle host; `benchmarks/cold_start.py`); see
-  `_Background`. A process finishes the queued compiles at exit, so the cache fills once
-  per machine. The native batch's kernels (`opends_gym.vector`) take minutes to compile:
-  a child process compiles them (`_CompileChild`), so the batch's steps, as Python
-  meanwhile, get a core of their own, and at exit the child is left to finish them.
-  `opends-gym compile` fills the cache ahead (`compile_in_call`).
+  `py_func`, with the same results, see below) while a child process compiles it into the
+  cache (`_CompileChild`: the compile does not share this process's interpreter lock with
+  the steps) and one background thread loads it and swaps it in. So the first step after a
+  fresh install, or the first step of a new process while numba loads its typing registries
+  (0.3-0.6 s), does not freeze for the compile (4-18 s for a single env on an idle host,
+  minutes for a native batch; `benchmarks/cold_start.py`, `benchmarks/cold_native.py`); see
+  `_Background`. At exit the child is left to finish the queued compiles, so the cache
+  fills once per machine. `opends-gym compile` fills it ahead (`compile_in_call`).
 
 `parallel_kernel` adds numba's `parallel=True` for the native batch's whole-batch steps:
 their `prange` loops run chunks of envs on numba's thread pool (`NUMBA_NUM_THREADS`, by
@@ -271,9 +270,9 @@ class _CompileChild:
 class _Background:
     """One daemon thread that compiles (or loads from the cache) the kernels called from
     Python before their machine code exists; meanwhile those calls run the Python function
-    (its `_Twins` twin). The thread has the native batch's kernels (`opends_gym.vector`,
-    minutes of compiling) compiled in a child process (`_CompileChild`) and then loads them
-    from the cache; the others it compiles itself.
+    (its `_Twins` twin). The thread has each kernel compiled in a child process
+    (`_CompileChild`) and then loads it from the cache; a kernel the child cannot compile
+    (one it cannot import, a cache it cannot write) the thread compiles itself.
 
     How: numba's dispatcher, finding no machine code for the argument types of a call, asks
     its `_compile_for_args(*args)` for a callable and calls it; a non-compiled callable is
@@ -352,8 +351,7 @@ class _Background:
             try:
                 with self.busy:
                     if not self.stopping:
-                        if dispatcher.py_func.__module__.startswith(_IN_CHILD):
-                            self.child.compile(dispatcher, types)  # (then loaded from the cache below)
+                        self.child.compile(dispatcher, types)  # (then loaded from the cache below)
                         dispatcher.compile(types)
                         self.compiled += 1
             except Exception:  # the caller's thread compiles it again and raises
@@ -371,9 +369,9 @@ class _Background:
     def finish(self, timeout_s: float = 120.0) -> None:
         """At exit: let the queued compiles finish, so their machine code lands in the cache
         and the next process loads it instead of running Python; a short-lived process (one
-        `opends-gym run`) would otherwise never fill the cache. The native batch's go to the
-        compile child, which finishes them after this process has gone (they take minutes);
-        this process waits for the others at most `timeout_s`."""
+        `opends-gym run`) would otherwise never fill the cache. They go to the compile child,
+        which finishes them after this process has gone (a native batch's take minutes); this
+        process waits at most `timeout_s` for those the child cannot take."""
         if self.thread is None or not self.pending():
             return
         rest: list[tuple[Any, tuple[Any, ...]]] = []
@@ -384,8 +382,7 @@ class _Background:
             except queue.Empty:
                 break
             self.jobs.task_done()
-            in_child = item[0].py_func.__module__.startswith(_IN_CHILD) and self.child.job(*item) is not None
-            (handed if in_child else rest).append(item)
+            (handed if self.child.job(*item) is not None else rest).append(item)
         detached = self.child.detach([job for job in (self.child.job(*item) for item in handed) if job is not None])
         if detached and not rest:
             self.stopping = True  # (the thread may be waiting on the child's current compile: not for us to wait)
@@ -402,9 +399,6 @@ class _Background:
         done.wait(timeout_s)
         self.stopping = True  # (a compile still running is cut off with the process: numba writes its cache files whole or not at all)
 
-
-# kernels compiled in `_CompileChild`: the native batch's, whose compile takes minutes
-_IN_CHILD = ("opends_gym.vector",)
 
 _BACKGROUND = _Background()
 atexit.register(_BACKGROUND.finish)

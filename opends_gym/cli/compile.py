@@ -191,7 +191,8 @@ def compile_group(group: Group) -> dict[str, Any]:
     before = jit.cache_stats()  # (a worker runs several groups: kernels an earlier one got are counted there)
     drive: Callable[[Group], None] = _drive_native if group.native else _drive_single
     try:
-        drive(group)
+        with jit.compile_in_call():  # (in this worker: the compile is the point, not stepping as Python meanwhile)
+            drive(group)
     except ValueError as e:  # your task's native batch refused it (no traffic, a feature it does not model)
         if not (group.native and "task" in group.kwargs):
             raise
@@ -203,26 +204,21 @@ def compile_group(group: Group) -> dict[str, Any]:
 
 
 def _drive_single(group: Group) -> None:
-    """Reset, step past an episode end, reset and step again; then again once compiled (the
-    kernels now run compiled, which calls those that ran inside Python ones as compiled code)."""
+    """Reset, step past an episode end, reset and step again (the kernels compile in their calls)."""
     import gymnasium as gym
-
-    from .. import jit
 
     env = gym.make(group.env_id, max_episode_s=SHORT_EPISODE_S, disable_env_checker=True, **group.kwargs)
     try:
-        for _ in range(2):
-            env.action_space.seed(0)
-            env.reset(seed=0)
-            ended = 0
-            for _ in range(MAX_STEPS):
-                _, _, terminated, truncated, _ = env.step(env.action_space.sample())
-                if terminated or truncated:
-                    ended += 1
-                    env.reset(seed=ended)
-                    if ended == 2:
-                        break
-            jit.wait_compiled()
+        env.action_space.seed(0)
+        env.reset(seed=0)
+        ended = 0
+        for _ in range(MAX_STEPS):
+            _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+            if terminated or truncated:
+                ended += 1
+                env.reset(seed=ended)
+                if ended == 2:
+                    break
     finally:
         env.close()
 
@@ -230,21 +226,14 @@ def _drive_single(group: Group) -> None:
 def _drive_native(group: Group) -> None:
     """A batch of one chunk (serial kernels) and one of more (numba-parallel kernels), each
     stepped until every env has ended an episode and been reset (or MAX_STEPS)."""
-    from .. import jit
-
-    tasks: list[dict[str, Any]] = [dict(group.kwargs)]
-    if group.env_id == "OpenDS/DrivingTask-v0" and "task" not in group.kwargs:
-        tasks = [{"task": str(t)} for t in _traffic_tasks()]
-    with jit.compile_in_call():  # (here the compile is the point: not a batch stepping as Python meanwhile)
-        _drive_native_tasks(group, tasks)
-
-
-def _drive_native_tasks(group: Group, tasks: list[dict[str, Any]]) -> None:
     import gymnasium as gym
     import numpy as np
 
     from ..vector.kernels import CHUNK_ENVS
 
+    tasks: list[dict[str, Any]] = [dict(group.kwargs)]
+    if group.env_id == "OpenDS/DrivingTask-v0" and "task" not in group.kwargs:
+        tasks = [{"task": str(t)} for t in _traffic_tasks()]
     for kwargs in tasks:
         for n in (2, CHUNK_ENVS + 1):
             env = gym.make_vec(group.env_id, num_envs=n, vectorization_mode="vector_entry_point", max_episode_s=SHORT_EPISODE_S, **kwargs)
