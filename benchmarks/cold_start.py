@@ -5,8 +5,8 @@
 
 For each env, a fresh Python process with an empty `NUMBA_CACHE_DIR` (as after a fresh
 install: no compiled kernel anywhere) imports opends_gym, makes the env, resets it and steps
-it; a second process with the cache the first one left (it finishes its background compiles
-at exit) does the same ("warm"). Printed per env and run: import s, make+reset s, first step
+it; a second process with the cache the first one left (it waits for its background compiles
+before it ends) does the same ("warm"). Printed per env and run: import s, make+reset s, first step
 s, the slowest of the next `--steps` steps (a later freeze would show there), and how many
 kernel calls ran as Python while their compile was pending (`opends_gym.jit.compile_status`).
 `--sync` sets OPENDS_GYM_JIT_BACKGROUND=0: the compile-on-first-call behaviour, for comparison.
@@ -51,7 +51,8 @@ for _ in range(int(sys.argv[3])):
     if terminated or truncated:
         env.reset(seed=1)
 times = {"import_s": t1 - t0, "make_reset_s": t2 - t1, "first_step_s": t3 - t2, "slowest_later_s": slowest}
-print(json.dumps({**times, **jit.compile_status()}))
+print(json.dumps({**times, **jit.compile_status()}), flush=True)
+jit.wait_compiled()  # (so that the warm run finds every kernel in the cache; a program would leave them to the compile child)
 """
 
 

@@ -1,6 +1,6 @@
-"""Kernels compile in a background thread: a first call with no machine code runs the
-kernel as Python instead of waiting for numba, with the same results, and the compiled code
-lands in the machine's cache (`opends_gym.jit`)."""
+"""Kernels compile in the background (in a child process; a thread loads them): a first call
+with no machine code runs the kernel as Python instead of waiting for numba, with the same
+results, and the compiled code lands in the machine's cache (`opends_gym.jit`)."""
 
 from __future__ import annotations
 
