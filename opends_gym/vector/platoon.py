@@ -109,7 +109,7 @@ class PlatoonBatch(BatchCore):
         self.nominal = core.nominal_mps
         self.lead_i, self.follow_i = tm.index_of(core.lead), tm.index_of(core.follower)
         spec = self.world.ego.spec
-        self.traffic = FlatTraffic(tm, n, spec.length_m, self.car_half)
+        self.traffic = FlatTraffic(tm, n, spec.length_m, self.car_half, car_major=True)  # (the pass steps a world at a time)
         self.em_decel = self.world.task.scenario.vehicles[self.lead_i].deceleration_brake_mps2
         sr = self.spec.speed_reduction
         self.durations = np.array(
@@ -392,7 +392,7 @@ class PlatoonBatch(BatchCore):
             steps, resume = k_from, False
             while True:
                 pf, pp, pi = tr.paths.arrays()  # (afresh: a leg event in Python may rebuild them)
-                traffic = (st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, self._ego3, tr.work,
+                traffic = (st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp_packed, pf, pp, pi, self._ego3, tr.work,
                            tr.flags, tr.no_lights, self._brake_out, self._turn_out, self._net, self._quiet, tr.c, self._car_rows,
                            self._codes)  # fmt: skip
                 args = (resume, k_from, k_to, self.dt, live, self._park, self._stage, self.step_count, controls, ego, traffic, trig_t,

@@ -157,11 +157,12 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
 def traffic_events(tr: Any, w: int, code: int, dt: float, t: np.ndarray, ego3: np.ndarray) -> None:
     """`TrafficManager._step_with_events` for world w of the flat traffic `tr` (`FlatTraffic`),
     whose `motion.step_rows` stopped with `code` for Python: the waits that are over, the legs
-    that ended (the single env's `LegLogic`), then the second kernel (`drive`)."""
+    that ended (the single env's `LegLogic`), then the second kernel (`drive`). The kernels
+    run on copies of the world's columns (`_world_columns`), written back after each."""
     st, c = tr.st, tr.c
     lo, hi = w * c, (w + 1) * c
-    f, i, b, pos, work, flags = st.f[:, lo:hi], st.i[:, lo:hi], st.b[:, lo:hi], st.pos[lo:hi], tr.work[:, lo:hi], tr.flags[lo:hi]
-    sp = tr.sp.packed[:, lo:hi]
+    pos, flags = st.pos[lo:hi], tr.flags[lo:hi]
+    sp = _world_columns(tr.sp_packed, lo, hi)
     rows = np.ones(c, dtype=bool)
     pf, pp, pi = tr.paths.arrays()
     legs = tr.legs
@@ -170,11 +171,24 @@ def traffic_events(tr: Any, w: int, code: int, dt: float, t: np.ndarray, ego3: n
         for k in np.flatnonzero(flags & WAIT_OVER).tolist():
             legs._finish_wait(lo + k)
         pf, pp, pi = tr.paths.arrays()
+        f, i, b, work = (_world_columns(x, lo, hi) for x in (st.f, st.i, st.b, tr.work))
         code = advance_carrots(f, i, b, pos, sp, pf, pp, pi, c, rows, t[w : w + 1], dt, work, flags)
+        st.f[:, lo:hi], st.i[:, lo:hi], st.b[:, lo:hi], tr.work[:, lo:hi] = f, i, b, work
     if code > 0:
         for k in np.flatnonzero(flags & ARRIVED).tolist():
             legs._arrive(lo + k)
         pf, pp, pi = tr.paths.arrays()
     if code != NOTHING_LIVE:
+        f, i, b, work = (_world_columns(x, lo, hi) for x in (st.f, st.i, st.b, tr.work))
         drive(f, i, b, pos, st.end_xz[lo:hi], st.light_xz[lo:hi], st.ext_cmd[lo:hi], sp, pf, pp, pi, c, rows, ego3[:, w : w + 1], dt, work,
               flags, code > 0, tr.no_lights)  # fmt: skip
+        st.f[:, lo:hi], st.i[:, lo:hi], st.b[:, lo:hi], tr.work[:, lo:hi] = f, i, b, work
+
+
+def _world_columns(a: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """A copy of columns lo..hi-1 of `a` (a car-major array, `FlatTraffic(car_major=True)`),
+    strided as the same slice of a row-major array would be (numba's layout 'A'), so that the
+    kernels called on it are those compiled for the row-major batches, not a new compile."""
+    out = np.empty((a.shape[0], hi - lo + 1), dtype=a.dtype)[:, : hi - lo]
+    out[...] = a[:, lo:hi]
+    return out
