@@ -46,7 +46,7 @@ from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
 from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
 from .platoon_reset import reset_envs, reset_range
 from .platoon_step import _lead_range, lead_measures, lead_rows
-from .trace import TRACE_GROUP, TraceRing, score_columns
+from .trace import PLATOON_TRACE_GROUP, TraceRing, score_columns
 from .traffic import FlatTraffic
 
 KINDS = scores.KINDS
@@ -188,8 +188,8 @@ class PlatoonBatch(BatchCore):
         if self.trace_columns[:9] != PlatoonBatch.trace_columns or len(self.trace_columns) not in (9, 11) or SIGNAL_OFF != 0:
             raise TypeError("platoon_step.after_one writes these trace columns; change it with them")
         if self.ring is not None:  # grouped: each env's physics steps write its rows in turn (`platoon_pass`); ended episodes read runs
-            self.ring = TraceRing(n, self.trace_columns, self.ring.size - 2, grouped=True)
-        self._no_block = np.empty((1, 1, TRACE_GROUP, len(self.trace_columns)))
+            self.ring = TraceRing(n, self.trace_columns, self.ring.size - 2, grouped=True, group=PLATOON_TRACE_GROUP)
+        self._no_block = np.empty((1, 1, PLATOON_TRACE_GROUP, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
         self._no_hits = np.zeros(n, dtype=np.int64)
         self._scored: dict[int, dict[str, float]] = {}  # `PlatoonCore.metrics` of envs to score by the template (`episode_metrics`)

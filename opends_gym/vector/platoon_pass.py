@@ -35,7 +35,7 @@ from ..sim.traffic.motion import ARRIVED, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, a
 from .ego import ego_step_wheels
 from .kernels import chunk_count, nearest_volume, timer_step, volume_fires
 from .platoon_step import after_one
-from .trace import TRACE_GROUP
+from .trace import PLATOON_TRACE_GROUP
 
 STEP, TRAFFIC, FIRE = 0, 1, 2  # where a parked env's physics step goes on (`stage`): Python finished its traffic, or fired its triggers
 
@@ -94,7 +94,7 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
         done_t = timers  # fmt: skip
     t, sin_y, cos_y = a[7], a[8], a[9]
     block_a, block_b, row0, ring_steps, pedals, rec = ring
-    block = block_a.shape[0] * TRACE_GROUP  # rows of a block (grouped: (BLOCK / TRACE_GROUP, n, TRACE_GROUP, column))
+    block = block_a.shape[0] * PLATOON_TRACE_GROUP  # rows of a block (grouped: (BLOCK / GROUP, n, GROUP, column))
     parked, ran, changed = 0, k_from, 0
     for e in range(lo, hi):
         if not resume:

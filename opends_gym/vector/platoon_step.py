@@ -22,7 +22,7 @@ from ..jit import inline, kernel, parallel_kernel
 from ..sim.geometry2d import boxes_overlap
 from ..sim.traffic.motion import N_WORK, W_COS, W_SIN, W_TRIG_OK, W_TRIG_YAW
 from .kernels import chunk_count, lane_measures
-from .trace import TRACE_GROUP
+from .trace import PLATOON_TRACE_GROUP
 
 _NO_WORK = np.zeros((N_WORK, 0))  # (no traffic work rows: `_lead_one` takes the lead car's sine and cosine itself)
 
@@ -213,7 +213,7 @@ def after_one(e: int, k: int, live: np.ndarray, a: tuple, lead: tuple, lanes: tu
         dist[e], area[e],
     )  # fmt: skip
     prev_x[e], prev_z[e] = x[e], z[e]
-    grp, slot = row // TRACE_GROUP, row % TRACE_GROUP  # (a grouped ring: `TraceRing`)
+    grp, slot = row // PLATOON_TRACE_GROUP, row % PLATOON_TRACE_GROUP  # (a grouped ring: `TraceRing(group=PLATOON_TRACE_GROUP)`)
     if rec:
         block[grp, e, slot, 0], block[grp, e, slot, 1], block[grp, e, slot, 2], block[grp, e, slot, 3] = x[e], z[e], u[e], steer_in[e]
         block[grp, e, slot, 4], block[grp, e, slot, 5], block[grp, e, slot, 6], block[grp, e, slot, 7] = headway[e], ttc[e], gap_m[e], \
