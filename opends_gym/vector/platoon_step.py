@@ -20,7 +20,7 @@ from numba import prange
 
 from ..jit import inline, kernel, parallel_kernel
 from ..sim.geometry2d import boxes_overlap
-from ..sim.traffic.motion import N_WORK, W_COS, W_SIN, W_TRIG_OK, W_TRIG_YAW
+from ..sim.traffic.motion import N_WORK, W_COS, W_SIN, W_TRIG_OK, W_TRIG_YAW, sin_cos
 from .kernels import chunk_count, lane_measures
 from .trace import PLATOON_TRACE_GROUP
 
@@ -118,7 +118,7 @@ def _lead_one(e: int, x: np.ndarray, z: np.ndarray, sy: float, cy: float, u: np.
     if r < work.shape[1] and work[W_TRIG_OK, r] != 0.0 and vyaw != 0.0 and work[W_TRIG_YAW, r] == vyaw:
         vs, vc = work[W_SIN, r], work[W_COS, r]
     else:
-        vs, vc = math.sin(vyaw), math.cos(vyaw)
+        vs, vc = sin_cos(vyaw)
     v = speed[r] * (-vs * fx - vc * fz)
     lead_j[e], lead_gap[e], lead_v[e] = j if found else -1, gap, v
     ok = found and math.isfinite(gap)
