@@ -27,8 +27,8 @@ from .kernels import lane_of
 
 TRACE_GROUP = 8  # rows of one car stored together in a grouped ring (`TraceRing`)
 # ... in the brake and platoon batches' ring: an ended episode is read (`gather`) in runs of 32 rows
-# (2.3 KB of 9 columns) instead of 8, a cache and TLB miss per run; 1.5-2x faster reads of
-# episodes long gone from the cache, the writes alike (a micro-benchmark, 4,096 envs)
+# (2.3 KB of 9 columns) instead of 8, a cache and TLB miss per run (4,096 platoon envs with
+# metrics, one thread: `gather`'s compiled copy 0.58 -> 0.09 s per 200 steps, cProfile)
 PLATOON_TRACE_GROUP = 32
 
 

@@ -128,7 +128,8 @@ class MotionState:
         order; the same [field, object] indexing). Why: a native batch steps its worlds one
         after another, each object's whole step at a time; in the field-major layout that
         step reads ~40 fields from ~40 rows (cache lines) far apart, in this one from a few
-        adjacent lines (the platoon batch's traffic step: -32 % CPU time)."""
+        adjacent lines (the platoon batch's traffic cars alone: ~925 -> ~670 CPU ns per env-step,
+        `benchmarks/native_tasks.py --parts`, docs/performance.md)."""
         a = self.__reduce__()[1]
         return MotionState(*(np.asfortranarray(x) for x in a[:3]), *(x.copy() for x in a[3:]))
 
