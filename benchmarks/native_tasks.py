@@ -51,7 +51,7 @@ from opends_gym.jit import borrowing_kernel, wait_compiled
 from opends_gym.sim.traffic.motion import step_rows
 from opends_gym.vector.kernels import nearest_volume, volume_fires
 from opends_gym.vector.platoon_step import after_one
-from opends_gym.vector.trace import TRACE_GROUP
+from opends_gym.vector.trace import PLATOON_TRACE_GROUP
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import throughput as tp
@@ -374,7 +374,8 @@ def task_parts(env_id: str, n: int, steps: int, metrics: bool) -> dict[str, floa
     s = core.s
     p = core.p
     steer, gas, brake = (np.ascontiguousarray(x, dtype=np.float64) for x in controls)
-    block = np.zeros((-(-repeat // TRACE_GROUP), n, TRACE_GROUP, len(core.trace_columns)))  # (grouped, as `PlatoonBatch`'s ring)
+    g = PLATOON_TRACE_GROUP
+    block = np.zeros((-(-repeat // g), n, g, len(core.trace_columns)))  # (grouped, as `PlatoonBatch`'s ring)
     ring_t = (block, 0, np.zeros(n, dtype=np.int64), core._pedals, True)
     ones = np.ones(n, dtype=bool)
     t = core.t.copy()

@@ -46,7 +46,7 @@ from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
 from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
 from .platoon_reset import reset_envs, reset_range
 from .platoon_step import _lead_range, lead_measures, lead_rows
-from .trace import TRACE_GROUP, TraceRing, score_columns
+from .trace import PLATOON_TRACE_GROUP, TraceRing, score_columns
 from .traffic import FlatTraffic
 
 KINDS = scores.KINDS
@@ -109,7 +109,7 @@ class PlatoonBatch(BatchCore):
         self.nominal = core.nominal_mps
         self.lead_i, self.follow_i = tm.index_of(core.lead), tm.index_of(core.follower)
         spec = self.world.ego.spec
-        self.traffic = FlatTraffic(tm, n, spec.length_m, self.car_half)
+        self.traffic = FlatTraffic(tm, n, spec.length_m, self.car_half, car_major=True)  # (the pass steps a world at a time)
         self.em_decel = self.world.task.scenario.vehicles[self.lead_i].deceleration_brake_mps2
         sr = self.spec.speed_reduction
         self.durations = np.array(
@@ -188,8 +188,8 @@ class PlatoonBatch(BatchCore):
         if self.trace_columns[:9] != PlatoonBatch.trace_columns or len(self.trace_columns) not in (9, 11) or SIGNAL_OFF != 0:
             raise TypeError("platoon_step.after_one writes these trace columns; change it with them")
         if self.ring is not None:  # grouped: each env's physics steps write its rows in turn (`platoon_pass`); ended episodes read runs
-            self.ring = TraceRing(n, self.trace_columns, self.ring.size - 2, grouped=True)
-        self._no_block = np.empty((1, 1, TRACE_GROUP, len(self.trace_columns)))
+            self.ring = TraceRing(n, self.trace_columns, self.ring.size - 2, grouped=True, group=PLATOON_TRACE_GROUP)
+        self._no_block = np.empty((1, 1, PLATOON_TRACE_GROUP, len(self.trace_columns)))
         self._no_steps = np.zeros(n, dtype=np.int64)
         self._no_hits = np.zeros(n, dtype=np.int64)
         self._scored: dict[int, dict[str, float]] = {}  # `PlatoonCore.metrics` of envs to score by the template (`episode_metrics`)
@@ -392,7 +392,7 @@ class PlatoonBatch(BatchCore):
             steps, resume = k_from, False
             while True:
                 pf, pp, pi = tr.paths.arrays()  # (afresh: a leg event in Python may rebuild them)
-                traffic = (st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp.packed, pf, pp, pi, self._ego3, tr.work,
+                traffic = (st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, tr.sp_packed, pf, pp, pi, self._ego3, tr.work,
                            tr.flags, tr.no_lights, self._brake_out, self._turn_out, self._net, self._quiet, tr.c, self._car_rows,
                            self._codes)  # fmt: skip
                 args = (resume, k_from, k_to, self.dt, live, self._park, self._stage, self.step_count, controls, ego, traffic, trig_t,

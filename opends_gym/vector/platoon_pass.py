@@ -28,16 +28,17 @@ from typing import Any
 import numpy as np
 from numba import prange
 
-from ..jit import borrowing_kernel, parallel_kernel
+from ..jit import borrowing_kernel, inline, parallel_kernel
 from ..sim.ego.kernels import wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from ..sim.traffic.motion import ARRIVED, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, advance_carrots, drive, step_rows
 from .ego import ego_step_wheels
-from .kernels import chunk_count, nearest_volume, timer_step, volume_fires
+from .kernels import V_CZ, V_REACH, chunk_count, nearest_volume, timer_step, volume_fires
 from .platoon_step import after_one
-from .trace import TRACE_GROUP
+from .trace import PLATOON_TRACE_GROUP
 
 STEP, TRAFFIC, FIRE = 0, 1, 2  # where a parked env's physics step goes on (`stage`): Python finished its traffic, or fired its triggers
+CLEAR_MARGIN_M = 1e-6  # what `_clear_of_volumes`' radius keeps to spare (its sums round by ~1e-13 m at road scale)
 
 
 @parallel_kernel
@@ -94,7 +95,7 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
         done_t = timers  # fmt: skip
     t, sin_y, cos_y = a[7], a[8], a[9]
     block_a, block_b, row0, ring_steps, pedals, rec = ring
-    block = block_a.shape[0] * TRACE_GROUP  # rows of a block (grouped: (BLOCK / TRACE_GROUP, n, TRACE_GROUP, column))
+    block = block_a.shape[0] * PLATOON_TRACE_GROUP  # rows of a block (grouped: (BLOCK / GROUP, n, GROUP, column))
     parked, ran, changed = 0, k_from, 0
     for e in range(lo, hi):
         if not resume:
@@ -106,6 +107,7 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
         angle = steer[e] * MAX_WHEEL_ANGLE_RAD
         cos_a, sin_a = math.cos(angle), math.sin(angle)
         wc = wheel_constants(car, dt, cos_a, sin_a)  # (the steering is held for the policy step: once per env and call)
+        anchor, clear = 0.0, -math.inf  # the trigger box's z at the last search, and how far from it no volume can be reached
         while k < k_to:
             if at == STEP:
                 sc = step_count[e] + 1
@@ -129,10 +131,12 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
                 at = TRAFFIC
             if at == TRAFFIC and not paused[e]:
                 bx, bz = x[e] - shift * sin_y[e], z[e] - shift * cos_y[e]  # (`kernels.box_centre`)
-                j, near[e] = nearest_volume(bx, bz, vols, near[e])
-                if j >= 0 and volume_fires(e, j, bx, bz, yaw[e], hx, hz, vols, vol_triggers, t[e], locks):
-                    park[e], stage[e], contact[e] = k, FIRE, j  # (Python fires them)
-                    break
+                if not abs(bz - anchor) < clear - CLEAR_MARGIN_M:  # (else: no volume within reach, `nearest_volume` says -1)
+                    anchor, clear = bz, _clear_of_volumes(bz, vols)
+                    j, near[e] = nearest_volume(bx, bz, vols, near[e])
+                    if j >= 0 and volume_fires(e, j, bx, bz, yaw[e], hx, hz, vols, vol_triggers, t[e], locks):
+                        park[e], stage[e], contact[e] = k, FIRE, j  # (Python fires them)
+                        break
             at = STEP
             if has_timers and active[e] and not paused[e]:
                 how, peak[e], braked[e], hold_since[e] = timer_step(
@@ -154,14 +158,30 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
     return parked, ran, changed
 
 
+@inline
+def _clear_of_volumes(bz: float, vols: np.ndarray) -> float:
+    """How far (along z) a trigger box centred at z = bz may move before any volume can be
+    within reach of it: min over the volumes of |cz - bz| - reach (-inf where one is NaN).
+    While the box stays closer than that to bz, every volume is at least its reach away
+    along z, so `nearest_volume` finds none (-1): `platoon_substeps` searches again only
+    once the box leaves that range."""
+    clear = math.inf
+    for v in range(vols.shape[0]):
+        d = abs(vols[v, V_CZ] - bz) - vols[v, V_REACH]
+        if not d >= clear:
+            clear = d if d == d else -math.inf
+    return clear
+
+
 def traffic_events(tr: Any, w: int, code: int, dt: float, t: np.ndarray, ego3: np.ndarray) -> None:
     """`TrafficManager._step_with_events` for world w of the flat traffic `tr` (`FlatTraffic`),
     whose `motion.step_rows` stopped with `code` for Python: the waits that are over, the legs
-    that ended (the single env's `LegLogic`), then the second kernel (`drive`)."""
+    that ended (the single env's `LegLogic`), then the second kernel (`drive`). The kernels
+    run on copies of the world's columns (`_world_columns`), written back after each."""
     st, c = tr.st, tr.c
     lo, hi = w * c, (w + 1) * c
-    f, i, b, pos, work, flags = st.f[:, lo:hi], st.i[:, lo:hi], st.b[:, lo:hi], st.pos[lo:hi], tr.work[:, lo:hi], tr.flags[lo:hi]
-    sp = tr.sp.packed[:, lo:hi]
+    pos, flags = st.pos[lo:hi], tr.flags[lo:hi]
+    sp = _world_columns(tr.sp_packed, lo, hi)
     rows = np.ones(c, dtype=bool)
     pf, pp, pi = tr.paths.arrays()
     legs = tr.legs
@@ -170,11 +190,24 @@ def traffic_events(tr: Any, w: int, code: int, dt: float, t: np.ndarray, ego3: n
         for k in np.flatnonzero(flags & WAIT_OVER).tolist():
             legs._finish_wait(lo + k)
         pf, pp, pi = tr.paths.arrays()
+        f, i, b, work = (_world_columns(x, lo, hi) for x in (st.f, st.i, st.b, tr.work))
         code = advance_carrots(f, i, b, pos, sp, pf, pp, pi, c, rows, t[w : w + 1], dt, work, flags)
+        st.f[:, lo:hi], st.i[:, lo:hi], st.b[:, lo:hi], tr.work[:, lo:hi] = f, i, b, work
     if code > 0:
         for k in np.flatnonzero(flags & ARRIVED).tolist():
             legs._arrive(lo + k)
         pf, pp, pi = tr.paths.arrays()
     if code != NOTHING_LIVE:
+        f, i, b, work = (_world_columns(x, lo, hi) for x in (st.f, st.i, st.b, tr.work))
         drive(f, i, b, pos, st.end_xz[lo:hi], st.light_xz[lo:hi], st.ext_cmd[lo:hi], sp, pf, pp, pi, c, rows, ego3[:, w : w + 1], dt, work,
               flags, code > 0, tr.no_lights)  # fmt: skip
+        st.f[:, lo:hi], st.i[:, lo:hi], st.b[:, lo:hi], tr.work[:, lo:hi] = f, i, b, work
+
+
+def _world_columns(a: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """A copy of columns lo..hi-1 of `a` (a car-major array, `FlatTraffic(car_major=True)`),
+    strided as the same slice of a row-major array would be (numba's layout 'A'), so that the
+    kernels called on it are those compiled for the row-major batches, not a new compile."""
+    out = np.empty((a.shape[0], hi - lo + 1), dtype=a.dtype)[:, : hi - lo]
+    out[...] = a[:, lo:hi]
+    return out

@@ -20,9 +20,9 @@ from numba import prange
 
 from ..jit import inline, kernel, parallel_kernel
 from ..sim.geometry2d import boxes_overlap
-from ..sim.traffic.motion import N_WORK, W_COS, W_SIN, W_TRIG_OK, W_TRIG_YAW
+from ..sim.traffic.motion import N_WORK, W_COS, W_SIN, W_TRIG_OK, W_TRIG_YAW, sin_cos
 from .kernels import chunk_count, lane_measures
-from .trace import TRACE_GROUP
+from .trace import PLATOON_TRACE_GROUP
 
 _NO_WORK = np.zeros((N_WORK, 0))  # (no traffic work rows: `_lead_one` takes the lead car's sine and cosine itself)
 
@@ -118,7 +118,7 @@ def _lead_one(e: int, x: np.ndarray, z: np.ndarray, sy: float, cy: float, u: np.
     if r < work.shape[1] and work[W_TRIG_OK, r] != 0.0 and vyaw != 0.0 and work[W_TRIG_YAW, r] == vyaw:
         vs, vc = work[W_SIN, r], work[W_COS, r]
     else:
-        vs, vc = math.sin(vyaw), math.cos(vyaw)
+        vs, vc = sin_cos(vyaw)
     v = speed[r] * (-vs * fx - vc * fz)
     lead_j[e], lead_gap[e], lead_v[e] = j if found else -1, gap, v
     ok = found and math.isfinite(gap)
@@ -213,7 +213,7 @@ def after_one(e: int, k: int, live: np.ndarray, a: tuple, lead: tuple, lanes: tu
         dist[e], area[e],
     )  # fmt: skip
     prev_x[e], prev_z[e] = x[e], z[e]
-    grp, slot = row // TRACE_GROUP, row % TRACE_GROUP  # (a grouped ring: `TraceRing`)
+    grp, slot = row // PLATOON_TRACE_GROUP, row % PLATOON_TRACE_GROUP  # (a grouped ring: `TraceRing(group=PLATOON_TRACE_GROUP)`)
     if rec:
         block[grp, e, slot, 0], block[grp, e, slot, 1], block[grp, e, slot, 2], block[grp, e, slot, 3] = x[e], z[e], u[e], steer_in[e]
         block[grp, e, slot, 4], block[grp, e, slot, 5], block[grp, e, slot, 6], block[grp, e, slot, 7] = headway[e], ttc[e], gap_m[e], \

@@ -44,7 +44,10 @@ class _Legs(LegLogic):
 class FlatTraffic:
     """The traffic of N envs (C cars each), stepped together."""
 
-    def __init__(self, tm: Any, n: int, ego_length_m: float, ego_half: tuple[float, float]) -> None:
+    def __init__(self, tm: Any, n: int, ego_length_m: float, ego_half: tuple[float, float], car_major: bool = False) -> None:
+        """`car_major`: the state, specs and work rows in each car's own columns (Fortran
+        order, `MotionState.car_major`), for a batch that steps one world at a time
+        (`platoon_pass`); the kernels index them alike, so the floats are the same."""
         if tm.network is not None or tm.lights is not None or not tm.is_car.all() or np.any(tm.kind != KIND_OWN):
             raise ValueError("the native batch supports traffic cars on their own waypoint paths only")
         if np.any(tm.sp.never_faster) or np.any(tm._stuck_reset):
@@ -53,9 +56,10 @@ class FlatTraffic:
         self.tm = tm
         self.paths = tm.paths
         self.st0 = tm.st.copy()  # after the template's reset (and the task's own reset of the cars)
-        self.st = self.st0.tile(n)
+        self.st = self.st0.tile(n).car_major() if car_major else self.st0.tile(n)
         self.sp = Specs(**{f.name: np.tile(getattr(tm.sp, f.name), n) for f in fields(Specs) if f.init})
-        self.work = np.zeros((N_WORK, n * self.c))
+        self.sp_packed = np.asfortranarray(self.sp.packed) if car_major else self.sp.packed  # (what the kernels read)
+        self.work = np.zeros((N_WORK, n * self.c), order="F" if car_major else "C")
         self.flags = np.zeros(n * self.c, dtype=np.int64)
         self.no_lights = np.zeros(1, dtype=bool)
         self.legs = _Legs(tm, self.st, n)
@@ -85,7 +89,7 @@ class FlatTraffic:
         active = np.repeat(live_env, c)
         pf, pp, pi = self.paths.arrays()
         t = np.ascontiguousarray(t_env, dtype=np.float64)
-        code = advance_carrots(st.f, st.i, st.b, st.pos, self.sp.packed, pf, pp, pi, c, active, t, dt, work, flags)
+        code = advance_carrots(st.f, st.i, st.b, st.pos, self.sp_packed, pf, pp, pi, c, active, t, dt, work, flags)
         if code == NOTHING_LIVE:
             return
         if code == WAITS_OVER:
@@ -93,7 +97,7 @@ class FlatTraffic:
                 self.legs.t_s = float(t_env[i // c])
                 self.legs._finish_wait(i)
             pf, pp, pi = self.paths.arrays()
-            code = advance_carrots(st.f, st.i, st.b, st.pos, self.sp.packed, pf, pp, pi, c, active, t, dt, work, flags)
+            code = advance_carrots(st.f, st.i, st.b, st.pos, self.sp_packed, pf, pp, pi, c, active, t, dt, work, flags)
         if code > 0:
             for i in np.flatnonzero(flags & ARRIVED).tolist():
                 self.legs.t_s = float(t_env[i // c])
@@ -101,7 +105,7 @@ class FlatTraffic:
             pf, pp, pi = self.paths.arrays()
         ego = np.zeros((3, self.n))  # x, z, speed (no car here watches the ego's speed)
         ego[0], ego[1] = ex, ez
-        drive(st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, self.sp.packed, pf, pp, pi, c, active, ego, dt, work, flags,
+        drive(st.f, st.i, st.b, st.pos, st.end_xz, st.light_xz, st.ext_cmd, self.sp_packed, pf, pp, pi, c, active, ego, dt, work, flags,
               code > 0, self.no_lights)  # fmt: skip
 
     # ------------------------------------------------------------------ ego relations

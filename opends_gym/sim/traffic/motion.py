@@ -75,6 +75,17 @@ def _dist(dx: float, dz: float) -> float:
 
 
 @inline
+def sin_cos(a: float) -> tuple[float, float]:
+    """`math.sin(a), math.cos(a)`, at a = +-0 their exact values (+-0, 1) without the calls:
+    the same floats (C99 Annex F), and the cars of a straight road keep their yaw at 0 (the
+    brake and platoon tests' cars always), where the kept sine and cosine (`W_TRIG_OK`)
+    cannot be used (0.0 == -0.0: the sign is not checked there)."""
+    if a == 0.0:
+        return a, 1.0
+    return math.sin(a), math.cos(a)
+
+
+@inline
 def _aim(cx: float, cz: float, x: float, z: float, sin_yaw: float, cos_yaw: float) -> tuple[float, float]:
     """(angle to the carrot at (cx, cz), positive to the left; distance to it) from (x, z),
     heading with sine and cosine sin_yaw, cos_yaw."""
@@ -82,7 +93,8 @@ def _aim(cx: float, cz: float, x: float, z: float, sin_yaw: float, cos_yaw: floa
     ndx = -dx
     ahead = ndx * sin_yaw - dz * cos_yaw
     side = ndx * cos_yaw + dz * sin_yaw
-    return math.atan2(side, ahead), _dist(dx, dz)
+    # (atan2(+-0, x > 0) is +-0 exactly (C99 Annex F): a car on a straight path has its carrot dead ahead)
+    return (side if side == 0.0 and ahead > 0.0 else math.atan2(side, ahead)), _dist(dx, dz)
 
 
 @inline
@@ -186,11 +198,12 @@ def _longitudinal(v: float, vt: float, dt: float, engine_on: bool, accel: float,
 def _move(x: float, z: float, yaw: float, steer: float, v_new: float, dt: float) -> tuple[float, float, float, float, float]:
     """The kinematic bicycle: (x, z, yaw) after `dt` at speed v_new and steering input `steer`,
     and the sine and cosine of the new yaw."""
-    yaw = yaw + v_new / WHEELBASE_M * math.tan(steer * MAX_WHEEL_ANGLE_RAD) * dt
+    wheel = steer * MAX_WHEEL_ANGLE_RAD
+    yaw = yaw + v_new / WHEELBASE_M * (wheel if wheel == 0.0 else math.tan(wheel)) * dt  # (tan(+-0) is +-0)
     turned = yaw + math.pi
     # Python's `%` (a C fmod call) is the identity on [0, 2 pi): skip it there, same floats
     yaw = (turned if 0.0 <= turned < TWO_PI else turned % TWO_PI) - math.pi
-    sin_yaw, cos_yaw = math.sin(yaw), math.cos(yaw)
+    sin_yaw, cos_yaw = sin_cos(yaw)
     return x - v_new * sin_yaw * dt, z - v_new * cos_yaw * dt, yaw, sin_yaw, cos_yaw
 
 
@@ -219,7 +232,7 @@ def _carrot(f: np.ndarray, i: np.ndarray, pos: np.ndarray, pf: np.ndarray, pp: n
     if work[W_TRIG_OK, k] != 0.0 and yaw != 0.0 and work[W_TRIG_YAW, k] == yaw:
         sin_yaw, cos_yaw = work[W_SIN, k], work[W_COS, k]
     else:
-        sin_yaw, cos_yaw = math.sin(yaw), math.cos(yaw)
+        sin_yaw, cos_yaw = sin_cos(yaw)
         work[W_SIN, k], work[W_COS, k], work[W_TRIG_YAW, k], work[W_TRIG_OK, k] = sin_yaw, cos_yaw, yaw, 1.0
     work[W_ANG, k], work[W_D, k] = _aim(cx, cz, pos[k, 0], pos[k, 2], sin_yaw, cos_yaw)
 

@@ -88,7 +88,9 @@ class MotionState:
     def __init__(self, f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray,
                  ext_cmd: np.ndarray, stuck_hist: np.ndarray) -> None:  # fmt: skip
         put = object.__setattr__
-        for name, value in (("f", f), ("i", i), ("b", b), ("pos", pos), ("end_xz", end_xz), ("light_xz", light_xz), ("ext_cmd", ext_cmd)):
+        for name, value in (("f", f), ("i", i), ("b", b)):  # (an object-major layout, `car_major`, is kept)
+            put(self, name, value if value.flags.f_contiguous and not value.flags.c_contiguous else np.ascontiguousarray(value))
+        for name, value in (("pos", pos), ("end_xz", end_xz), ("light_xz", light_xz), ("ext_cmd", ext_cmd)):
             put(self, name, np.ascontiguousarray(value))
         put(self, "stuck_hist", np.ascontiguousarray(stuck_hist))
         for name, (kind, k) in _PACKED.items():
@@ -119,7 +121,17 @@ class MotionState:
         return st
 
     def copy(self) -> MotionState:
-        return MotionState(*(a.copy() for a in self.__reduce__()[1]))
+        return MotionState(*(a.copy(order="K") for a in self.__reduce__()[1]))
+
+    def car_major(self) -> MotionState:
+        """A copy whose packed arrays (f, i, b) hold each object's fields together (Fortran
+        order; the same [field, object] indexing). Why: a native batch steps its worlds one
+        after another, each object's whole step at a time; in the field-major layout that
+        step reads ~40 fields from ~40 rows (cache lines) far apart, in this one from a few
+        adjacent lines (the platoon batch's traffic cars alone: ~925 -> ~670 CPU ns per env-step,
+        `benchmarks/native_tasks.py --parts`, docs/performance.md)."""
+        a = self.__reduce__()[1]
+        return MotionState(*(np.asfortranarray(x) for x in a[:3]), *(x.copy() for x in a[3:]))
 
     def tile(self, n: int) -> MotionState:
         """This state repeated n times (row k of copy j is row k of this one)."""
