@@ -19,6 +19,7 @@ the pass's CPU time on one thread, 4,096 envs, measured against the code before)
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import prange
@@ -30,6 +31,7 @@ from .ego import ego_step_wheels
 from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, take_next, timer_step, volume_fires
 from .lanes_known import lanes_known_at
 from .lct_fire import fire_inline
+from .sealed import seal, unseal
 from .trace import TRACE_GROUP
 
 
@@ -428,189 +430,34 @@ def lct_step(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarra
     no order (`counts[1]`, `counts[2]`: how many). Returns (the first env whose action holds
     NaN or infinity, -1: none, and then nothing ran; cars parked; most physics steps run).
 
-    (The tuples are unpacked here and packed again in the loop: numba's parallel loop takes
-    a tuple of arrays, not a tuple of such tuples.)"""
+    The loop's body takes one value, all the arguments `sealed` (`sealed.seal`), and hands
+    it to `_take_chunks`: numba lowers a parallel loop's body with each free variable as an
+    argument, at a cost that grows faster than their number (see `sealed`)."""
     n = len(resetting)
     bad = _first_bad(a, resetting)
     if bad >= 0:
         return bad, 0, 0
-    (
-        p_live,
-        controls,
-        held,
-        pose,
-        initial,
-        ego0,
-        p_gear,
-        p_cruise_on,
-        trig,
-        timer,
-        counters,
-        measures,
-        task,
-        road,
-        lanes,
-        p_ring,
-        first,
-        p_ring_steps,
-        ring_start,
-        draws,
-    ) = prep
-    (
-        k_to,
-        dt,
-        live,
-        park,
-        step_count,
-        t,
-        paused,
-        car,
-        engine_on,
-        suppress_cruise_off,
-        min_speed,
-        ego,
-        gear,
-        cruise_on,
-        steer,
-        gas,
-        brake,
-        shift,
-        hx,
-        hz,
-        vols,
-        vol_triggers,
-        locks,
-        near,
-        contact,
-        timers,
-        active,
-        spec,
-        timer_f,
-        braked,
-        start_lane,
-        timer_table,
-        bands,
-        done,
-        done_t,
-        sign,
-        centres,
-        half_width,
-        keep_m,
-        lat,
-        lane,
-        offset,
-        sdlp,
-        ring,
-        block_a,
-        block_b,
-        row0,
-        ring_steps,
-        start_z,
-        norm,
-        d0,
-        norm_step,
-        scale,
-        has_prev,
-        path,
-        off_road,
-        steering,
-        fire,
-    ) = sub
-    (outcome, obs, copies, info_f, info_i, known, known_lanes) = fin
     chunks = chunk_count(n)
     parked_c, ran_c = np.zeros(chunks, dtype=np.int64), np.zeros(chunks, dtype=np.int64)
     counts[0], counts[1], counts[2] = 0, 0, 0  # chunks handed out, envs listed in rows 0 and 1 of `lists`
+    args = seal((a, resetting, rows, finished, lists, counts, prep, sub, fin, parked_c, ran_c))
     for _ in prange(min(workers, chunks)):
-        prep_c = (
-            p_live,
-            controls,
-            held,
-            pose,
-            initial,
-            ego0,
-            p_gear,
-            p_cruise_on,
-            trig,
-            timer,
-            counters,
-            measures,
-            task,
-            road,
-            lanes,
-            p_ring,
-            first,
-            p_ring_steps,
-            ring_start,
-            draws,
-        )
-        sub_c = (
-            k_to,
-            dt,
-            live,
-            park,
-            step_count,
-            t,
-            paused,
-            car,
-            engine_on,
-            suppress_cruise_off,
-            min_speed,
-            ego,
-            gear,
-            cruise_on,
-            steer,
-            gas,
-            brake,
-            shift,
-            hx,
-            hz,
-            vols,
-            vol_triggers,
-            locks,
-            near,
-            contact,
-            timers,
-            active,
-            spec,
-            timer_f,
-            braked,
-            start_lane,
-            timer_table,
-            bands,
-            done,
-            done_t,
-            sign,
-            centres,
-            half_width,
-            keep_m,
-            lat,
-            lane,
-            offset,
-            sdlp,
-            ring,
-            block_a,
-            block_b,
-            row0,
-            ring_steps,
-            start_z,
-            norm,
-            d0,
-            norm_step,
-            scale,
-            has_prev,
-            path,
-            off_road,
-            steering,
-            fire,
-        )
-        fin_c = (outcome, obs, copies, info_f, info_i, known, known_lanes)
-        while True:
-            c = take_next(counts, 0)
-            if c >= chunks:
-                break
-            lo, hi = c * n // chunks, (c + 1) * n // chunks
-            parked_c[c], ran_c[c], finished[c] = _step_chunk(lo, hi, a, resetting, rows, lists, counts, prep_c, sub_c, fin_c)
+        _take_chunks(args)
     return -1, parked_c.sum(), ran_c.max()
+
+
+@borrowing_kernel
+def _take_chunks(args: Any) -> None:
+    """One thread's share of `lct_step` (its arguments sealed): chunks taken one at a time
+    (`kernels.take_next`) until none is left, each stepped by `_step_chunk`."""
+    a, resetting, rows, finished, lists, counts, prep, sub, fin, parked_c, ran_c = unseal(args)
+    n, chunks = len(resetting), len(parked_c)
+    while True:
+        c = take_next(counts, 0)
+        if c >= chunks:
+            break
+        lo, hi = c * n // chunks, (c + 1) * n // chunks
+        parked_c[c], ran_c[c], finished[c] = _step_chunk(lo, hi, a, resetting, rows, lists, counts, prep, sub, fin)
 
 
 @kernel
