@@ -29,6 +29,7 @@ from ..jit import inline, kernel, parallel_kernel
 from ..metrics import episode_scores
 from ..metrics.lct_scores import J2944, lct_lane_changes, lct_scores
 from ..metrics.sums import np_sum
+from .sealed import seal, unseal
 from .trace import TRACE_GROUP, TraceRing, score_columns
 
 BLOCK = TraceRing.BLOCK
@@ -111,9 +112,19 @@ def table_layout(keys: tuple[str, ...], signs: int, passed_order: tuple[int, ...
 @parallel_kernel
 def lct_score_episodes(es: np.ndarray, blocks: np.ndarray, b0: int, first: tuple, start: np.ndarray, steps: np.ndarray, trace_p: tuple,
                        score_p: tuple, lct_p: tuple, env_p: tuple, react: tuple, wide: np.ndarray, passed: np.ndarray) -> None:  # fmt: skip
-    """`score_episodes` with each episode on one of numba's threads."""
+    """`score_episodes` with each episode on one of numba's threads (the loop's body takes
+    the arguments as one sealed value, `sealed.seal`: numba lowers a parallel loop's body
+    with each free variable as an argument, at a cost that grows faster than their number)."""
+    args = seal((es, blocks, b0, first, start, steps, trace_p, score_p, lct_p, env_p, react, wide, passed))
     for j in prange(len(es)):
-        score_episodes(j, j + 1, es, blocks, b0, first, start, steps, trace_p, score_p, lct_p, env_p, react, wide, passed)
+        _score_one(j, args)
+
+
+@kernel
+def _score_one(j: int, args: Any) -> None:
+    """Episode j of `lct_score_episodes` (its arguments sealed)."""
+    es, blocks, b0, first, start, steps, trace_p, score_p, lct_p, env_p, react, wide, passed = unseal(args)
+    score_episodes(j, j + 1, es, blocks, b0, first, start, steps, trace_p, score_p, lct_p, env_p, react, wide, passed)
 
 
 @kernel

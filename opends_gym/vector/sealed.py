@@ -67,16 +67,11 @@ def _unseal(typingctx: Any, sealed: Any) -> Any:
     return sealed.inner(sealed), codegen
 
 
+def _as_is(value: Any) -> Any:
+    """`seal` and `unseal` in plain Python (NUMBA_DISABLE_JIT): nothing to seal."""
+    return value
+
+
 _CONFIG: Any = numba_config
-if _CONFIG.DISABLE_JIT:  # (plain Python: nothing to seal)
-
-    def seal(t: tuple) -> Any:  # type: ignore[type-arg]
-        """See the module docstring."""
-        return t
-
-    def unseal(s: Any) -> tuple:  # type: ignore[type-arg]
-        """See the module docstring."""
-        return s  # type: ignore[no-any-return]
-
-else:
-    seal, unseal = _seal, _unseal
+seal: Any = _as_is if _CONFIG.DISABLE_JIT else _seal
+unseal: Any = _as_is if _CONFIG.DISABLE_JIT else _unseal
