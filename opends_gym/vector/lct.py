@@ -31,7 +31,7 @@ from .episode_table import EpisodeTable
 from .kernels import CHUNK_ENVS
 from .lanes_known import known_from, lanes_known_rows
 from .lct_fire import fire_tables
-from .lct_score_pass import lct_score_episodes, row_columns, score_episodes, table_layout, wide_keys
+from .lct_score_pass import lct_score_episodes, row_columns, score_episodes, score_worker, table_layout, wide_keys
 from .lct_step import (
     INFO_F,
     INFO_I,
@@ -46,6 +46,7 @@ from .lct_step import (
     lct_step,
     lct_step_serial,
     lct_substeps,
+    step_worker,
 )
 from .platoon import _BASE_KEYS
 from .trace import TraceRing
@@ -103,6 +104,8 @@ class LctBatch(BatchCore):
         self._live, self._rows = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)  # `lct_step`'s scratch: envs stepping (live: still)
         self._controls = (np.zeros(n), np.zeros(n), np.zeros(n))  # steering, gas, brake
         self._chunk_done = np.zeros(_chunks(n), dtype=bool)  # chunks whose outputs `lct_step` wrote
+        self._per_chunk = np.zeros((2, _chunks(n)), dtype=np.int64)  # their cars parked and most physics steps run
+        self._step_worker, self._score_worker = (0, -1), (0, -1)  # `SealedWorker.at`'s (address, tag): none yet
         self._lists, self._counts = np.zeros((2, n), dtype=np.int64), np.zeros(3, dtype=np.int64)  # envs reset, envs that ended
         # (numba's threads at most: `lct_step`'s workers; with fewer threads set, a thread runs several, the first takes all chunks)
         config: Any = numba.config
@@ -192,9 +195,16 @@ class LctBatch(BatchCore):
         if len(fin[0]) != 31:
             raise TypeError("lct_step._list_ended reads terminated and truncated at 29 and 30 of the outcome tuple")
         chunks = self._chunk_done
-        call = lct_step if self.parallel else lct_step_serial  # (threads take chunks one at a time: `kernels.take_next`)
         lists, counts = self._lists, self._counts
-        bad, parked, ran = call(self._workers, a, resetting, self._rows, chunks, lists, counts, self._prep_args(g0 + self.repeat), sub, fin)
+        prep = self._prep_args(g0 + self.repeat)
+        if self.parallel:  # (threads take chunks one at a time: `kernels.take_next`)
+            args = (a, resetting, self._rows, chunks, lists, counts, prep, sub, fin, self._per_chunk)
+            bad, parked, ran = lct_step(*self._step_worker, self._workers, *args)  # type: ignore[call-arg, arg-type]
+            if bad == -2:  # (the first step, or arguments of other types: `step_worker` compiled for them)
+                self._step_worker = step_worker.at(args)
+                bad, parked, ran = lct_step(*self._step_worker, self._workers, *args)  # type: ignore[call-arg, arg-type]
+        else:
+            bad, parked, ran = lct_step_serial(self._workers, a, resetting, self._rows, chunks, lists, counts, prep, sub, fin)
         if bad >= 0:
             raise ValueError(f"env {bad}: action contains NaN or infinity: {np.asarray(a[bad], dtype=np.float64).tolist()}")
         resets = int(counts[1])
@@ -442,7 +452,9 @@ class LctBatch(BatchCore):
         args = (es, blocks, b0, first, ring.start, ring.steps, trace_p, self._score_params, lct_p, env_p, react, wide, passed)
         if self.parallel:
             with numba.parallel_chunksize(1):  # (episodes differ in length: threads take one at a time)
-                lct_score_episodes(*args)
+                if not lct_score_episodes(*self._score_worker, *args):  # type: ignore[arg-type]  # (the first call, or other types)
+                    self._score_worker = score_worker.at(args)
+                    lct_score_episodes(*self._score_worker, *args)  # type: ignore[arg-type]
         else:
             score_episodes(0, m, *args)
         return wide, passed

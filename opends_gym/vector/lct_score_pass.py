@@ -29,7 +29,7 @@ from ..jit import inline, kernel, parallel_kernel
 from ..metrics import episode_scores
 from ..metrics.lct_scores import J2944, lct_lane_changes, lct_scores
 from ..metrics.sums import np_sum
-from .sealed import seal, unseal
+from .sealed import SealedWorker, call_sealed, seal, sealed_tag, unseal
 from .trace import TRACE_GROUP, TraceRing, score_columns
 
 BLOCK = TraceRing.BLOCK
@@ -110,21 +110,28 @@ def table_layout(keys: tuple[str, ...], signs: int, passed_order: tuple[int, ...
 
 
 @parallel_kernel
-def lct_score_episodes(es: np.ndarray, blocks: np.ndarray, b0: int, first: tuple, start: np.ndarray, steps: np.ndarray, trace_p: tuple,
-                       score_p: tuple, lct_p: tuple, env_p: tuple, react: tuple, wide: np.ndarray, passed: np.ndarray) -> None:  # fmt: skip
-    """`score_episodes` with each episode on one of numba's threads (the loop's body takes
-    the arguments as one sealed value, `sealed.seal`: numba lowers a parallel loop's body
-    with each free variable as an argument, at a cost that grows faster than their number)."""
+def lct_score_episodes(worker: int, tag: int, es: np.ndarray, blocks: np.ndarray, b0: int, first: tuple, start: np.ndarray,
+                       steps: np.ndarray, trace_p: tuple, score_p: tuple, lct_p: tuple, env_p: tuple, react: tuple, wide: np.ndarray,
+                       passed: np.ndarray) -> bool:  # fmt: skip
+    """`score_episodes` with each episode on one of numba's threads: `score_worker` (`worker`,
+    `tag`: `score_worker.at` of the arguments from `es` on), called through its address with
+    the arguments sealed (as `lct_step.lct_step` calls its worker, see there). False: `worker`
+    was compiled for other argument types, and nothing ran."""
     args = seal((es, blocks, b0, first, start, steps, trace_p, score_p, lct_p, env_p, react, wide, passed))
+    if tag != sealed_tag(args):
+        return False
     for j in prange(len(es)):
-        _score_one(j, args)
+        call_sealed(worker, j, args)
+    return True
 
 
-@kernel
 def _score_one(j: int, args: Any) -> None:
     """Episode j of `lct_score_episodes` (its arguments sealed)."""
     es, blocks, b0, first, start, steps, trace_p, score_p, lct_p, env_p, react, wide, passed = unseal(args)
     score_episodes(j, j + 1, es, blocks, b0, first, start, steps, trace_p, score_p, lct_p, env_p, react, wide, passed)
+
+
+score_worker = SealedWorker(_score_one)
 
 
 @kernel
