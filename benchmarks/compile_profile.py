@@ -37,6 +37,23 @@ class _CompileTimes(event.Listener):
             self.times.append((time.process_time() - t0, name))
 
 
+def _time_sealed_workers(listener: _CompileTimes) -> None:
+    """Count the compiles of `sealed.SealedWorker`s too (numba `cfunc`s send no compile event)."""
+    from opends_gym.vector.sealed import SealedWorker
+
+    at = SealedWorker.at
+
+    def timed(self: SealedWorker, args: tuple) -> tuple[int, int]:  # type: ignore[type-arg]
+        t0 = time.process_time()
+        out = at(self, args)
+        seconds = time.process_time() - t0
+        if seconds > 0.01:  # (compiled or loaded from the cache now, not looked up)
+            listener.times.append((seconds, f"{self.fn.__qualname__} (SealedWorker)"))
+        return out
+
+    SealedWorker.at = timed  # type: ignore[method-assign]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("env_id", nargs="?", default="OpenDS/LaneChangeTest-v0")
@@ -47,6 +64,7 @@ def main() -> None:
     logging.disable(logging.WARNING)
     listener = _CompileTimes()
     event.register("numba:compile", listener)
+    _time_sealed_workers(listener)
     import gymnasium as gym
 
     import opends_gym  # noqa: F401  (registers the ids)
