@@ -46,7 +46,6 @@ from .lct_step import (
     lct_step,
     lct_step_serial,
     lct_substeps,
-    step_worker,
 )
 from .platoon import _BASE_KEYS
 from .trace import TraceRing
@@ -104,8 +103,7 @@ class LctBatch(BatchCore):
         self._live, self._rows = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)  # `lct_step`'s scratch: envs stepping (live: still)
         self._controls = (np.zeros(n), np.zeros(n), np.zeros(n))  # steering, gas, brake
         self._chunk_done = np.zeros(_chunks(n), dtype=bool)  # chunks whose outputs `lct_step` wrote
-        self._per_chunk = np.zeros((2, _chunks(n)), dtype=np.int64)  # their cars parked and most physics steps run
-        self._step_worker, self._score_worker = (0, -1), (0, -1)  # `SealedWorker.at`'s (address, tag): none yet
+        self._score_worker = (0, -1)  # `SealedWorker.at`'s (address, tag) of `lct_score_episodes`' worker: none yet
         self._lists, self._counts = np.zeros((2, n), dtype=np.int64), np.zeros(3, dtype=np.int64)  # envs reset, envs that ended
         # (numba's threads at most: `lct_step`'s workers; with fewer threads set, a thread runs several, the first takes all chunks)
         config: Any = numba.config
@@ -197,14 +195,8 @@ class LctBatch(BatchCore):
         chunks = self._chunk_done
         lists, counts = self._lists, self._counts
         prep = self._prep_args(g0 + self.repeat)
-        if self.parallel:  # (threads take chunks one at a time: `kernels.take_next`)
-            args = (a, resetting, self._rows, chunks, lists, counts, prep, sub, fin, self._per_chunk)
-            bad, parked, ran = lct_step(*self._step_worker, self._workers, *args)  # type: ignore[call-arg, arg-type]
-            if bad == -2:  # (the first step, or arguments of other types: `step_worker` compiled for them)
-                self._step_worker = step_worker.at(args)
-                bad, parked, ran = lct_step(*self._step_worker, self._workers, *args)  # type: ignore[call-arg, arg-type]
-        else:
-            bad, parked, ran = lct_step_serial(self._workers, a, resetting, self._rows, chunks, lists, counts, prep, sub, fin)
+        call = lct_step if self.parallel else lct_step_serial  # (threads take chunks one at a time: `kernels.take_next`)
+        bad, parked, ran = call(self._workers, a, resetting, self._rows, chunks, lists, counts, prep, sub, fin)
         if bad >= 0:
             raise ValueError(f"env {bad}: action contains NaN or infinity: {np.asarray(a[bad], dtype=np.float64).tolist()}")
         resets = int(counts[1])

@@ -31,7 +31,7 @@ from .ego import ego_step_wheels
 from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, take_next, timer_step, volume_fires
 from .lanes_known import lanes_known_at
 from .lct_fire import fire_inline
-from .sealed import SealedWorker, call_sealed, seal, sealed_tag, unseal
+from .sealed import seal, unseal
 from .trace import TRACE_GROUP
 
 
@@ -330,57 +330,47 @@ def _finish_range(lo: int, hi: int, outcome: tuple, obs: tuple, copies: tuple, i
 
 
 @parallel_kernel
-def lct_step(worker: int, tag: int, workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: np.ndarray,
-             lists: np.ndarray, counts: np.ndarray, prep: tuple, sub: tuple, fin: tuple,
-             per_chunk: np.ndarray) -> tuple[int, int, int]:  # fmt: skip
+def lct_step(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarray, finished: np.ndarray, lists: np.ndarray,
+             counts: np.ndarray, prep: tuple, sub: tuple, fin: tuple) -> tuple[int, int, int]:  # fmt: skip
     """A whole policy step with NEXT_STEP autoreset in one parallel pass: the actions of the
     stepping envs checked (before any env moves), then chunk by chunk the resets and controls
     (`_prepare_range`, its arguments `prep`), the physics steps (`_substeps_range`, `sub`:
     its arguments after lo and hi, not resuming, from physics step 0) and, where no car of the
     chunk waits for Python (a parked car or a reaction timer that ended), the step's outputs
-    (`_finish_range`, `fin`; `finished[c]` set; `per_chunk[:, c]`: its cars parked and most
-    physics steps run). Each of numba's threads (`workers`: their
+    (`_finish_range`, `fin`; `finished[c]` set). Each of numba's threads (`workers`: their
     number) takes chunks one at a time until none is left (`kernels.take_next`). The envs
     reset go to row 0 of `lists`, those whose episode ended in a finished chunk to row 1, in
     no order (`counts[1]`, `counts[2]`: how many). Returns (the first env whose action holds
-    NaN or infinity, -1: none, and then nothing ran; -2: `worker` was compiled for other
-    argument types, and nothing ran; cars parked; most physics steps run).
+    NaN or infinity, -1: none, and then nothing ran; cars parked; most physics steps run).
 
-    Each thread runs `step_worker` (`worker`, `tag`: `step_worker.at` of the arguments from
-    `a` on), called through its address with all the arguments sealed (`sealed`): numba
-    lowers a parallel loop's body with each free variable as an argument, and emits the
-    machine code of every function it calls again, at a cost that grows faster than their
-    number."""
-    args = seal((a, resetting, rows, finished, lists, counts, prep, sub, fin, per_chunk))
-    if tag != sealed_tag(args):
-        return -2, 0, 0
+    The loop's body takes one value, all the arguments `sealed` (`sealed.seal`), and hands
+    it to `_take_chunks`: numba lowers a parallel loop's body with each free variable as an
+    argument, at a cost that grows faster than their number (see `sealed`)."""
     n = len(resetting)
     bad = _first_bad(a, resetting)
     if bad >= 0:
         return bad, 0, 0
     chunks = chunk_count(n)
+    parked_c, ran_c = np.zeros(chunks, dtype=np.int64), np.zeros(chunks, dtype=np.int64)
     counts[0], counts[1], counts[2] = 0, 0, 0  # chunks handed out, envs listed in rows 0 and 1 of `lists`
-    for i in prange(min(workers, chunks)):
-        call_sealed(worker, i, args)
-    return -1, per_chunk[0, :chunks].sum(), per_chunk[1, :chunks].max()
+    args = seal((a, resetting, rows, finished, lists, counts, prep, sub, fin, parked_c, ran_c))
+    for _ in prange(min(workers, chunks)):
+        _take_chunks(args)
+    return -1, parked_c.sum(), ran_c.max()
 
 
-def _take_chunks(i: int, args: Any) -> None:
-    """One thread's share of `lct_step` (its arguments sealed; i: the thread's number,
-    unused): chunks taken one at a time (`kernels.take_next`) until none is left, each
-    stepped by `_step_chunk`."""
-    a, resetting, rows, finished, lists, counts, prep, sub, fin, per_chunk = unseal(args)
-    n = len(resetting)
-    chunks = chunk_count(n)
+@borrowing_kernel
+def _take_chunks(args: Any) -> None:
+    """One thread's share of `lct_step` (its arguments sealed): chunks taken one at a time
+    (`kernels.take_next`) until none is left, each stepped by `_step_chunk`."""
+    a, resetting, rows, finished, lists, counts, prep, sub, fin, parked_c, ran_c = unseal(args)
+    n, chunks = len(resetting), len(parked_c)
     while True:
         c = take_next(counts, 0)
         if c >= chunks:
             break
         lo, hi = c * n // chunks, (c + 1) * n // chunks
-        per_chunk[0, c], per_chunk[1, c], finished[c] = _step_chunk(lo, hi, a, resetting, rows, lists, counts, prep, sub, fin)
-
-
-step_worker = SealedWorker(_take_chunks, _nrt=False)
+        parked_c[c], ran_c[c], finished[c] = _step_chunk(lo, hi, a, resetting, rows, lists, counts, prep, sub, fin)
 
 
 @kernel
