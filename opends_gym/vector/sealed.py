@@ -19,6 +19,8 @@ again there, and a parallel loop is two such levels (its body and the function).
 `SealedWorker` is compiled on its own (a numba `cfunc` per tuple type, cached like the
 kernels) and called through its address (`call_sealed`), so none of its code is linked into
 the loop. `sealed_tag` guards the address: the worker was compiled for the sealed type.
+(`lct_score_pass.lct_score_episodes` calls its worker so; `lct_step.lct_step` calls its
+worker directly: see docs/performance.md, "The price".)
 """
 
 from __future__ import annotations
