@@ -167,6 +167,15 @@ def _boxed(value: Any) -> Any:
     return value
 
 
+_STAND_INS: dict[int, tuple[Any, Callable[..., Any]]] = {}  # `python_stand_in`'s, by the id of what they stand in for
+
+
+def python_stand_in(compiled_only: Any, python: Callable[..., Any]) -> None:
+    """A kernel running as Python (`_Twins`) that finds `compiled_only` among its module's
+    globals (a numba intrinsic, which has no Python form) calls `python` instead."""
+    _STAND_INS[id(compiled_only)] = (compiled_only, python)
+
+
 class _Twins:
     """Each kernel's Python twin: its `py_func` with the kernels it calls (module globals)
     bound to their twins, so that a kernel running as Python calls Python functions directly.
@@ -196,6 +205,8 @@ class _Twins:
             for name, value in module_globals.items():
                 if id(value) in self.ours:
                     space[name] = self.of(value)  # (a circle ends at the space or twin already made)
+                elif id(value) in _STAND_INS:
+                    space[name] = _STAND_INS[id(value)][1]
         return space
 
 

@@ -19,6 +19,7 @@ the pass's CPU time on one thread, 4,096 envs, measured against the code before)
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import prange
@@ -30,11 +31,34 @@ from .ego import ego_step_wheels
 from .kernels import chunk_count, ego_features_row, lane_measures, nearest_volume, take_next, timer_step, volume_fires
 from .lanes_known import lanes_known_at
 from .lct_fire import fire_inline
+from .sealed import seal, unseal
 from .trace import TRACE_GROUP
 
 
 @parallel_kernel
-def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarray, park: np.ndarray, step_count: np.ndarray, t: np.ndarray,
+def lct_substeps(*args: Any) -> tuple[int, int]:
+    """`_substeps_range` (`args`: its arguments after lo and hi) for all envs, chunk by chunk
+    on numba's threads: (cars parked, most physics steps run). The loop's body takes the
+    arguments as one sealed value (`sealed.seal`): numba lowers a parallel loop's body with
+    each free variable as an argument, at a cost that grows faster than their number."""
+    n = len(args[4])  # (live)
+    chunks = chunk_count(n)
+    parked, ran = np.zeros(chunks, dtype=np.int64), np.full(chunks, args[1], dtype=np.int64)
+    sealed = seal(args)
+    for c in prange(chunks):
+        parked[c], ran[c] = _substeps_chunk(c * n // chunks, (c + 1) * n // chunks, sealed)
+    return parked.sum(), ran.max()
+
+
+@borrowing_kernel
+def _substeps_chunk(lo: int, hi: int, args: Any) -> tuple[int, int]:
+    """`_substeps_range` of the envs lo..hi-1, its other arguments sealed (`lct_substeps`)."""
+    return _substeps_range(lo, hi, *unseal(args))
+
+
+@borrowing_kernel
+def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarray, park: np.ndarray,
+                 step_count: np.ndarray, t: np.ndarray,
                  paused: np.ndarray, car: np.ndarray, engine_on: bool, suppress_cruise_off: bool, min_speed: float, ego: tuple,
                  gear: np.ndarray, cruise_on: np.ndarray, steer: np.ndarray, gas: np.ndarray, brake: np.ndarray, shift: float, hx: float,
                  hz: float, vols: np.ndarray, vol_triggers: np.ndarray, locks: np.ndarray, near: np.ndarray, contact: np.ndarray,
@@ -44,8 +68,9 @@ def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarr
                  sdlp: tuple, ring: bool, block_a: np.ndarray, block_b: np.ndarray, row0: int, ring_steps: np.ndarray, start_z: float,
                  norm: np.ndarray, d0: float, norm_step: float, scale: float, has_prev: np.ndarray, path: tuple, off_road: float,
                  steering: tuple, fire: tuple) -> tuple[int, int]:  # fmt: skip
-    """Physics steps k_from..k_to-1 of the policy step for the envs `live` (cleared for those
-    that stop early), car by car: each car's state stays in registers for its steps.
+    """Physics steps k_from..k_to-1 of the policy step for the envs lo..hi-1 that are `live`
+    (cleared for those that stop early), car by car: each car's state stays in registers for
+    its steps (`lct_substeps`: all envs, chunks on numba's threads).
 
     A car that touches a trigger box in its physics step k fires its triggers there
     (`fire_inline`, `fire`: `lct_fire.fire_tables` and the trigger state) or, where Python
@@ -60,90 +85,6 @@ def lct_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarr
     steering angle, its cosine and sine: the steering is held for the policy step); trace
     rows are (x, z, u, steer_in), in grouped blocks (`TraceRing(grouped=True)`).
     """
-    n = len(live)
-    chunks = chunk_count(n)
-    parked, ran = np.zeros(chunks, dtype=np.int64), np.full(chunks, k_from, dtype=np.int64)
-    for c in prange(chunks):
-        parked[c], ran[c] = _substeps_range(
-            c * n // chunks,
-            (c + 1) * n // chunks,
-            resume,
-            k_from,
-            k_to,
-            dt,
-            live,
-            park,
-            step_count,
-            t,
-            paused,
-            car,
-            engine_on,
-            suppress_cruise_off,
-            min_speed,
-            ego,
-            gear,
-            cruise_on,
-            steer,
-            gas,
-            brake,
-            shift,
-            hx,
-            hz,
-            vols,
-            vol_triggers,
-            locks,
-            near,
-            contact,
-            timers,
-            active,
-            spec,
-            timer_f,
-            braked,
-            start_lane,
-            timer_table,
-            bands,
-            done,
-            done_t,
-            sign,
-            centres,
-            half_width,
-            keep_m,
-            lat,
-            lane,
-            offset,
-            sdlp,
-            ring,
-            block_a,
-            block_b,
-            row0,
-            ring_steps,
-            start_z,
-            norm,
-            d0,
-            norm_step,
-            scale,
-            has_prev,
-            path,
-            off_road,
-            steering,
-            fire,
-        )
-    return parked.sum(), ran.max()
-
-
-@borrowing_kernel
-def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarray, park: np.ndarray,
-                    step_count: np.ndarray, t: np.ndarray,
-                 paused: np.ndarray, car: np.ndarray, engine_on: bool, suppress_cruise_off: bool, min_speed: float, ego: tuple,
-                 gear: np.ndarray, cruise_on: np.ndarray, steer: np.ndarray, gas: np.ndarray, brake: np.ndarray, shift: float, hx: float,
-                 hz: float, vols: np.ndarray, vol_triggers: np.ndarray, locks: np.ndarray, near: np.ndarray, contact: np.ndarray,
-                 timers: bool, active: np.ndarray, spec: np.ndarray, timer_f: tuple, braked: np.ndarray,
-                 start_lane: np.ndarray, timer_table: np.ndarray, bands: np.ndarray, done: np.ndarray, done_t: np.ndarray, sign: float,
-                 centres: np.ndarray, half_width: float, keep_m: float, lat: np.ndarray, lane: np.ndarray, offset: np.ndarray,
-                 sdlp: tuple, ring: bool, block_a: np.ndarray, block_b: np.ndarray, row0: int, ring_steps: np.ndarray, start_z: float,
-                 norm: np.ndarray, d0: float, norm_step: float, scale: float, has_prev: np.ndarray, path: tuple, off_road: float,
-                 steering: tuple, fire: tuple) -> tuple[int, int]:  # fmt: skip
-    """`lct_substeps` for the envs lo..hi-1 (a chunk): (cars parked, most steps run)."""
     x, z, yaw, u, v, r, rpm, prev_v, fuel_used, fuel_left, steer_in, gas_in, brake_in, cruise_target, cruise_int = ego
     timer_t, timer_x, timer_z, peak, hold_since, tlim, dlim = timer_f  # (not start_z: the LCT's start)
     sd_n, sd_mean, sd_m2 = sdlp
@@ -277,59 +218,20 @@ def _observation_range(lo: int, hi: int, out: np.ndarray, u: np.ndarray, yaw: np
 
 
 @parallel_kernel
-def lct_outcomes(rows: np.ndarray, sign: float, origin_z: float, z: np.ndarray, u: np.ndarray, last_s: np.ndarray,
-                 progress: np.ndarray, collisions: np.ndarray, collisions_seen: np.ndarray, new_collisions: np.ndarray,
-                 n_results: np.ndarray, cursor: np.ndarray, last_result: np.ndarray, last_rt: np.ndarray, sd_n: np.ndarray,
-                 sd_m2: np.ndarray, has_prev: np.ndarray, prev_d: np.ndarray, area: np.ndarray, lat: np.ndarray, off_road: float,
-                 step_reward: np.ndarray, reward_scale: float, penalty: float, paused: np.ndarray, terminate_on_collision: bool,
-                 t: np.ndarray, max_s: float, info_f: tuple, info_i: tuple, reward: np.ndarray, terminated: np.ndarray,
-                 truncated: np.ndarray) -> None:  # fmt: skip
-    """The end of `BatchCore.step_rows` for the LCT in one pass: progress along the road,
-    new collisions, the info values (`info_f`: speed_kmh, reaction_result, reaction_time_s,
-    mean_deviation_m, sdlp_m, progress_m; `info_i`: new_collisions), the reward (which
-    empties `step_reward`) and the episode flags of the envs `rows` (the others: reward 0,
-    flags False), with the formulas of `BatchCore.info`, `LaneChangeTestEnv._reward` and
-    `_task_terminated`, and `BatchCore._terminated`."""
-    n = len(z)
+def lct_outcomes(*args: Any) -> None:
+    """`_outcomes_range` (`args`: its arguments after lo and hi) for all envs, chunk by chunk
+    on numba's threads (the loop's body takes the arguments sealed, as `lct_substeps`')."""
+    n = len(args[3])  # (z)
     chunks = chunk_count(n)
+    sealed = seal(args)
     for c in prange(chunks):
-        _outcomes_range(
-            c * n // chunks,
-            (c + 1) * n // chunks,
-            rows,
-            sign,
-            origin_z,
-            z,
-            u,
-            last_s,
-            progress,
-            collisions,
-            collisions_seen,
-            new_collisions,
-            n_results,
-            cursor,
-            last_result,
-            last_rt,
-            sd_n,
-            sd_m2,
-            has_prev,
-            prev_d,
-            area,
-            lat,
-            off_road,
-            step_reward,
-            reward_scale,
-            penalty,
-            paused,
-            terminate_on_collision,
-            t,
-            max_s,
-            info_f,
-            info_i,
-            reward,
-            terminated,
-            truncated,
-        )
+        _outcomes_chunk(c * n // chunks, (c + 1) * n // chunks, sealed)
+
+
+@borrowing_kernel
+def _outcomes_chunk(lo: int, hi: int, args: Any) -> None:
+    """`_outcomes_range` of the envs lo..hi-1, its other arguments sealed (`lct_outcomes`)."""
+    _outcomes_range(lo, hi, *unseal(args))
 
 
 @borrowing_kernel
@@ -340,7 +242,12 @@ def _outcomes_range(lo: int, hi: int, rows: np.ndarray, sign: float, origin_z: f
                  step_reward: np.ndarray, reward_scale: float, penalty: float, paused: np.ndarray, terminate_on_collision: bool,
                  t: np.ndarray, max_s: float, info_f: tuple, info_i: tuple, reward: np.ndarray, terminated: np.ndarray,
                  truncated: np.ndarray) -> None:  # fmt: skip
-    """`lct_outcomes` for the envs lo..hi-1."""
+    """The end of `BatchCore.step_rows` for the LCT in one pass: progress along the road,
+    new collisions, the info values (`info_f`: speed_kmh, reaction_result, reaction_time_s,
+    mean_deviation_m, sdlp_m, progress_m; `info_i`: new_collisions), the reward (which
+    empties `step_reward`) and the episode flags of the envs lo..hi-1 that are `rows` (the
+    others: reward 0, flags False), with the formulas of `BatchCore.info`,
+    `LaneChangeTestEnv._reward` and `_task_terminated`, and `BatchCore._terminated`."""
     speed_kmh, result, rt, mdev, sdlp, progress_m = info_f
     (new_coll_out,) = info_i
     for e in range(lo, hi):
@@ -386,11 +293,19 @@ def lct_finish(outcome: tuple, obs: tuple, copies: tuple, info_f: np.ndarray, in
     less its info tuples: rows of `info_f` and `info_i` take them), `lct_observation` (its
     arguments `obs`) and the info arrays that are copies of the state (`copies`: t, offset,
     fuel_used, headway, ttc as floats; lane, collisions as ints), so a step's info is two
-    blocks filled in compiled code (rows named by INFO_F and INFO_I) and `known`."""
+    blocks filled in compiled code (rows named by INFO_F and INFO_I) and `known`. (The loop's
+    body takes the arguments sealed, as `lct_substeps`'.)"""
     n = info_f.shape[1]
     chunks = chunk_count(n)
+    sealed = seal((outcome, obs, copies, info_f, info_i, known, lanes))
     for c in prange(chunks):
-        _finish_range(c * n // chunks, (c + 1) * n // chunks, outcome, obs, copies, info_f, info_i, known, lanes)
+        _finish_chunk(c * n // chunks, (c + 1) * n // chunks, sealed)
+
+
+@borrowing_kernel
+def _finish_chunk(lo: int, hi: int, args: Any) -> None:
+    """`_finish_range` of the envs lo..hi-1, its other arguments sealed (`lct_finish`)."""
+    _finish_range(lo, hi, *unseal(args))
 
 
 @borrowing_kernel
@@ -428,189 +343,34 @@ def lct_step(workers: int, a: np.ndarray, resetting: np.ndarray, rows: np.ndarra
     no order (`counts[1]`, `counts[2]`: how many). Returns (the first env whose action holds
     NaN or infinity, -1: none, and then nothing ran; cars parked; most physics steps run).
 
-    (The tuples are unpacked here and packed again in the loop: numba's parallel loop takes
-    a tuple of arrays, not a tuple of such tuples.)"""
+    The loop's body takes one value, all the arguments `sealed` (`sealed.seal`), and hands
+    it to `_take_chunks`: numba lowers a parallel loop's body with each free variable as an
+    argument, at a cost that grows faster than their number (see `sealed`)."""
     n = len(resetting)
     bad = _first_bad(a, resetting)
     if bad >= 0:
         return bad, 0, 0
-    (
-        p_live,
-        controls,
-        held,
-        pose,
-        initial,
-        ego0,
-        p_gear,
-        p_cruise_on,
-        trig,
-        timer,
-        counters,
-        measures,
-        task,
-        road,
-        lanes,
-        p_ring,
-        first,
-        p_ring_steps,
-        ring_start,
-        draws,
-    ) = prep
-    (
-        k_to,
-        dt,
-        live,
-        park,
-        step_count,
-        t,
-        paused,
-        car,
-        engine_on,
-        suppress_cruise_off,
-        min_speed,
-        ego,
-        gear,
-        cruise_on,
-        steer,
-        gas,
-        brake,
-        shift,
-        hx,
-        hz,
-        vols,
-        vol_triggers,
-        locks,
-        near,
-        contact,
-        timers,
-        active,
-        spec,
-        timer_f,
-        braked,
-        start_lane,
-        timer_table,
-        bands,
-        done,
-        done_t,
-        sign,
-        centres,
-        half_width,
-        keep_m,
-        lat,
-        lane,
-        offset,
-        sdlp,
-        ring,
-        block_a,
-        block_b,
-        row0,
-        ring_steps,
-        start_z,
-        norm,
-        d0,
-        norm_step,
-        scale,
-        has_prev,
-        path,
-        off_road,
-        steering,
-        fire,
-    ) = sub
-    (outcome, obs, copies, info_f, info_i, known, known_lanes) = fin
     chunks = chunk_count(n)
     parked_c, ran_c = np.zeros(chunks, dtype=np.int64), np.zeros(chunks, dtype=np.int64)
     counts[0], counts[1], counts[2] = 0, 0, 0  # chunks handed out, envs listed in rows 0 and 1 of `lists`
+    args = seal((a, resetting, rows, finished, lists, counts, prep, sub, fin, parked_c, ran_c))
     for _ in prange(min(workers, chunks)):
-        prep_c = (
-            p_live,
-            controls,
-            held,
-            pose,
-            initial,
-            ego0,
-            p_gear,
-            p_cruise_on,
-            trig,
-            timer,
-            counters,
-            measures,
-            task,
-            road,
-            lanes,
-            p_ring,
-            first,
-            p_ring_steps,
-            ring_start,
-            draws,
-        )
-        sub_c = (
-            k_to,
-            dt,
-            live,
-            park,
-            step_count,
-            t,
-            paused,
-            car,
-            engine_on,
-            suppress_cruise_off,
-            min_speed,
-            ego,
-            gear,
-            cruise_on,
-            steer,
-            gas,
-            brake,
-            shift,
-            hx,
-            hz,
-            vols,
-            vol_triggers,
-            locks,
-            near,
-            contact,
-            timers,
-            active,
-            spec,
-            timer_f,
-            braked,
-            start_lane,
-            timer_table,
-            bands,
-            done,
-            done_t,
-            sign,
-            centres,
-            half_width,
-            keep_m,
-            lat,
-            lane,
-            offset,
-            sdlp,
-            ring,
-            block_a,
-            block_b,
-            row0,
-            ring_steps,
-            start_z,
-            norm,
-            d0,
-            norm_step,
-            scale,
-            has_prev,
-            path,
-            off_road,
-            steering,
-            fire,
-        )
-        fin_c = (outcome, obs, copies, info_f, info_i, known, known_lanes)
-        while True:
-            c = take_next(counts, 0)
-            if c >= chunks:
-                break
-            lo, hi = c * n // chunks, (c + 1) * n // chunks
-            parked_c[c], ran_c[c], finished[c] = _step_chunk(lo, hi, a, resetting, rows, lists, counts, prep_c, sub_c, fin_c)
+        _take_chunks(args)
     return -1, parked_c.sum(), ran_c.max()
+
+
+@borrowing_kernel
+def _take_chunks(args: Any) -> None:
+    """One thread's share of `lct_step` (its arguments sealed): chunks taken one at a time
+    (`kernels.take_next`) until none is left, each stepped by `_step_chunk`."""
+    a, resetting, rows, finished, lists, counts, prep, sub, fin, parked_c, ran_c = unseal(args)
+    n, chunks = len(resetting), len(parked_c)
+    while True:
+        c = take_next(counts, 0)
+        if c >= chunks:
+            break
+        lo, hi = c * n // chunks, (c + 1) * n // chunks
+        parked_c[c], ran_c[c], finished[c] = _step_chunk(lo, hi, a, resetting, rows, lists, counts, prep, sub, fin)
 
 
 @kernel
