@@ -360,9 +360,10 @@ class _Background:
         while True:
             dispatcher, types = self.jobs.get()
             try:
+                if not self.stopping:  # (not under `busy`: a fork need not wait minutes for the child's compile)
+                    self.child.compile(dispatcher, types)  # (then loaded from the cache below)
                 with self.busy:
                     if not self.stopping:
-                        self.child.compile(dispatcher, types)  # (then loaded from the cache below)
                         dispatcher.compile(types)
                         self.compiled += 1
             except Exception:  # the caller's thread compiles it again and raises
@@ -385,20 +386,24 @@ class _Background:
         process waits at most `timeout_s` for those the child cannot take."""
         if self.thread is None or not self.pending():
             return
-        rest: list[tuple[Any, tuple[Any, ...]]] = []
-        handed: list[tuple[Any, tuple[Any, ...]]] = []
+        rest: list[tuple[Any, tuple[Any, ...]]] = []  # (kernel, argument types) the child cannot take
+        handed: list[tuple[tuple[Any, tuple[Any, ...]], tuple[str, str, tuple[Any, ...]]]] = []  # and the child's job for each
         while True:
             try:
                 item = self.jobs.get_nowait()
             except queue.Empty:
                 break
             self.jobs.task_done()
-            (handed if self.child.job(*item) is not None else rest).append(item)
-        detached = self.child.detach([job for job in (self.child.job(*item) for item in handed) if job is not None])
+            job = self.child.job(*item)
+            if job is None:
+                rest.append(item)
+            else:
+                handed.append((item, job))
+        detached = self.child.detach([job for _, job in handed])
         if detached and not rest:
             self.stopping = True  # (the thread may be waiting on the child's current compile: not for us to wait)
             return
-        for item in rest if detached else rest + handed:
+        for item in rest if detached else rest + [item for item, _ in handed]:
             self.jobs.put(item)
         done = threading.Event()
 
