@@ -262,6 +262,21 @@ class _CompileChild:
             self.broken = True
             return False
 
+    def forget(self) -> None:
+        """In a forked process: close its copies of the pipes to the parent's child, so that
+        the child still ends with the parent while the fork lives on."""
+        pipes = [self.proc.stdin, self.proc.stdout] if self.proc is not None else []
+        devnull = os.open(os.devnull, os.O_RDWR)
+        for pipe in pipes:
+            with contextlib.suppress(OSError, ValueError):
+                if pipe is not None:  # (its fd now /dev/null: `close()` could wait forever on the lock of a read
+                    os.dup2(devnull, pipe.fileno())  # the parent's thread was in when it forked)
+        os.close(devnull)
+        if self.control >= 0:
+            with contextlib.suppress(OSError):
+                os.close(self.control)
+        self.proc, self.control = None, -1
+
     def detach(self, jobs: list[tuple[str, str, tuple[Any, ...]]]) -> bool:
         """At exit: leave `jobs` to the child, which compiles them (after the one it is on)
         into the cache after this process has gone, then ends. False if there is no child."""
@@ -314,6 +329,9 @@ class _Background:
         self.lock = threading.Lock()
         self.busy = threading.Lock()  # held while compiling: a fork waits for it (see below)
         self.stopping = False
+        parents: _CompileChild | None = getattr(self, "child", None)
+        if parents is not None:  # (a fork: that compile child is the parent's)
+            parents.forget()
         self.child = _CompileChild()
 
     def enabled(self) -> bool:

@@ -130,3 +130,28 @@ def test_an_ending_program_leaves_its_native_compiles_to_the_child_which_fills_t
     assert _gone(tmp_path, 120.0)  # the child finished the compile, then ended
     second = json.loads(_run(LOAD, tmp_path).stdout)
     assert second == {"chunks": first["chunks"], "compiled": 0, "loaded": 1}  # machine code from the child's compile
+
+
+FORKED = r"""
+import os, sys, time
+from opends_gym.vector.kernels import chunk_count
+chunk_count(1000)  # queued: the background thread starts the compile child
+time.sleep(1.0)
+fork = os.fork()
+if fork == 0:  # a forked worker that outlives its parent for a while
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    os.dup2(devnull, 2)
+    time.sleep(60)
+    os._exit(0)
+print(fork, flush=True)
+os._exit(0)
+"""
+
+
+def test_the_compile_child_ends_with_its_program_while_a_fork_of_it_lives_on(tmp_path: Path) -> None:
+    fork = int(_run(FORKED, tmp_path).stdout.split()[-1])
+    try:
+        assert _gone(tmp_path, 10.0)  # the fork closed its copies of the child's pipes
+    finally:
+        os.kill(fork, 9)
