@@ -24,3 +24,15 @@ find_python() {
 
 # the CPython versions opends_gym supports (pyproject.toml requires-python), in order of preference
 SUPPORTED_PYTHONS="3.11 3.12 3.13 3.10"
+
+# `warn_if_low_disk DIR MB WHAT`: one line on stderr when the filesystem of DIR has less than MB
+# megabytes free, naming what needs them (an install that runs out of space fails deep inside
+# pip with "No space left on device"; this says beforehand how much it needs and where).
+warn_if_low_disk() {
+  local dir="$1" need="$2" what="$3" free
+  free="$(df -Pm "$dir" 2>/dev/null | awk 'NR == 2 {print $4}')"
+  [ -n "$free" ] || return 0
+  if [ "$free" -lt "$need" ]; then
+    echo "warning: $what needs about $need MB on $(df -P "$dir" | awk 'NR == 2 {print $6}'), which has $free MB free" >&2
+  fi
+}

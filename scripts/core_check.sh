@@ -27,8 +27,10 @@ HASH="$(cat "$ROOT/pyproject.toml" "$ROOT/constraints.txt" | sha256sum | cut -c1
 if [ "$(cat "$VENV/.install-stamp-core" 2>/dev/null)" != "$HASH" ]; then
   LOG="$VENV/pip-install.log"
   echo "installing opends_gym (no extras) into $VENV (log: $LOG)"
-  # editable: nothing is built into the source tree's build/ (the wheel itself is tests/test_wheel.py's)
-  if ! "$VENV/bin/python" -m pip install -c "$ROOT/constraints.txt" -e "$ROOT" >"$LOG" 2>&1; then
+  warn_if_low_disk "$ROOT" 800 "the core check's venv (0.6 GB measured)"
+  # editable: nothing is built into the source tree's build/ (the wheel itself is tests/test_wheel.py's);
+  # --no-cache-dir: the downloaded wheels are not kept a second time in pip's cache (CI disks can be small)
+  if ! "$VENV/bin/python" -m pip install --no-cache-dir -c "$ROOT/constraints.txt" -e "$ROOT" >"$LOG" 2>&1; then
     tail -n 30 "$LOG" >&2
     echo "core check: pip install failed on Python $VER; see $LOG" >&2
     exit 1

@@ -20,7 +20,7 @@ fi
 echo "== ruff"; ruff check .
 ruff format --check .
 echo "== mypy"; mypy
-echo "== docs"; NO_MKDOCS_2_WARNING=1 mkdocs build --strict --quiet -d "$(mktemp -d)"
+echo "== docs"; SITE="$(mktemp -d)"; NO_MKDOCS_2_WARNING=1 mkdocs build --strict --quiet -d "$SITE"; rm -rf "$SITE"
 "$ROOT/scripts/core_check.sh"
 echo "== pytest"
 set +e
