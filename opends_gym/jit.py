@@ -26,14 +26,21 @@ kernels (issue 9). The settings matter for results, so they live here, once:
 their `prange` loops run chunks of envs on numba's thread pool (`NUMBA_NUM_THREADS`, by
 default one thread per core). Each chunk is a call to a plain `kernel` (numba's parfor
 lowering of a long loop body compiled slower code here than the same body as a function).
-Unless the user chose a threading layer (`NUMBA_THREADING_LAYER`), importing this module
-picks numba's `workqueue` layer: GNU OpenMP's threads spin while they wait, and on a host
-whose cores are busy with other programs a 4,096-env LCT step took 120-170 ms with it
-instead of 20 ms (2 threads, 2 cores, load 11), and a process forked after it started
-cannot use it. On a host whose cores are the batch's alone, OpenMP's layer scaled better
-(`NUMBA_THREADING_LAYER=omp`: 16 threads gave 8.9-11.2x the one-thread rate with metrics
-against workqueue's 7.1x, docs/performance.md). The workqueue layer must not be entered from two Python threads at once:
-batches stepped in threads call their kernels' serial twins (`vector.env`).
+Unless the user chose a threading layer (`NUMBA_THREADING_LAYER`), numba's GNU OpenMP layer
+is tried first, then `workqueue` (`_choose_threading_layer`), and OpenMP's waiting threads
+spin only briefly before they sleep (`start_threads`: `GOMP_SPINCOUNT=2000` while numba
+loads the layer, unless the user set `GOMP_SPINCOUNT` or `OMP_WAIT_POLICY`). Measured with
+`benchmarks/threading_layers.py` (4,096 LCT envs, 2 threads, this 2-core host, ms per step,
+median of alternating rounds): idle, `workqueue` 2.18, OpenMP 1.70 (OpenMP's own default
+spin, 300,000 rounds: ~1.6); two busy programs beside it, 5.40 and 3.61; nine, 18.2 and
+14.1 (spinning 100,000 rounds: 37.6). `workqueue` hands all the work to its threads and
+waits; OpenMP's calling thread takes a share (one thread: 2.7 against 3.2 ms per step).
+Long spins win only on a host whose cores are the batch's alone: on a 16-core host,
+OpenMP's own default scaled better than `workqueue` (16 threads, 8.9-11.2x the one-thread
+rate with metrics against 7.1x, docs/performance.md). numba's `workqueue` layer (the fallback) must
+not be entered from two Python threads at once: batches stepped in threads call their
+kernels' serial twins (`vector.env`). A process forked from one that loaded OpenMP must not
+enter a parallel region at all (`parallel_allowed`).
 
 numba's `math.sin/cos/tan/atan/atan2/tanh/sqrt` call the same C library functions as
 CPython's `math` (checked in the tests), and `%` on floats has Python's semantics. Only
@@ -146,13 +153,59 @@ _keep_sys_stdout()
 
 
 def _choose_threading_layer() -> None:
-    """`workqueue` unless the user chose a layer (see the module docstring)."""
+    """OpenMP, else `workqueue`, else TBB, unless the user chose a layer (see the module docstring)."""
     config: Any = numba.config
     if not os.environ.get("NUMBA_THREADING_LAYER") and config.THREADING_LAYER == "default":
-        config.THREADING_LAYER = "workqueue"
+        config.THREADING_LAYER_PRIORITY = ["omp", "workqueue", "tbb"]
 
 
 _choose_threading_layer()
+_THREADS_STARTED = False
+_OMP_WAIT_SETTINGS = ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")  # (the user's choice, where set, is kept)
+
+
+def start_threads() -> None:
+    """Load numba's threading layer now (`parallel_kernel` calls it once per process), with
+    GNU OpenMP's waiting threads spinning 2,000 rounds before they sleep (see the module
+    docstring). OpenMP reads that from the environment once, when numba loads it, so
+    `GOMP_SPINCOUNT` is set only for that moment: other OpenMP users of the process (torch's
+    own copy of the library) keep their settings. A layer already loaded is left as it is."""
+    global _THREADS_STARTED
+    if _THREADS_STARTED:
+        return
+    _THREADS_STARTED = True
+    from numba.np.ufunc import parallel
+
+    ours = not any(k in os.environ for k in _OMP_WAIT_SETTINGS)
+    if ours:
+        os.environ["GOMP_SPINCOUNT"] = "2000"
+    try:
+        parallel._launch_threads()
+    finally:
+        if ours:
+            os.environ.pop("GOMP_SPINCOUNT", None)
+
+
+_FORKED_FROM_OPENMP = False  # this process was forked from one that had loaded numba's GNU OpenMP layer
+
+
+def parallel_allowed() -> bool:
+    """Whether this process may enter numba's parallel regions. Not in a process forked from
+    one that had loaded numba's GNU OpenMP layer: there its first parallel region ends the
+    process ("fork() called from a process already using GNU OpenMP, this is unsafe"), so
+    the native batches step with their kernels' serial twins (the same results, on one core).
+    Spawned processes (`processes=N` shards, the study runner) start afresh."""
+    return not _FORKED_FROM_OPENMP
+
+
+def _note_fork() -> None:
+    global _FORKED_FROM_OPENMP
+    if _THREADS_STARTED and not _FORKED_FROM_OPENMP:
+        with contextlib.suppress(ValueError):  # (no layer loaded)
+            _FORKED_FROM_OPENMP = numba.threading_layer() == "omp"
+
+
+os.register_at_fork(after_in_child=_note_fork)
 
 
 def _boxed(value: Any) -> Any:
@@ -500,7 +553,9 @@ def kernel(fn: F) -> F:
 
 
 def parallel_kernel(fn: F) -> F:
-    """A `kernel` whose `prange` loops run in parallel (see the module docstring)."""
+    """A `kernel` whose `prange` loops run in parallel (see the module docstring); numba's
+    threads start with the first such kernel a process defines (`start_threads`)."""
+    start_threads()
     return cast(F, _background(njit(cache=True, nogil=True, parallel=True)(fn)))
 
 

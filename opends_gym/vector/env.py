@@ -47,6 +47,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from ..envs.observations import EGO_NAMES, VEHICLE_NAMES
+from ..jit import parallel_allowed
 from .actions import first_nonfinite
 from .core import BatchCore
 from .episode_rows import InfoBlocks, metrics_arrays, table_rows
@@ -139,7 +140,7 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         else:
             templates = [template] + [gym.make(env_id, disable_env_checker=True, **kwargs).unwrapped for _ in range(shards - 1)]
             cores = [batch_cls(t, sl.stop - sl.start, record_metrics) for t, sl in zip(templates, self._slices)]  # type: ignore[arg-type]
-            if shards > 1:  # numba's workqueue threads take one caller at a time: each Python thread steps its shard serially
+            if shards > 1:  # (numba's workqueue layer, the fallback, takes one caller at a time: each thread steps its shard serially)
                 for core in cores:
                     if hasattr(core, "parallel"):
                         core.parallel = False
@@ -171,6 +172,8 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
                 raise ValueError(f"reset(seed=list) needs {self.num_envs} seeds, got {len(seeds)}")
         if options is not None and "reset_mask" in options:
             raise ValueError("reset_mask belongs to the DISABLED autoreset mode; this env autoresets on the next step")
+        if not parallel_allowed():
+            self._serial_cores()
         parts = [shard.reset(seeds[sl]) for shard, sl in zip(self.shards, self._slices)]
         self._autoreset[:] = False
         self._started = True
@@ -181,6 +184,8 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
             raise RuntimeError("call reset() before step()")
+        if not parallel_allowed():
+            self._serial_cores()
         a = np.asarray(actions)
         if a.shape != self.action_space.shape:
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {a.shape}")
@@ -208,6 +213,14 @@ class NativeVectorEnv(VectorEnv[np.ndarray, np.ndarray, np.ndarray]):
         info = self._info_dict(_concat([p[4] for p in parts]), [p[5] for p in parts])
         self._autoreset = ended
         return obs, reward, terminated, truncated, info
+
+    def _serial_cores(self) -> None:
+        """This process was forked from one that had loaded numba's OpenMP threads
+        (`jit.parallel_allowed`): its cores step with their kernels' serial twins."""
+        for shard in self.shards:
+            core = getattr(shard, "core", None)
+            if getattr(core, "parallel", False):
+                core.parallel = False  # type: ignore[union-attr]
 
     def close_extras(self, **kwargs: Any) -> None:
         if self._pool is not None:
