@@ -28,6 +28,7 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 import gymnasium as gym
 
 import opends_gym  # noqa: F401  (registers the ids)
+from opends_gym.jit import wait_compiled
 from opends_gym.vector import lct, platoon
 
 # the step kernels each task's batch module calls (those it has: older versions have others)
@@ -54,6 +55,7 @@ def main() -> None:
     actions = [env.action_space.sample() for _ in range(16)]
     for i in range(100):
         env.step(actions[i % 16])
+    wait_compiled()  # (kernels still loading from the cache run as Python meanwhile)
     inside = [0.0]
     module, names = KERNELS[args.task]
     for name in [k for k in names if hasattr(module, k)]:
