@@ -37,7 +37,8 @@ spin, 300,000 rounds: ~1.6); two busy programs beside it, 5.40 and 3.61; nine, 1
 waits; OpenMP's calling thread takes a share (one thread: 2.7 against 3.2 ms per step).
 Long spins win only on a host whose cores are the batch's alone: on a 16-core host,
 OpenMP's own default scaled better than `workqueue` (16 threads, 8.9-11.2x the one-thread
-rate with metrics against 7.1x, docs/performance.md). numba's `workqueue` layer (the fallback) must
+rate with metrics against 7.1x, from a probe that did not wait for the kernels' loads:
+docs/performance.md). numba's `workqueue` layer (the fallback) must
 not be entered from two Python threads at once: batches stepped in threads call their
 kernels' serial twins (`vector.env`). A process forked from one that loaded OpenMP must not
 enter a parallel region at all (`parallel_allowed`).
@@ -153,9 +154,11 @@ _keep_sys_stdout()
 
 
 def _choose_threading_layer() -> None:
-    """OpenMP, else `workqueue`, else TBB, unless the user chose a layer (see the module docstring)."""
+    """OpenMP, else `workqueue`, else TBB, unless the user chose a layer or an order (see the
+    module docstring)."""
     config: Any = numba.config
-    if not os.environ.get("NUMBA_THREADING_LAYER") and config.THREADING_LAYER == "default":
+    chose = os.environ.get("NUMBA_THREADING_LAYER") or os.environ.get("NUMBA_THREADING_LAYER_PRIORITY")
+    if not chose and config.THREADING_LAYER == "default":
         config.THREADING_LAYER_PRIORITY = ["omp", "workqueue", "tbb"]
 
 

@@ -15,6 +15,7 @@ import os
 import subprocess
 import sys
 
+THREAD_SETTINGS = ("NUMBA_THREADING_LAYER", "NUMBA_THREADING_LAYER_PRIORITY", "GOMP_SPINCOUNT", "OMP_WAIT_POLICY")  # (the user's choices)
 HAS_OPENMP = importlib.util.find_spec("numba.np.ufunc.omppool") is not None
 
 STEP_BATCH = r"""
@@ -33,7 +34,7 @@ print(json.dumps({"layer": numba.threading_layer(), "parallel": core.parallel,
 
 
 def _run(code: str, **env: str) -> dict[str, object]:
-    clean = {k: v for k, v in os.environ.items() if k not in ("NUMBA_THREADING_LAYER", "GOMP_SPINCOUNT", "OMP_WAIT_POLICY")}
+    clean = {k: v for k, v in os.environ.items() if k not in THREAD_SETTINGS}
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=clean | env, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
@@ -48,6 +49,7 @@ def test_a_native_batch_steps_on_openmp_and_leaves_the_environment_as_it_was() -
 
 def test_the_users_threading_layer_and_openmp_settings_win() -> None:
     assert _run(STEP_BATCH, NUMBA_THREADING_LAYER="workqueue")["layer"] == "workqueue"
+    assert _run(STEP_BATCH, NUMBA_THREADING_LAYER_PRIORITY="workqueue omp tbb")["layer"] == "workqueue"
     out = _run(STEP_BATCH, OMP_WAIT_POLICY="ACTIVE")
     assert out["env"] == {"GOMP_SPINCOUNT": None, "OMP_WAIT_POLICY": "ACTIVE"}
 
