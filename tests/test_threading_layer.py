@@ -9,14 +9,25 @@ loads one threading layer per process.
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import json
 import os
 import subprocess
 import sys
 
 THREAD_SETTINGS = ("NUMBA_THREADING_LAYER", "NUMBA_THREADING_LAYER_PRIORITY", "GOMP_SPINCOUNT", "OMP_WAIT_POLICY")  # (the user's choices)
-HAS_OPENMP = importlib.util.find_spec("numba.np.ufunc.omppool") is not None
+
+
+def _has_openmp() -> bool:
+    """Whether numba's OpenMP layer loads here (its library needs the system's libgomp)."""
+    try:
+        importlib.import_module("numba.np.ufunc.omppool")
+    except ImportError:
+        return False
+    return True
+
+
+HAS_OPENMP = _has_openmp()
 
 STEP_BATCH = r"""
 import json, logging, os, sys, warnings
