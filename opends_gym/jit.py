@@ -208,7 +208,8 @@ def _note_fork() -> None:
             _FORKED_FROM_OPENMP = numba.threading_layer() == "omp"
 
 
-os.register_at_fork(after_in_child=_note_fork)
+if hasattr(os, "register_at_fork"):  # (POSIX: elsewhere nothing forks)
+    os.register_at_fork(after_in_child=_note_fork)
 
 
 def _boxed(value: Any) -> Any:
