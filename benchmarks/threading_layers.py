@@ -6,9 +6,9 @@ GNU OpenMP as `opends_gym.jit.start_threads` sets it up when the user chose noth
 waiting threads spin 2,000 rounds, a few microseconds, then sleep); OpenMP whose threads
 sleep at once; OpenMP spinning longer (`GOMP_SPINCOUNT`).
 Per configuration: the wall time of a 4,096-env step (random actions with resets, 2
-threads or `--threads`), median and range over the rounds.
+threads or `--threads`; `throughput.measure_native`'s timing), median and range over the rounds.
 
-    python benchmarks/threading_layers.py [--envs 4096] [--rounds 3] [--busy 0] [--metrics]
+    python benchmarks/threading_layers.py [--envs 4096] [--seconds 3] [--rounds 3] [--busy 0] [--metrics]
 """
 
 from __future__ import annotations
@@ -18,7 +18,9 @@ import os
 import statistics
 import subprocess
 import sys
+from pathlib import Path
 
+HERE = str(Path(__file__).resolve().parent)  # (the child imports `throughput` from here)
 CONFIGS = {  # label: environment
     "workqueue": {"NUMBA_THREADING_LAYER": "workqueue"},
     "OpenMP, GOMP_SPINCOUNT=2000 (the default)": {},
@@ -28,33 +30,23 @@ CONFIGS = {  # label: environment
 }
 
 CHILD = r"""
-import logging, sys, time, warnings
+import logging, sys, warnings
 logging.disable(logging.WARNING); warnings.simplefilter("ignore")
-import gymnasium as gym, numba
-import opends_gym  # noqa: F401
-from opends_gym.jit import wait_compiled
-n, steps, metrics, threads = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1", int(sys.argv[4])
-vec = gym.make_vec("OpenDS/LaneChangeTest-v0", num_envs=n, vectorization_mode="vector_entry_point", record_metrics=metrics)
-vec.reset(seed=0)
-vec.action_space.seed(0)
-actions = [vec.action_space.sample() for _ in range(16)]
-for i in range(30):
-    vec.step(actions[i % 16])
-wait_compiled()
+import numba
+sys.path.insert(0, sys.argv[5])
+import throughput as tp  # (its `measure_native`: the same warm-up, wait for the kernels and timing)
+n, seconds, metrics, threads = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3] == "1", int(sys.argv[4])
 numba.set_num_threads(threads)
-for i in range(30):
-    vec.step(actions[i % 16])
-t = time.perf_counter()
-for i in range(steps):
-    vec.step(actions[i % 16])
-print(numba.threading_layer(), 1e3 * (time.perf_counter() - t) / steps)
+case = next(c for c in tp.opends_cases() if c.label == "LaneChangeTest")
+row = tp.measure_native(case, "fast", n, seconds, memory=False, metrics=metrics)
+print(numba.threading_layer(), 1e3 * n / row.steps_per_s)
 """
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--envs", type=int, default=4096)
-    ap.add_argument("--steps", type=int, default=300)
+    ap.add_argument("--seconds", type=float, default=3.0)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--busy", type=int, default=0, help="programs spinning beside the batch (a shared host)")
     ap.add_argument("--threads", type=int, default=2)
@@ -67,8 +59,8 @@ def main() -> None:
         for _ in range(args.rounds):
             for label, env in CONFIGS.items():
                 clean = {k: v for k, v in os.environ.items() if k not in ("NUMBA_THREADING_LAYER", "OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
-                out = subprocess.run([sys.executable, "-c", CHILD, str(args.envs), str(args.steps), "1" if args.metrics else "0",
-                                      str(args.threads)], env=clean | env, capture_output=True, text=True, check=True)  # fmt: skip
+                argv = [str(args.envs), str(args.seconds), "1" if args.metrics else "0", str(args.threads), HERE]
+                out = subprocess.run([sys.executable, "-c", CHILD, *argv], env=clean | env, capture_output=True, text=True, check=True)
                 name, value = out.stdout.split()[-2:]
                 layer[label] = name
                 ms[label].append(float(value))
