@@ -13,14 +13,12 @@ call: the function waits for it), and keep the arrays in `t` alive meanwhile (ar
 the function, or arrays it still uses after the loop): the sealed value holds no reference
 to them. `unseal(s)` gives the tuple back.
 
-A parallel loop's body that calls a compiled worker still costs that worker's machine code
-again: numba links each callee's code into its caller's module, optimises and emits it
-again there, and a parallel loop is two such levels (its body and the function). A
-`SealedWorker` is compiled on its own (a numba `cfunc` per tuple type, cached like the
-kernels) and called through its address (`call_sealed`), so none of its code is linked into
-the loop. `sealed_tag` guards the address: the worker was compiled for the sealed type.
-(`lct_score_pass.lct_score_episodes` calls its worker so; `lct_step.lct_step` calls its
-worker directly: see docs/performance.md, "The price".)
+A parallel loop's body that calls a compiled worker still links that worker's machine code
+into the loop (numba optimises and emits each callee again in its caller's module). Calling
+the worker through the address of a separately compiled `cfunc` avoided that, but such a
+`cfunc` compiles in the Python call that asks for its address, which would freeze a batch
+running as Python on a cold cache (`opends_gym.jit`); it was left out (docs/performance.md,
+"The price"). The sealed loops of `lct_step` call their workers directly.
 """
 
 from __future__ import annotations

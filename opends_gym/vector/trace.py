@@ -174,12 +174,8 @@ class TraceRing:
         if len(es):
             lo, hi = int(self.start[idx].min()), int((self.start[idx] + self.steps[idx]).max())
             for b in range(lo // self.BLOCK, (hi - 1) // self.BLOCK + 1) if hi > lo else ():
-                if not self.grouped:
-                    _gather_block(self.blocks[b], b * self.BLOCK, idx, self.start, self.steps, starts, data)
-                elif self.GROUP == TRACE_GROUP:
-                    _gather_block_grouped(self.blocks[b], b * self.BLOCK, idx, self.start, self.steps, starts, data)
-                else:
-                    _gather_block_groups(self.blocks[b], b * self.BLOCK, idx, self.start, self.steps, starts, data)
+                gather_block = _gather_block_groups if self.grouped else _gather_block
+                gather_block(self.blocks[b], b * self.BLOCK, idx, self.start, self.steps, starts, data)
         return starts, data
 
     def columns_of(self, es: list[int]) -> dict[int, np.ndarray]:
@@ -264,24 +260,10 @@ def _gather_block(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray,
 
 
 @kernel
-def _gather_block_grouped(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray, steps: np.ndarray, starts: np.ndarray,
-                          data: np.ndarray) -> None:  # fmt: skip
-    """`_gather_block` of a grouped block (BLOCK / GROUP, n, GROUP, column)."""
-    for j in range(len(es)):
-        e = es[j]
-        lo, hi = max(start[e], g0), min(start[e] + steps[e], g0 + block.shape[0] * TRACE_GROUP)
-        out = starts[j] + 1 - start[e]
-        for g in range(lo, hi):
-            r = g - g0
-            for c in range(block.shape[3]):
-                data[c, out + g] = block[r // TRACE_GROUP, e, r % TRACE_GROUP, c]
-
-
-@kernel
 def _gather_block_groups(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray, steps: np.ndarray, starts: np.ndarray,
                          data: np.ndarray) -> None:  # fmt: skip
-    """`_gather_block_grouped` of a block of any group size (block.shape[2] rows): each
-    episode's rows walked group by group (no division per row)."""
+    """`_gather_block` of a grouped block (BLOCK / group, n, group, column), any group size
+    (block.shape[2] rows): each episode's rows walked group by group (no division per row)."""
     group = block.shape[2]
     for j in range(len(es)):
         e = es[j]
