@@ -45,3 +45,17 @@ def test_the_running_interpreter_is_found_by_its_version(tmp_path: Path) -> None
     link.symlink_to(sys.executable)
     r = _find(version, [link.parent], tmp_path / "nothing")
     assert r.returncode == 0 and r.stdout.strip() == str(link)
+
+
+def _low_disk(need_mb: int, where: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(["bash", "-c", f'source "{HELPER}" && warn_if_low_disk "{where}" {need_mb} "this install"'],
+                          capture_output=True, text=True)  # fmt: skip
+
+
+def test_an_install_warns_in_one_line_when_the_disk_lacks_the_space_it_needs(tmp_path: Path) -> None:
+    short = _low_disk(10**12, tmp_path)  # (no disk has a petabyte free)
+    assert short.returncode == 0 and short.stdout == ""
+    lines = short.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("warning: this install needs about 1000000000000 MB on /") and "MB free" in lines[0]
+    roomy = _low_disk(1, tmp_path)
+    assert roomy.returncode == 0 and roomy.stderr == "" and roomy.stdout == ""
