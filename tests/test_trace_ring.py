@@ -33,9 +33,10 @@ def test_grouped_ring_reads_back_each_episode_as_written() -> None:
     for grouped in (False, True):
         ring = TraceRing(3, cols, 2000, grouped=grouped)
         expected = _fill(ring, np.random.default_rng(5), 700)
-        starts, data = ring.gather([2, 1, 0])
-        for j, e in enumerate([2, 1, 0]):
-            np.testing.assert_array_equal(data[:, starts[j] : starts[j + 1]], expected[e])
+        for parallel in (True, False):  # (chunks of episodes on numba's threads, or one serial pass)
+            starts, data = ring.gather([2, 1, 0], parallel)
+            for j, e in enumerate([2, 1, 0]):
+                np.testing.assert_array_equal(data[:, starts[j] : starts[j + 1]], expected[e])
         by_env = ring.columns_of([0, 1, 2])
         for e in range(3):
             np.testing.assert_array_equal(by_env[e], expected[e])

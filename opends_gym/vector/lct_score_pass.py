@@ -15,54 +15,19 @@ reduction runs over one episode's samples).
 
 from __future__ import annotations
 
-import ctypes
 import functools
 import math
-from typing import Any
 
-import numba
 import numpy as np
-from numba import prange, types
-from numba.extending import intrinsic, overload
+from numba import prange
 
 from ..jit import kernel, parallel_kernel
 from ..metrics import episode_scores
 from ..metrics.lct_scores import J2944, lct_lane_changes, lct_scores
 from ..metrics.sums import np_sum
-from .trace import TRACE_GROUP, TraceRing, score_columns
+from .trace import TRACE_GROUP, TraceRing, read_rows, score_columns
 
 BLOCK = TraceRing.BLOCK
-
-
-def block_at(address: int, shape: tuple[int, int, int, int]) -> np.ndarray:
-    """The float64 array of `shape` at `address` (a `TraceRing` block, held by the ring: a
-    list of arrays as an argument would cost numba's typed list, compiled afresh in every
-    process, ~0.5 s). As Python (a kernel running as Python while it compiles,
-    `opends_gym.jit`): the same view through ctypes."""
-    return np.ctypeslib.as_array(ctypes.cast(int(address), ctypes.POINTER(ctypes.c_double)), shape)
-
-
-@intrinsic
-def _f64_pointer(typingctx: Any, address: Any) -> Any:
-    """An int64 address as a float64 pointer (for `numba.carray`)."""
-    if not isinstance(address, types.Integer):
-        return None
-    pointer = types.CPointer(types.float64)
-
-    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-        return builder.inttoptr(args[0], context.get_value_type(pointer))
-
-    return pointer(address), codegen
-
-
-@overload(block_at, inline="always")
-def _block_at_compiled(address: Any, shape: Any) -> Any:
-    """`block_at` in compiled kernels: a pointer cast."""
-
-    def view(address: Any, shape: Any) -> Any:  # (the same parameters as the typing function: numba compares them)
-        return numba.carray(_f64_pointer(address), shape)  # type: ignore[call-arg]  # (typingctx: numba passes it)
-
-    return view
 
 
 MDEV_KEYS = ("mdev_basic_m", "mdev_adapted_m", "adapted_start_before_sign_m", "adapted_length_per_lane_m", "adapted_habitual_offset_m")
@@ -122,25 +87,10 @@ def lct_score_episodes(es: np.ndarray, blocks: np.ndarray, b0: int, first: tuple
 
 @kernel
 def read_episode(e: int, blocks: np.ndarray, b0: int, first: tuple, start: np.ndarray, steps: np.ndarray) -> np.ndarray:
-    """Env e's episode so far from a grouped `TraceRing` (reset row first) as (column, row):
-    `TraceRing.block_addresses`' blocks and first block number, its reset rows (`first`: one
-    array per column), start and steps. A car's rows of a block lie in runs of GROUP rows."""
-    n = steps[e] + 1
-    c_n = len(first)
-    shape = (BLOCK // TRACE_GROUP, len(start), TRACE_GROUP, c_n)
-    out = np.empty((c_n, n))
-    for c in range(c_n):
-        out[c, 0] = first[c][e]
-    g, end, i = start[e], start[e] + n - 1, 1
-    while g < end:  # a block at a time
-        block = block_at(blocks[g // BLOCK - b0], shape)
-        r0 = g % BLOCK
-        take = min(BLOCK - r0, end - g)
-        for k in range(take):
-            r = r0 + k
-            for c in range(c_n):
-                out[c, i + k] = block[r // TRACE_GROUP, e, r % TRACE_GROUP, c]
-        g, i = g + take, i + take
+    """Env e's episode so far from the LCT's grouped `TraceRing` (reset row first) as (column, row)
+    (`trace.read_rows`)."""
+    out = np.empty((len(first), steps[e] + 1))
+    read_rows(e, blocks, b0, (BLOCK // TRACE_GROUP, len(start), TRACE_GROUP, len(first)), first, start, steps, out, 0)
     return out
 
 

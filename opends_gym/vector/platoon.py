@@ -45,8 +45,9 @@ from .platoon_controls import step_controls
 from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
 from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
 from .platoon_reset import reset_envs, reset_range
+from .platoon_score_pass import score_episodes, score_range
 from .platoon_step import _lead_range, lead_measures, lead_rows
-from .trace import PLATOON_TRACE_GROUP, TraceRing, score_columns
+from .trace import PLATOON_TRACE_GROUP, TraceRing, episode_chunks
 from .traffic import FlatTraffic
 
 KINDS = scores.KINDS
@@ -567,24 +568,26 @@ class PlatoonBatch(BatchCore):
         if not m:
             keys = _BASE_KEYS + scores.KEYS + self.extra_keys
             return EpisodeTable(keys, np.empty((0, len(keys))), None)
-        starts, data = self.ring.gather(es)  # (column, row): the episodes one after another, reset rows first
+        starts, data = self.ring.gather(es, self.parallel)  # (column, row): the episodes one after another, reset rows first
         col = self.trace_columns.index
-        x, z = data[col("x_m")], data[col("z_m")]
-        derived = np.empty((6, len(x)))  # t, lateral, lane, offset, steering (deg), step to the next row
         g = self.guide
         if g.kind != "lanes":
             raise ValueError("the native batch needs a task with lane bands")
-        score_columns(starts, x, z, data[col("steering")], self.dt, g.sign, self.centres, g.lane_width_m / 2.0, STEERING_WHEEL_MAX_DEG,
-                      derived)  # fmt: skip
-        t, lat, lane, off, steer_deg, ds = derived
-        steps = np.ones(len(x), dtype=bool)
+        off = np.empty(data.shape[1])  # each row's lane offset
+        base = np.empty((m, len(episode_scores.KEYS)))
+        args = (starts, data[col("x_m")], data[col("z_m")], data[col("steering")], data[col("speed_mps")], data[col("gap_m")],
+                data[col("lead_speed_mps")], data[col("headway_s")], data[col("ttc_s")],
+                (self.dt, g.sign, self.centres, g.lane_width_m / 2.0, STEERING_WHEEL_MAX_DEG), self._score_params, off, base)  # fmt: skip
+        if self.parallel:
+            with numba.parallel_chunksize(1):  # (episodes differ in length: threads take a chunk at a time)
+                score_episodes(episode_chunks(m), *args)
+        else:
+            score_range(0, m, *args)
+        steps = np.ones(len(off), dtype=bool)
         steps[starts[:-1]] = False  # (the reset row is no step of the platoon metrics)
         nb = len(_BASE_KEYS)
         table = np.empty((m, nb + len(scores.KEYS)))
         self._platoon_scores(es, data[col("lon_dev")][steps], off[steps], starts - np.arange(m + 1), table[:, nb:])
-        base = np.empty((m, len(episode_scores.KEYS)))
-        episode_scores.episode_scores(starts, t, ds, data[col("speed_mps")], steer_deg, data[col("gap_m")], data[col("lead_speed_mps")],
-                                      data[col("headway_s")], data[col("ttc_s")], lat, lane, off, *self._score_params, base)  # fmt: skip
         idx = np.asarray(es, dtype=np.int64)
         reactions: dict[int, list[Any]] = {}
         counts = np.zeros((m, 5))  # reactions, correct, failed, missed, mean reaction time

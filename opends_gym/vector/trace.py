@@ -18,11 +18,14 @@ from __future__ import annotations
 import mmap
 import os
 
+import numba
 import numpy as np
+from numba import prange
 
 from ..envs.trace import COL, Trace
-from ..jit import kernel
+from ..jit import kernel, parallel_kernel
 from ..sim.guide import RoadGuide
+from .block_view import block_at
 from .kernels import lane_of
 
 TRACE_GROUP = 8  # rows of one car stored together in a grouped ring (`TraceRing`)
@@ -160,22 +163,34 @@ class TraceRing:
             g, i = g + take, i + take
         return out
 
-    def gather(self, es: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    def gather(self, es: list[int], parallel: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """The episodes so far of the envs `es` one after another: (starts, data), data's
         (column, row) rows starts[j]..starts[j+1]-1 env es[j]'s episode (reset row first), for
-        scoring them in one compiled pass. Copied in compiled code a block at a time."""
+        scoring them in one compiled pass. Copied in compiled code: a grouped ring's episodes
+        each read in place (`read_rows`; chunks of them on numba's threads where `parallel`),
+        the other layout a block at a time."""
         idx = np.asarray(es, dtype=np.int64)
         counts = self.steps[idx] + 1
         starts = np.zeros(len(es) + 1, dtype=np.int64)
         np.cumsum(counts, out=starts[1:])
         data = np.empty((len(self.columns), int(starts[-1])))
+        if not len(es):
+            return starts, data
+        if self.grouped:  # (each episode read in place, `read_rows`)
+            blocks, b0 = self.block_addresses()
+            shape = (self.BLOCK // self.GROUP, self.n, self.GROUP, len(self.columns))
+            args = (idx, blocks, b0, shape, tuple(self.first[c] for c in self.columns), self.start, self.steps, starts, data)
+            if parallel:
+                with numba.parallel_chunksize(1):  # (episodes differ in length: threads take a chunk at a time)
+                    _gather_episodes(episode_chunks(len(es)), *args)
+            else:
+                _gather_range(0, len(es), *args)
+            return starts, data
         for ci, c in enumerate(self.columns):
             data[ci, starts[:-1]] = self.first[c][idx]
-        if len(es):
-            lo, hi = int(self.start[idx].min()), int((self.start[idx] + self.steps[idx]).max())
-            for b in range(lo // self.BLOCK, (hi - 1) // self.BLOCK + 1) if hi > lo else ():
-                gather_block = _gather_block_groups if self.grouped else _gather_block
-                gather_block(self.blocks[b], b * self.BLOCK, idx, self.start, self.steps, starts, data)
+        lo, hi = int(self.start[idx].min()), int((self.start[idx] + self.steps[idx]).max())
+        for b in range(lo // self.BLOCK, (hi - 1) // self.BLOCK + 1) if hi > lo else ():
+            _gather_block(self.blocks[b], b * self.BLOCK, idx, self.start, self.steps, starts, data)
         return starts, data
 
     def columns_of(self, es: list[int]) -> dict[int, np.ndarray]:
@@ -259,25 +274,58 @@ def _gather_block(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray,
                 data[c, out + g] = block[g - g0, e, c]
 
 
+RING_BLOCK = TraceRing.BLOCK  # (a module constant: compiled code cannot read class attributes)
+
+
+def episode_chunks(m: int) -> int:
+    """How many chunks a parallel pass over m ended episodes splits them into: a few per
+    thread, since episode lengths differ (what an episode gets does not depend on it). Taken
+    in Python: numba's `get_num_threads` in a kernel keeps it out of the cache."""
+    return max(1, min(m, 4 * numba.get_num_threads()))
+
+
+@parallel_kernel
+def _gather_episodes(chunks: int, es: np.ndarray, blocks: np.ndarray, b0: int, shape: tuple[int, int, int, int], first: tuple,
+                     start: np.ndarray, steps: np.ndarray, starts: np.ndarray, data: np.ndarray) -> None:  # fmt: skip
+    """`_gather_range` of every episode, `chunks` chunks of them on numba's threads."""
+    m = len(es)
+    for k in prange(chunks):
+        _gather_range(k * m // chunks, (k + 1) * m // chunks, es, blocks, b0, shape, first, start, steps, starts, data)
+
+
 @kernel
-def _gather_block_groups(block: np.ndarray, g0: int, es: np.ndarray, start: np.ndarray, steps: np.ndarray, starts: np.ndarray,
-                         data: np.ndarray) -> None:  # fmt: skip
-    """`_gather_block` of a grouped block (BLOCK / group, n, group, column), any group size
-    (block.shape[2] rows): each episode's rows walked group by group (no division per row)."""
-    group = block.shape[2]
-    for j in range(len(es)):
-        e = es[j]
-        lo, hi = max(start[e], g0), min(start[e] + steps[e], g0 + block.shape[0] * group)
-        out = starts[j] + 1 - start[e]
-        if lo >= hi:
-            continue
-        grp, slot = (lo - g0) // group, (lo - g0) % group
-        for g in range(lo, hi):
-            for c in range(block.shape[3]):
-                data[c, out + g] = block[grp, e, slot, c]
+def _gather_range(j0: int, j1: int, es: np.ndarray, blocks: np.ndarray, b0: int, shape: tuple[int, int, int, int], first: tuple,
+                  start: np.ndarray, steps: np.ndarray, starts: np.ndarray, data: np.ndarray) -> None:  # fmt: skip
+    """`TraceRing.gather` of a grouped ring for episodes j0..j1-1: episode j (env es[j]) into
+    data[:, starts[j]:starts[j+1]]."""
+    for j in range(j0, j1):
+        read_rows(es[j], blocks, b0, shape, first, start, steps, data, starts[j])
+
+
+@kernel
+def read_rows(e: int, blocks: np.ndarray, b0: int, shape: tuple[int, int, int, int], first: tuple, start: np.ndarray, steps: np.ndarray,
+              data: np.ndarray, at: int) -> None:  # fmt: skip
+    """Env e's episode so far from a grouped ring (reset row first) into data[:, at:at + steps[e] + 1]
+    (column, row): `TraceRing.block_addresses`' blocks and first block number, the blocks'
+    shape (BLOCK / group, n, group, columns), its reset rows (`first`: one array per column),
+    start and steps. A car's rows of a block lie in runs of `group` rows, walked group by
+    group (no division per row)."""
+    group, c_n = shape[2], len(first)
+    for c in range(c_n):
+        data[c, at] = first[c][e]
+    g, end, i = start[e], start[e] + steps[e], at + 1
+    while g < end:  # a block at a time
+        block = block_at(blocks[g // RING_BLOCK - b0], shape)
+        r0 = g % RING_BLOCK
+        take = min(RING_BLOCK - r0, end - g)
+        grp, slot = r0 // group, r0 % group
+        for k in range(take):
+            for c in range(c_n):
+                data[c, i + k] = block[grp, e, slot, c]
             slot += 1
             if slot == group:
                 grp, slot = grp + 1, 0
+        g, i = g + take, i + take
 
 
 def lane_columns(guide: RoadGuide, x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

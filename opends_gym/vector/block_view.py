@@ -1,0 +1,48 @@
+"""A trace ring's block as an array from its address, in compiled code and in Python.
+
+Why: the compiled passes that read ended episodes straight from a `trace.TraceRing`
+(`trace.read_rows`, used by the LCT's and the platoon's scoring passes) take the ring's
+blocks as an int64 array of addresses (`TraceRing.block_addresses`): a list of arrays as a
+kernel argument costs numba's typed list, compiled afresh in every process (~0.5 s).
+"""
+
+from __future__ import annotations
+
+import ctypes
+from typing import Any
+
+import numba
+import numpy as np
+from numba import types
+from numba.extending import intrinsic, overload
+
+
+def block_at(address: int, shape: tuple[int, int, int, int]) -> np.ndarray:
+    """The float64 array of `shape` at `address` (a `TraceRing` block, held by the ring: a
+    list of arrays as an argument would cost numba's typed list, compiled afresh in every
+    process, ~0.5 s). As Python (a kernel running as Python while it compiles,
+    `opends_gym.jit`): the same view through ctypes."""
+    return np.ctypeslib.as_array(ctypes.cast(int(address), ctypes.POINTER(ctypes.c_double)), shape)
+
+
+@intrinsic
+def _f64_pointer(typingctx: Any, address: Any) -> Any:
+    """An int64 address as a float64 pointer (for `numba.carray`)."""
+    if not isinstance(address, types.Integer):
+        return None
+    pointer = types.CPointer(types.float64)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        return builder.inttoptr(args[0], context.get_value_type(pointer))
+
+    return pointer(address), codegen
+
+
+@overload(block_at, inline="always")
+def _block_at_compiled(address: Any, shape: Any) -> Any:
+    """`block_at` in compiled kernels: a pointer cast."""
+
+    def view(address: Any, shape: Any) -> Any:  # (the same parameters as the typing function: numba compares them)
+        return numba.carray(_f64_pointer(address), shape)  # type: ignore[call-arg]  # (typingctx: numba passes it)
+
+    return view
