@@ -13,7 +13,9 @@ from typing import Any
 
 import numba
 import numpy as np
+from llvmlite import ir
 from numba import types
+from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
 
@@ -46,3 +48,40 @@ def _block_at_compiled(address: Any, shape: Any) -> Any:
         return numba.carray(_f64_pointer(address), shape)  # type: ignore[call-arg]  # (typingctx: numba passes it)
 
     return view
+
+
+def prefetch_write(array: np.ndarray, at: tuple[int, int, int, int]) -> None:
+    """Ask the CPU to fetch the cache line of array[at] for writing (LLVM's prefetch,
+    `_prefetch_compiled`). As Python: nothing (a hint)."""
+
+
+@intrinsic
+def _prefetch_line(typingctx: Any, array: Any, at: Any) -> Any:
+    """`llvm.prefetch` (write, keep in all cache levels) of the element `at` of an array."""
+    if not (isinstance(array, types.Array) and isinstance(at, types.UniTuple) and len(at) == array.ndim):
+        return None
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        array_type, index_type = signature.args
+        view = context.make_array(array_type)(context, builder, args[0])
+        indices = cgutils.unpack_tuple(builder, args[1], count=len(index_type))
+        pointer = cgutils.get_item_pointer(context, builder, array_type, view, indices, wraparound=False)
+        i32 = ir.IntType(32)
+        function_type = ir.FunctionType(ir.VoidType(), [pointer.type, i32, i32, i32])
+        function = cgutils.get_or_insert_function(builder.module, function_type, "llvm.prefetch.p0")
+        builder.call(function, [pointer, ir.Constant(i32, 1), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+
+    return types.none(array, at), codegen
+
+
+# (no `inline="always"`: numba's inlining of this into a kernel that also inlines `platoon_step.after_one`
+# mixed up their local names, and the brake test's trace lost its lon_dev column; LLVM inlines the call anyway)
+@overload(prefetch_write)
+def _prefetch_compiled(array: Any, at: Any) -> Any:
+    """`prefetch_write` in compiled kernels."""
+
+    def hint(array: Any, at: Any) -> None:
+        _prefetch_line(array, at)
+
+    return hint

@@ -32,6 +32,7 @@ from ..jit import borrowing_kernel, inline, parallel_kernel
 from ..sim.ego.kernels import wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from ..sim.traffic.motion import ARRIVED, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, advance_carrots, drive, step_rows
+from .block_view import prefetch_write
 from .ego import ego_step_wheels
 from .kernels import V_CZ, V_REACH, chunk_count, nearest_volume, timer_step, volume_fires
 from .platoon_step import after_one
@@ -108,6 +109,11 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
         cos_a, sin_a = math.cos(angle), math.sin(angle)
         wc = wheel_constants(car, dt, cos_a, sin_a)  # (the steering is held for the policy step: once per env and call)
         anchor, clear = 0.0, -math.inf  # the trigger box's z at the last search, and how far from it no volume can be reached
+        if rec and e + 1 < hi:  # (the next env's trace rows of this policy step, fetched while this env steps)
+            last = block_a.shape[3] - 1
+            for ahead in range(row0 + k, min(row0 + k_to, block)):
+                prefetch_write(block_a, (ahead // PLATOON_TRACE_GROUP, e + 1, ahead % PLATOON_TRACE_GROUP, 0))
+                prefetch_write(block_a, (ahead // PLATOON_TRACE_GROUP, e + 1, ahead % PLATOON_TRACE_GROUP, last))
         while k < k_to:
             if at == STEP:
                 sc = step_count[e] + 1
