@@ -4,7 +4,9 @@ Steps a native batch of `--envs` envs `--steps` random-action steps (with resets
 `--every` steps, the ring blocks allocated so far, those held and the MB they take (`TraceRing` keeps every block back
 to the oldest running episode's first row: it allocates a fresh block, 256 physics steps of every env, for as long as
 some env keeps driving, and the compiled step takes a page fault per 4 KB of it; rows spilled out of reused blocks count
-where a ring has a `spill`).
+where a ring has a `spill`), and over each stretch of `--every` steps the wall time per step, the
+page faults per step and the system CPU time per step (`getrusage`: the kernel's share, mostly those faults), after
+the background compiles are done.
 
     python benchmarks/ring_memory.py [--task BrakeReaction] [--envs 4096] [--steps 800] [--every 200]
 """
@@ -13,11 +15,14 @@ from __future__ import annotations
 
 import argparse
 import logging
+import resource
+import time
 
 import gymnasium as gym
 import numpy as np
 
 import opends_gym  # noqa: F401  (registers the envs)
+from opends_gym.jit import wait_compiled
 from opends_gym.vector import trace
 
 
@@ -42,16 +47,25 @@ def main() -> None:
     vec.reset(seed=0)
     vec.action_space.seed(0)
     actions = [vec.action_space.sample() for _ in range(16)]
-    print(f"| {args.task}, {args.envs} envs: policy steps | blocks allocated | held | rows spilled | MB (blocks + spill) |")
-    print("|---:|---:|---:|---:|---:|")
+    vec.step(actions[0])
+    wait_compiled()
+    print(f"| {args.task}, {args.envs} envs: policy steps | blocks allocated | held | rows spilled | MB (blocks + spill) "
+          "| ms per step | page faults per step | system ms per step |")  # fmt: skip
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    usage, t0 = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()
     for i in range(1, args.steps + 1):
         vec.step(actions[i % 16])
         if i % args.every == 0:
+            now, t1 = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()
+            per = 1.0 / args.every
             block_mb = next(iter(ring.blocks.values())).nbytes / 2**20 if ring.blocks else 0.0
             spill = getattr(ring, "spill", {})
             spilled = sum(len(r) for rows in spill.values() for r in rows)
             mb = block_mb * (len(ring.blocks) + len(ring._spare)) + sum(r.nbytes for rows in spill.values() for r in rows) / 2**20
-            print(f"| {i} | {fresh[0]} | {len(ring.blocks)} | {spilled} | {mb:,.0f} |", flush=True)
+            faults, system_ms = (now.ru_minflt - usage.ru_minflt) * per, (now.ru_stime - usage.ru_stime) * 1e3 * per
+            print(f"| {i} | {fresh[0]} | {len(ring.blocks)} | {spilled} | {mb:,.0f} | {(t1 - t0) * 1e3 * per:.2f} | {faults:.0f} "
+                  f"| {system_ms:.2f} |", flush=True)  # fmt: skip
+            usage, t0 = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()
     vec.close()
 
 
