@@ -82,6 +82,6 @@ def _prefetch_compiled(array: Any, at: Any) -> Any:
     """`prefetch_write` in compiled kernels."""
 
     def hint(array: Any, at: Any) -> None:
-        _prefetch_line(array, at)
+        _prefetch_line(array, at)  # type: ignore[call-arg]  # (typingctx: numba passes it)
 
     return hint
