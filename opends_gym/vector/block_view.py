@@ -1,9 +1,13 @@
-"""A trace ring's block as an array from its address, in compiled code and in Python.
+"""A trace ring's block as an array from its address, and a hint to fetch a block's line for writing.
 
 Why: the compiled passes that read ended episodes straight from a `trace.TraceRing`
 (`trace.read_rows`, used by the LCT's and the platoon's scoring passes) take the ring's
 blocks as an int64 array of addresses (`TraceRing.block_addresses`): a list of arrays as a
-kernel argument costs numba's typed list, compiled afresh in every process (~0.5 s).
+kernel argument costs numba's typed list, compiled afresh in every process (~0.5 s). And
+the brake and platoon pass writes each env's trace rows into memory it has not touched for
+a while: fetching the next env's rows ahead (`prefetch_write`) hides those cache misses.
+Both are plain Python functions with compiled overloads, so kernels running as Python
+(`opends_gym.jit`) call them too.
 """
 
 from __future__ import annotations
