@@ -124,10 +124,10 @@ def score_episodes(j0: int, j1: int, es: np.ndarray, blocks: np.ndarray, b0: int
         derived = np.empty((6, n))  # t, lateral, lane, offset, steering (deg), distance to the next row
         score_columns(st, x, z, steer, dt, sign, centres, half, steer_max, derived)
         t, lat, lane, off, steer_deg, ds = derived[0], derived[1], derived[2], derived[3], derived[4], derived[5]
-        inf, nan = np.full(n, math.inf), np.full(n, math.nan)  # headway, TTC, gap; the lead's speed: no traffic
         base = np.empty((1, N_KEYS))
-        episode_scores.episode_scores(st, t, ds, speed, steer_deg, inf, nan, inf, inf, lat, lane, off, b, a, zi, p, gaps, thw, ttc,
-                                      base, False)  # fmt: skip
+        # (no traffic: the gap, lead speed, headway and TTC arguments are not read; `speed` stands in for them)
+        episode_scores.episode_scores(st, t, ds, speed, steer_deg, speed, speed, speed, speed, lat, lane, off, b, a, zi, p, gaps, thw, ttc,
+                                      base, False, False)  # fmt: skip
         lct = np.empty((1, J2944 + n_gaps + 3))
         lct_scores(st, t, z, lat, steer_deg, start_z, sign_d, sign_from, sign_to, visibility, start_before, per_lane, lane_lat,
                    initial_lane, b, a, zi, p, gaps, lct)  # fmt: skip
