@@ -234,6 +234,44 @@ def python_stand_in(compiled_only: Any, python: Callable[..., Any]) -> None:
     _STAND_INS[id(compiled_only)] = (compiled_only, python)
 
 
+_BUFFER_KERNELS: set[int] = set()  # ids of the kernels marked by `python_buffers`
+
+
+def python_buffers(dispatcher: F) -> F:
+    """Mark a kernel whose Python twin (a cold cache, see `_Background`) takes its numpy
+    arrays, in tuples too, as memoryviews. Why: indexing a memoryview element by element
+    gives Python floats, ints and bools; a numpy array gives numpy scalars, whose arithmetic
+    costs several times a float's. The hot loop of a cold 4,096-env platoon batch ran its
+    first step in 2.6 s with arrays, 1.7 s with memoryviews (`benchmarks/cold_native.py`).
+    The floats are the same: both are IEEE doubles under the same operations, and Python's
+    float errors (a division by zero raises) are numba's (its default error model), not
+    numpy's. What such a kernel and everything it calls may do with an array: index single
+    elements (one integer per dimension), read `shape` and `len`; no sub-views (`a[i]` of a
+    2-D array), slices or array methods (memoryviews have none: a test running the kernel
+    as Python catches them). Apply it above the kernel decorator."""
+    _BUFFER_KERNELS.add(id(dispatcher))
+    return dispatcher
+
+
+def _as_buffers(value: Any) -> Any:
+    """`value` with its numpy arrays (of numbers or bools, one dimension or more), in tuples
+    too, as memoryviews (see `python_buffers`)."""
+    if isinstance(value, np.ndarray):
+        if value.ndim >= 1 and value.dtype.kind in "biuf" and value.dtype.isnative:
+            return memoryview(value)
+        return value
+    if isinstance(value, tuple):
+        return tuple(_as_buffers(v) for v in value)
+    return value
+
+
+def _on_buffers(twin: Callable[..., Any]) -> Callable[..., Any]:
+    def run(*args: Any) -> Any:
+        return twin(*(_as_buffers(a) for a in args))
+
+    return run
+
+
 class _Twins:
     """Each kernel's Python twin: its `py_func` with the kernels it calls (module globals)
     bound to their twins, so that a kernel running as Python calls Python functions directly.
@@ -253,6 +291,8 @@ class _Twins:
             fn = dispatcher.py_func
             twin = FunctionType(fn.__code__, self._space(fn.__globals__), fn.__name__, fn.__defaults__, fn.__closure__)
             twin.__kwdefaults__ = fn.__kwdefaults__
+            if id(dispatcher) in _BUFFER_KERNELS:
+                twin = _on_buffers(twin)
             self.made[id(dispatcher)] = twin
         return twin
 

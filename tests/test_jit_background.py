@@ -103,6 +103,58 @@ def test_the_background_compile_fills_the_cache_and_takes_over(tmp_path: Path) -
     assert again["second"] == out["first"]
 
 
+BUFFERED_MODULE = r"""
+import numpy as np
+from opends_gym.jit import kernel, python_buffers
+
+
+@python_buffers
+@kernel
+def scale_then_ratio(a: np.ndarray, pair: tuple) -> float:
+    a[0, 1] = a[0, 0] * pair[0][1]  # written through to the caller's array
+    return a[0, 0] / pair[1][0]
+"""
+
+BUFFERED = r"""
+import json, sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from opends_gym import jit
+from buffered_kernel import scale_then_ratio
+
+
+def call(divisor):
+    a = np.array([[3.0, 0.0]])
+    try:
+        value = scale_then_ratio(a, (np.array([1.0, 2.5]), np.array([divisor])))
+    except ZeroDivisionError:
+        value = "ZeroDivisionError"
+    return [value, a.tolist()]
+
+
+cold = [call(4.0), call(0.0), jit.compile_status()]
+jit.wait_compiled()
+print(json.dumps({"cold": cold, "warm": [call(4.0), call(0.0), jit.compile_status()]}))
+"""
+
+
+def test_a_buffered_kernel_run_as_python_writes_and_fails_as_the_compiled_one(tmp_path: Path) -> None:
+    """`jit.python_buffers`: the cold run indexes memoryviews (Python floats), so it writes into
+    the caller's arrays and a division by zero raises, both as the compiled kernel does (numpy
+    scalars would have given inf)."""
+    (tmp_path / "buffered_kernel.py").write_text(BUFFERED_MODULE)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(ROOT), "OPENDS_GYM_JIT_BACKGROUND": "1"}
+    done = subprocess.run([sys.executable, "-c", BUFFERED, str(tmp_path)], capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    *cold, cold_status = out["cold"]
+    *warm, warm_status = out["warm"]
+    assert (
+        cold_status["python_calls"] == 2 and warm_status["python_calls"] == 2 and warm_status["compiled"] >= 1
+    )  # ran as Python, then compiled
+    assert cold == warm == [[0.75, [[3.0, 7.5]]], ["ZeroDivisionError", [[3.0, 7.5]]]]
+
+
 def test_a_forked_child_compiles_on_its_own_thread(tmp_path: Path) -> None:
     """The native batch forks its shard workers: a child must not wait on the parent's
     queue (it has no thread to serve it) nor on a compile lock held by the parent's."""

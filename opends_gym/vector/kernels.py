@@ -151,7 +151,8 @@ def volume_fires(e: int, j: int, bx: float, bz: float, yaw: float, hx: float, hz
         return False
     if not boxes_overlap(bx, bz, yaw, hx, hz, vols[j, V_CX], vols[j, V_CZ], vols[j, V_YAW], vols[j, V_HX], vols[j, V_HZ]):
         return False
-    for i in vol_triggers[j]:  # noqa: SIM110 (a loop numba compiles)
+    for q in range(vol_triggers.shape[1]):  # (element by element: a kernel run as Python may index a memoryview, `jit.python_buffers`)
+        i = vol_triggers[j, q]
         if i >= 0 and t >= locks[e, i] - 1e-9:
             return True
     return False

@@ -80,7 +80,8 @@ def fire_inline(e: int, j: int, te: float, xe: float, ze: float, ue: float, fire
     if done[e] != 0:  # (Python scores it before firing: the order of results, started_at)
         return False
     timers = 0
-    for i in order[j]:
+    for q in range(order.shape[1]):  # (element by element: a kernel run as Python may index a memoryview, `jit.python_buffers`)
+        i = order[j, q]
         if i >= 0 and te >= locks[e, i] - 1e-9:
             for a in range(n_acts[i]):
                 if acts[i, a, 0] == PYTHON:
@@ -89,7 +90,8 @@ def fire_inline(e: int, j: int, te: float, xe: float, ze: float, ue: float, fire
                     timers += 1
     if timers > 1 or (timers == 1 and active[e]):
         return False
-    for i in order[j]:
+    for q in range(order.shape[1]):
+        i = order[j, q]
         if i < 0 or not te >= locks[e, i] - 1e-9:
             continue
         locks[e, i] = te + LOCK_S + pause_s[i]

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numba import prange
 
-from ..jit import borrowing_kernel, inline, kernel, parallel_kernel
+from ..jit import borrowing_kernel, inline, kernel, parallel_kernel, python_buffers
 from ..sim.ego.kernels import wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from .ego import ego_step_wheels
@@ -56,6 +56,7 @@ def _substeps_chunk(lo: int, hi: int, args: Any) -> tuple[int, int]:
     return _substeps_range(lo, hi, *unseal(args))
 
 
+@python_buffers
 @borrowing_kernel
 def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarray, park: np.ndarray,
                  step_count: np.ndarray, t: np.ndarray,

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from numba import prange
 
-from ..jit import borrowing_kernel, inline, parallel_kernel
+from ..jit import borrowing_kernel, inline, parallel_kernel, python_buffers
 from ..sim.ego.kernels import wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from ..sim.traffic.motion import ARRIVED, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, advance_carrots, drive, step_rows
@@ -61,6 +61,7 @@ def platoon_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.n
     return parked.sum(), ran.max(), changed.sum()
 
 
+@python_buffers
 @borrowing_kernel
 def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: float, live: np.ndarray, park: np.ndarray,
                     stage: np.ndarray, step_count: np.ndarray, controls: tuple, ego: tuple, traffic: tuple, trig: tuple, timers: tuple,
