@@ -30,13 +30,16 @@ def main() -> None:
     ap.add_argument("num_envs", type=int)
     ap.add_argument("--task", help="DrivingTask-v0: the task folder")
     ap.add_argument("--steps", type=int, default=20)
+    ap.add_argument("--no-metrics", action="store_true", help="record_metrics=False (no episode traces)")
     ap.add_argument("--until-compiled", action="store_true", help="step on until the compiles are done (at most 30 minutes)")
     args = ap.parse_args()
     t0 = time.perf_counter()
     import opends_gym  # noqa: F401  (registers the envs)
 
     t1 = time.perf_counter()
-    kwargs = {"task": args.task} if args.task else {}
+    kwargs: dict[str, object] = {"task": args.task} if args.task else {}
+    if args.no_metrics:
+        kwargs["record_metrics"] = False
     env = gym.make_vec(args.env_id, num_envs=args.num_envs, vectorization_mode="vector_entry_point", **kwargs)
     env.reset(seed=0)
     t2 = time.perf_counter()

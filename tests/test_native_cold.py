@@ -21,7 +21,9 @@ import opends_gym  # noqa: F401  (registers the envs)
 from opends_gym import jit
 
 ROOT = Path(__file__).resolve().parent.parent
-BATCHES = ("OpenDS/LaneChangeTest-v0", "OpenDS/BrakeReaction-v0", "OpenDS/ThreeVehiclePlatoon-v0")
+MOTORWAY = str(ROOT / "tests" / "data" / "opends-tasks" / "opends-cts" / "MotorwayTask")  # (41 traffic cars, triggers)
+BATCHES = ("OpenDS/LaneChangeTest-v0", "OpenDS/BrakeReaction-v0", "OpenDS/ThreeVehiclePlatoon-v0", "OpenDS/DrivingTask-v0")
+TASKS = {"OpenDS/DrivingTask-v0": MOTORWAY}
 ENVS, STEPS = 4, 120
 
 COLD_RUN = r"""
@@ -41,7 +43,8 @@ os._exit(0)  # (as a crash would: the compile child must end with us)
 
 def drive(env_id: str) -> dict[str, Any]:
     """Observations, rewards, ends and ended episodes' metrics of a short random drive."""
-    env = gym.make_vec(env_id, num_envs=ENVS, vectorization_mode="vector_entry_point", max_episode_s=6.0)
+    task = {"task": TASKS[env_id]} if env_id in TASKS else {}
+    env = gym.make_vec(env_id, num_envs=ENVS, vectorization_mode="vector_entry_point", max_episode_s=6.0, **task)
     obs, _ = env.reset(seed=5)
     rng = np.random.default_rng(7)
     out: dict[str, Any] = {"obs": [obs.copy()], "reward": [], "ended": [], "metrics": []}

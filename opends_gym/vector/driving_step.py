@@ -16,13 +16,14 @@ import math
 import numpy as np
 from numba import prange
 
-from ..jit import borrowing_kernel, inline, kernel, parallel_kernel
+from ..jit import borrowing_kernel, inline, kernel, parallel_kernel, python_buffers
 from ..sim.geometry2d import boxes_overlap
 from ..sim.traffic.motion import NOTHING_LIVE, _sees, step_rows
 from ..sim.traffic.state import B_BRAKING, B_ENABLED, F_SPEED, F_YAW, I_BRAKE_PATH, I_OV_BRAKE, I_OV_TURN, I_TURN_PATH
 from .kernels import chunk_count
 
 
+@python_buffers
 @borrowing_kernel
 def _worlds_range(lo: int, hi: int, f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray,
                   light_xz: np.ndarray, ext_cmd: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray,
@@ -64,6 +65,7 @@ def step_worlds(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, en
     return int(left.sum())
 
 
+@python_buffers
 @kernel
 def contacts(live: np.ndarray, cx: np.ndarray, cz: np.ndarray, yaw: np.ndarray, ey: np.ndarray, hx: float, hz: float, pos: np.ndarray,
              car_yaw: np.ndarray, enabled: np.ndarray, half: np.ndarray, reach: np.ndarray, reach_y: float, c: int, hitting: np.ndarray,
@@ -107,6 +109,7 @@ N_OBS = 9
 TIME_MISMATCH = -9  # codes[w]: an undisturbed world's time is not its history step's (a bug: raised)
 
 
+@python_buffers
 @borrowing_kernel
 def _shared_range(lo: int, hi: int, f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray,
                   light_xz: np.ndarray, ext_cmd: np.ndarray, sp: np.ndarray, pf: np.ndarray, pp: np.ndarray, pi: np.ndarray,
@@ -189,6 +192,7 @@ def _history_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, 
                 end_xz[r, q], light_xz[r, q] = hend[k, j, q], hlight[k, j, q]
 
 
+@python_buffers
 @borrowing_kernel
 def history_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray,
                  ext_cmd: np.ndarray, c: int, shared: np.ndarray, kw: np.ndarray, hf: np.ndarray, hi_: np.ndarray, hb: np.ndarray,

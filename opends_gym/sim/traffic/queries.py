@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from ...jit import kernel
+from ...jit import kernel, python_buffers
 from ..geometry2d import boxes_overlap
 
 
@@ -51,6 +51,7 @@ def touching(pos: np.ndarray, yaw: np.ndarray, half: np.ndarray, enabled: np.nda
     return n
 
 
+@python_buffers
 @kernel
 def nearest_slots(pos: np.ndarray, yaw: np.ndarray, speed: np.ndarray, enabled: np.ndarray, brake_light: np.ndarray,
                   turn_signal: np.ndarray, group: int, ego: np.ndarray, k: int, out: np.ndarray, col: int) -> None:  # fmt: skip
