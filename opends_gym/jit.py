@@ -234,6 +234,12 @@ def python_stand_in(compiled_only: Any, python: Callable[..., Any]) -> None:
     _STAND_INS[id(compiled_only)] = (compiled_only, python)
 
 
+def python_twin(dispatcher: Any) -> Callable[..., Any]:
+    """The Python form a kernel runs as while it has no machine code (its twin, `_Twins`), for a
+    `python_stand_in` that hands the rest of its work back to the kernel's own code."""
+    return _BACKGROUND.twins.of(dispatcher)
+
+
 _BUFFER_KERNELS: set[int] = set()  # ids of the kernels marked by `python_buffers`
 
 
@@ -446,7 +452,8 @@ class _Background:
                 return original(*args, **kws)
             types = tuple(dispatcher.typeof_pyval(a) for a in args)
             self.submit(dispatcher, types)
-            return self._as_python(self.twins.of(dispatcher))
+            stand_in = _STAND_INS.get(id(dispatcher))  # (called from Python too, a stand-in wins over the twin)
+            return self._as_python(stand_in[1] if stand_in is not None else self.twins.of(dispatcher))
 
         dispatcher._compile_for_args = compile_for_args
 
