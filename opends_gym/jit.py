@@ -264,7 +264,7 @@ def _as_buffers(value: Any) -> Any:
     too, as memoryviews (see `python_buffers`)."""
     if isinstance(value, np.ndarray):
         if value.ndim >= 1 and value.dtype.kind in "biuf" and value.dtype.isnative:
-            return memoryview(value)
+            return value.data  # (a memoryview of the array)
         return value
     if isinstance(value, tuple):
         return tuple(_as_buffers(v) for v in value)
