@@ -397,6 +397,23 @@ class _CompileChild:
         return True
 
 
+def _in_cache(dispatcher: Any, types: tuple[Any, ...]) -> bool:
+    """Does the machine's numba cache hold `dispatcher`'s code for `types`, with the current
+    kernel sources (`_kernel_sources_stamp`)? Read from the cache's index, without loading.
+    Why: a native batch's whole-batch kernels (`parallel_kernel`) run as Python at ~1-2 s a
+    step of 4,096 brake or platoon envs, while loading them from the cache takes a fraction
+    of that, so a process whose cache holds them loads them in the call instead of stepping
+    as Python until the background thread has. (A single env's kernels stay in the
+    background: as Python they cost milliseconds, while the first load in a process also
+    loads numba's typing registries, 0.3-0.6 s.)"""
+    cache = getattr(dispatcher, "_cache", None)
+    try:
+        key = cache._index_key(types, dispatcher.targetctx.codegen())  # type: ignore[union-attr]
+        return key in cache._cache_file._load_index()  # type: ignore[union-attr]
+    except Exception:  # (no cache, or numba's internals changed: the background path)
+        return False
+
+
 class _Background:
     """One daemon thread that compiles (or loads from the cache) the kernels called from
     Python before their machine code exists; meanwhile those calls run the Python function
@@ -451,6 +468,8 @@ class _Background:
             if threading.current_thread() is self.thread or id(dispatcher) in self.failed or not self.enabled():
                 return original(*args, **kws)
             types = tuple(dispatcher.typeof_pyval(a) for a in args)
+            if dispatcher.targetoptions.get("parallel") and _in_cache(dispatcher, types):
+                return original(*args, **kws)  # (a whole-batch kernel: loading it now beats a step of Python, see `_in_cache`)
             self.submit(dispatcher, types)
             stand_in = _STAND_INS.get(id(dispatcher))  # (called from Python too, a stand-in wins over the twin)
             return self._as_python(stand_in[1] if stand_in is not None else self.twins.of(dispatcher))

@@ -155,6 +155,57 @@ def test_a_buffered_kernel_run_as_python_writes_and_fails_as_the_compiled_one(tm
     assert cold == warm == [[0.75, [[3.0, 7.5]]], ["ZeroDivisionError", [[3.0, 7.5]]]]
 
 
+PARALLEL_MODULE = r"""
+import numpy as np
+from numba import prange
+from opends_gym.jit import parallel_kernel
+
+
+@parallel_kernel
+def chunk_sums(a: np.ndarray) -> float:
+    sums = np.zeros(4)
+    for j in prange(4):
+        for i in range(j, len(a), 4):
+            sums[j] += a[i]
+    return sums.sum()
+"""
+
+PARALLEL_CALL = r"""
+import json, sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from opends_gym import jit
+from parallel_module import chunk_sums
+if sys.argv[2] == "fill":
+    with jit.compile_in_call():
+        chunk_sums(np.arange(10.0))
+value = chunk_sums(np.arange(10.0))
+print(json.dumps({"value": value, **jit.compile_status(), **{"cache_" + k: v for k, v in jit.cache_stats().items()}}))
+"""
+
+
+def test_a_whole_batch_kernel_in_the_cache_loads_in_its_first_call(tmp_path: Path) -> None:
+    """A native batch's `parallel_kernel` runs as Python for a whole step of thousands of envs
+    (seconds): a process whose cache holds its code loads it in the first call instead; on an
+    empty cache it still runs as Python while the background compiles."""
+    (tmp_path / "parallel_module.py").write_text(PARALLEL_MODULE)
+
+    def run(cache: Path, mode: str) -> dict:
+        env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": str(ROOT), "OPENDS_GYM_JIT_BACKGROUND": "1"}
+        done = subprocess.run(
+            [sys.executable, "-c", PARALLEL_CALL, str(tmp_path), mode], capture_output=True, text=True, env=env, timeout=300
+        )
+        assert done.returncode == 0, done.stderr
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    cold = run(tmp_path / "empty", "call")
+    assert cold["value"] == 45.0 and cold["python_calls"] == 1  # ran as Python
+    filled = run(tmp_path / "cache", "fill")
+    assert filled["cache_compiled"] == 1
+    warm = run(tmp_path / "cache", "call")
+    assert warm["value"] == 45.0 and warm["python_calls"] == 0 and warm["cache_loaded"] == 1 and warm["cache_compiled"] == 0
+
+
 def test_a_forked_child_compiles_on_its_own_thread(tmp_path: Path) -> None:
     """The native batch forks its shard workers: a child must not wait on the parent's
     queue (it has no thread to serve it) nor on a compile lock held by the parent's."""
