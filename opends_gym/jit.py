@@ -20,7 +20,10 @@ kernels (issue 9). The settings matter for results, so they live here, once:
   (0.3-0.6 s), does not freeze for the compile (4-18 s for a single env on an idle host,
   minutes for a native batch; `benchmarks/cold_start.py`, `benchmarks/cold_native.py`); see
   `_Background`. At exit the child is left to finish the queued compiles, so the cache
-  fills once per machine. `opends-gym compile` fills it ahead (`compile_in_call`).
+  fills once per machine. `opends-gym compile` fills it ahead (`compile_in_call`). Two
+  exceptions keep a native batch's Python steps rare and cheap: a whole-batch kernel
+  (`parallel_kernel`) whose code the cache already holds loads in its first call
+  (`_in_cache`), and the hot passes marked `python_buffers` run as Python on memoryviews.
 
 `parallel_kernel` adds numba's `parallel=True` for the native batch's whole-batch steps:
 their `prange` loops run chunks of envs on numba's thread pool (`NUMBA_NUM_THREADS`, by
