@@ -257,7 +257,10 @@ def python_buffers(dispatcher: F) -> F:
     numpy's. What such a kernel and everything it calls may do with an array: index single
     elements (one integer per dimension), read `shape` and `len`; no sub-views (`a[i]` of a
     2-D array), slices or array methods (memoryviews have none: a test running the kernel
-    as Python catches them). Apply it above the kernel decorator."""
+    as Python catches them). A float32 element reads as a double: fine for the marked
+    kernels, which only write float32 arrays (observations; a store rounds as numba's
+    does) or mix them with doubles (numba then computes in double too), but a kernel that
+    chains float32 operations must stay unmarked. Apply it above the kernel decorator."""
     _BUFFER_KERNELS.add(id(dispatcher))
     return dispatcher
 
