@@ -144,18 +144,20 @@ def volume_fires(e: int, j: int, bx: float, bz: float, yaw: float, hx: float, hz
     the volume's half size from the volume's centre along one of the volume's axes is
     separated on that axis, which `boxes_overlap` tests too; with REJECT_MARGIN_M to spare,
     both decide alike (its sums round by ~1e-12 m at these sizes), and the car usually
-    passes a thin sign gate's box within reach for a second or more before it touches it."""
+    passes a thin sign gate's box within reach for a second or more before it touches it.
+    The locks are tested first: the answer is the same, and a car inside a volume (its
+    triggers locked after they fired) skips the geometry."""
+    armed = False  # (first: with every trigger locked, as while the car stays in a volume, no geometry to test)
+    for q in range(vol_triggers.shape[1]):  # (element by element: a kernel run as Python may index a memoryview, `jit.python_buffers`)
+        i = vol_triggers[j, q]
+        armed = armed or (i >= 0 and t >= locks[e, i] - 1e-9)
+    if not armed:
+        return False
     dx, dz = vols[j, V_CX] - bx, vols[j, V_CZ] - bz
     sb, cb, car_r = vols[j, V_SIN], vols[j, V_COS], vols[j, V_CAR_R]
     if abs(dx * sb + dz * cb) > vols[j, V_HZ] + car_r + REJECT_MARGIN_M or abs(dx * cb - dz * sb) > vols[j, V_HX] + car_r + REJECT_MARGIN_M:
         return False
-    if not boxes_overlap(bx, bz, yaw, hx, hz, vols[j, V_CX], vols[j, V_CZ], vols[j, V_YAW], vols[j, V_HX], vols[j, V_HZ]):
-        return False
-    for q in range(vol_triggers.shape[1]):  # (element by element: a kernel run as Python may index a memoryview, `jit.python_buffers`)
-        i = vol_triggers[j, q]
-        if i >= 0 and t >= locks[e, i] - 1e-9:
-            return True
-    return False
+    return boxes_overlap(bx, bz, yaw, hx, hz, vols[j, V_CX], vols[j, V_CZ], vols[j, V_YAW], vols[j, V_HX], vols[j, V_HZ])
 
 
 @inline
