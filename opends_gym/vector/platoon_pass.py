@@ -109,7 +109,9 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
         angle = steer[e] * MAX_WHEEL_ANGLE_RAD
         cos_a, sin_a = math.cos(angle), math.sin(angle)
         wc = wheel_constants(car, dt, cos_a, sin_a)  # (the steering is held for the policy step: once per env and call)
-        anchor, clear = 0.0, -math.inf  # the trigger box's z at the last search, and how far from it no volume can be reached
+        # the trigger box's z at the last search, how far from it no volume can be reached (but one
+        # whose triggers are all locked), and until when those stay locked
+        anchor, clear, wake = 0.0, -math.inf, math.inf
         if rec and e + 1 < hi:  # (the next env's trace rows of this policy step, fetched while this env steps)
             last = block_a.shape[3] - 1
             for ahead in range(row0 + k, min(row0 + k_to, block)):
@@ -138,12 +140,16 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
                 at = TRAFFIC
             if at == TRAFFIC and not paused[e]:
                 bx, bz = x[e] - shift * sin_y[e], z[e] - shift * cos_y[e]  # (`kernels.box_centre`)
-                if not abs(bz - anchor) < clear - CLEAR_MARGIN_M:  # (else: no volume within reach, `nearest_volume` says -1)
-                    anchor, clear = bz, _clear_of_volumes(bz, vols)
+                if not (abs(bz - anchor) < clear - CLEAR_MARGIN_M and t[e] < wake):  # (else: no volume within reach fires)
+                    anchor, clear, wake = bz, _clear_of_volumes(bz, vols, -1), math.inf
                     j, near[e] = nearest_volume(bx, bz, vols, near[e])
-                    if j >= 0 and volume_fires(e, j, bx, bz, yaw[e], hx, hz, vols, vol_triggers, t[e], locks):
-                        park[e], stage[e], contact[e] = k, FIRE, j  # (Python fires them)
-                        break
+                    if j >= 0:
+                        armed = _armed_from(e, j, vol_triggers, locks)
+                        if not t[e] >= armed:  # (its triggers locked, as while the car stays in it: skip it until then)
+                            clear, wake = _clear_of_volumes(bz, vols, j), armed
+                        elif volume_fires(e, j, bx, bz, yaw[e], hx, hz, vols, vol_triggers, t[e], locks):
+                            park[e], stage[e], contact[e] = k, FIRE, j  # (Python fires them)
+                            break
             at = STEP
             if has_timers and active[e] and not paused[e]:
                 how, peak[e], braked[e], hold_since[e] = timer_step(
@@ -166,18 +172,32 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
 
 
 @inline
-def _clear_of_volumes(bz: float, vols: np.ndarray) -> float:
-    """How far (along z) a trigger box centred at z = bz may move before any volume can be
-    within reach of it: min over the volumes of |cz - bz| - reach (-inf where one is NaN).
-    While the box stays closer than that to bz, every volume is at least its reach away
-    along z, so `nearest_volume` finds none (-1): `platoon_substeps` searches again only
-    once the box leaves that range."""
+def _clear_of_volumes(bz: float, vols: np.ndarray, skip: int) -> float:
+    """How far (along z) a trigger box centred at z = bz may move before any volume but
+    `skip` (-1: none) can be within reach of it: min over those volumes of |cz - bz| - reach
+    (-inf where one is NaN). While the box stays closer than that to bz, every such volume
+    is at least its reach away along z, so `nearest_volume` finds none of them within reach:
+    `platoon_substeps` searches again only once the box leaves that range (or, when it
+    skipped a volume whose triggers were all locked, once one of them is armed again)."""
     clear = math.inf
     for v in range(vols.shape[0]):
         d = abs(vols[v, V_CZ] - bz) - vols[v, V_REACH]
-        if not d >= clear:
+        if v != skip and not d >= clear:
             clear = d if d == d else -math.inf
     return clear
+
+
+@inline
+def _armed_from(e: int, j: int, vol_triggers: np.ndarray, locks: np.ndarray) -> float:
+    """The time from which a trigger of volume j is armed for env e: the least of its
+    triggers' `locks[e, i] - 1e-9` (`volume_fires` asks t >= that of each); inf without one."""
+    armed = math.inf
+    for q in range(vol_triggers.shape[1]):
+        i = vol_triggers[j, q]
+        if i >= 0:
+            at = locks[e, i] - 1e-9
+            armed = at if at < armed else armed
+    return armed
 
 
 def traffic_events(tr: Any, w: int, code: int, dt: float, t: np.ndarray, ego3: np.ndarray) -> None:
