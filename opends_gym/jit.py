@@ -415,7 +415,9 @@ def _in_cache(dispatcher: Any, types: tuple[Any, ...]) -> bool:
     cache = getattr(dispatcher, "_cache", None)
     try:
         key = cache._index_key(types, dispatcher.targetctx.codegen())  # type: ignore[union-attr]
-        return key in cache._cache_file._load_index()  # type: ignore[union-attr]
+        files = cache._cache_file  # type: ignore[union-attr]
+        name = files._load_index().get(key)
+        return name is not None and os.path.isfile(files._data_path(name))  # (a lost data file would compile in the call)
     except Exception:  # (no cache, or numba's internals changed: the background path)
         return False
 

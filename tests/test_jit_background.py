@@ -204,6 +204,10 @@ def test_a_whole_batch_kernel_in_the_cache_loads_in_its_first_call(tmp_path: Pat
     assert filled["cache_compiled"] == 1
     warm = run(tmp_path / "cache", "call")
     assert warm["value"] == 45.0 and warm["python_calls"] == 0 and warm["cache_loaded"] == 1 and warm["cache_compiled"] == 0
+    for code in (tmp_path / "cache").rglob("*.nbc"):  # an index whose code file is gone: not a compile in the call
+        code.unlink()
+    lost = run(tmp_path / "cache", "call")
+    assert lost["value"] == 45.0 and lost["python_calls"] == 1 and lost["cache_compiled"] == 0
 
 
 def test_a_forked_child_compiles_on_its_own_thread(tmp_path: Path) -> None:
