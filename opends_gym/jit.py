@@ -265,6 +265,20 @@ def python_buffers(dispatcher: F) -> F:
     return dispatcher
 
 
+_BATCH_KERNELS: set[int] = set()  # ids of the kernels marked by `whole_batch`
+
+
+def whole_batch(dispatcher: F) -> F:
+    """Mark a serial kernel that steps a whole native batch in one call (as every
+    `parallel_kernel` does): when the machine's cache holds its code, its first call in a
+    process loads it (`_in_cache`) instead of running as Python, which for thousands of envs
+    costs a good part of a step. Not for kernels a single env calls: there a Python run costs
+    microseconds, while a process's first load also loads numba's typing registries
+    (0.3-0.6 s). Apply it above the kernel decorator."""
+    _BATCH_KERNELS.add(id(dispatcher))
+    return dispatcher
+
+
 def _as_buffers(value: Any) -> Any:
     """`value` with its numpy arrays (of numbers or bools, one dimension or more), in tuples
     too, as memoryviews (see `python_buffers`)."""
@@ -476,7 +490,7 @@ class _Background:
             if threading.current_thread() is self.thread or id(dispatcher) in self.failed or not self.enabled():
                 return original(*args, **kws)
             types = tuple(dispatcher.typeof_pyval(a) for a in args)
-            if dispatcher.targetoptions.get("parallel") and _in_cache(dispatcher, types):
+            if (dispatcher.targetoptions.get("parallel") or id(dispatcher) in _BATCH_KERNELS) and _in_cache(dispatcher, types):
                 return original(*args, **kws)  # (a whole-batch kernel: loading it now beats a step of Python, see `_in_cache`)
             self.submit(dispatcher, types)
             stand_in = _STAND_INS.get(id(dispatcher))  # (called from Python too, a stand-in wins over the twin)

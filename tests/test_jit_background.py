@@ -158,7 +158,7 @@ def test_a_buffered_kernel_run_as_python_writes_and_fails_as_the_compiled_one(tm
 PARALLEL_MODULE = r"""
 import numpy as np
 from numba import prange
-from opends_gym.jit import parallel_kernel
+from opends_gym.jit import kernel, parallel_kernel, whole_batch
 
 
 @parallel_kernel
@@ -168,6 +168,17 @@ def chunk_sums(a: np.ndarray) -> float:
         for i in range(j, len(a), 4):
             sums[j] += a[i]
     return sums.sum()
+
+
+@whole_batch
+@kernel
+def batch_max(a: np.ndarray) -> float:
+    return a.max()
+
+
+@kernel
+def single_min(a: np.ndarray) -> float:
+    return a.min()
 """
 
 PARALLEL_CALL = r"""
@@ -175,19 +186,21 @@ import json, sys
 sys.path.insert(0, sys.argv[1])
 import numpy as np
 from opends_gym import jit
-from parallel_module import chunk_sums
+from parallel_module import batch_max, chunk_sums, single_min
+a = np.arange(10.0)
 if sys.argv[2] == "fill":
     with jit.compile_in_call():
-        chunk_sums(np.arange(10.0))
-value = chunk_sums(np.arange(10.0))
+        chunk_sums(a), batch_max(a), single_min(a)
+value = chunk_sums(a) + batch_max(a) + single_min(a)
 print(json.dumps({"value": value, **jit.compile_status(), **{"cache_" + k: v for k, v in jit.cache_stats().items()}}))
 """
 
 
 def test_a_whole_batch_kernel_in_the_cache_loads_in_its_first_call(tmp_path: Path) -> None:
-    """A native batch's `parallel_kernel` runs as Python for a whole step of thousands of envs
-    (seconds): a process whose cache holds its code loads it in the first call instead; on an
-    empty cache it still runs as Python while the background compiles."""
+    """A native batch's `parallel_kernel`s and `whole_batch` kernels run as Python for a whole
+    step of thousands of envs (seconds): a process whose cache holds their code loads them in
+    the first call instead; other kernels (a single env's: milliseconds as Python) and an
+    empty cache keep the background path."""
     (tmp_path / "parallel_module.py").write_text(PARALLEL_MODULE)
 
     def run(cache: Path, mode: str) -> dict:
@@ -199,15 +212,15 @@ def test_a_whole_batch_kernel_in_the_cache_loads_in_its_first_call(tmp_path: Pat
         return json.loads(done.stdout.strip().splitlines()[-1])
 
     cold = run(tmp_path / "empty", "call")
-    assert cold["value"] == 45.0 and cold["python_calls"] == 1  # ran as Python
+    assert cold["value"] == 54.0 and cold["python_calls"] == 3  # all ran as Python
     filled = run(tmp_path / "cache", "fill")
-    assert filled["cache_compiled"] == 1
-    warm = run(tmp_path / "cache", "call")
-    assert warm["value"] == 45.0 and warm["python_calls"] == 0 and warm["cache_loaded"] == 1 and warm["cache_compiled"] == 0
+    assert filled["cache_compiled"] == 3
+    warm = run(tmp_path / "cache", "call")  # the two batch kernels loaded in the call, the single env's as Python
+    assert warm["value"] == 54.0 and warm["python_calls"] == 1 and warm["cache_loaded"] == 2 and warm["cache_compiled"] == 0
     for code in (tmp_path / "cache").rglob("*.nbc"):  # an index whose code file is gone: not a compile in the call
         code.unlink()
     lost = run(tmp_path / "cache", "call")
-    assert lost["value"] == 45.0 and lost["python_calls"] == 1 and lost["cache_compiled"] == 0
+    assert lost["value"] == 54.0 and lost["python_calls"] == 3 and lost["cache_compiled"] == 0
 
 
 def test_a_forked_child_compiles_on_its_own_thread(tmp_path: Path) -> None:

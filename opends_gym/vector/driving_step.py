@@ -16,13 +16,14 @@ import math
 import numpy as np
 from numba import prange
 
-from ..jit import borrowing_kernel, inline, kernel, parallel_kernel, python_buffers, python_stand_in, python_twin
+from ..jit import borrowing_kernel, inline, kernel, parallel_kernel, python_buffers, python_stand_in, python_twin, whole_batch
 from ..sim.geometry2d import boxes_overlap
 from ..sim.traffic.motion import NOTHING_LIVE, _sees, step_rows
 from ..sim.traffic.state import B_BRAKING, B_ENABLED, F_SPEED, F_YAW, I_BRAKE_PATH, I_OV_BRAKE, I_OV_TURN, I_TURN_PATH
 from .kernels import chunk_count
 
 
+@whole_batch
 @python_buffers
 @borrowing_kernel
 def _worlds_range(lo: int, hi: int, f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray,
@@ -65,6 +66,7 @@ def step_worlds(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, en
     return int(left.sum())
 
 
+@whole_batch
 @python_buffers
 @kernel
 def contacts(live: np.ndarray, cx: np.ndarray, cz: np.ndarray, yaw: np.ndarray, ey: np.ndarray, hx: float, hz: float, pos: np.ndarray,
@@ -109,6 +111,7 @@ N_OBS = 9
 TIME_MISMATCH = -9  # codes[w]: an undisturbed world's time is not its history step's (a bug: raised)
 
 
+@whole_batch
 @python_buffers
 @borrowing_kernel
 def _shared_range(lo: int, hi: int, f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray,
@@ -244,6 +247,7 @@ def _history_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, 
                 end_xz[r, q], light_xz[r, q] = hend[k, j, q], hlight[k, j, q]
 
 
+@whole_batch
 @python_buffers
 @borrowing_kernel
 def history_rows(f: np.ndarray, i: np.ndarray, b: np.ndarray, pos: np.ndarray, end_xz: np.ndarray, light_xz: np.ndarray,

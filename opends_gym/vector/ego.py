@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ..jit import inline, kernel, python_buffers
+from ..jit import inline, kernel, python_buffers, whole_batch
 from ..sim.ego.kernels import body_step_wheels, cruise_control, min_speed_gas, powertrain_core, wheel_constants
 from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 
@@ -178,6 +178,7 @@ def step(p: EgoParams, s: EgoArrays, dt: float, steer: np.ndarray, gas: np.ndarr
     )
 
 
+@whole_batch
 @python_buffers
 @kernel
 def _step_rows(car: np.ndarray, engine_on: bool, suppress_cruise_off: bool, min_speed: float, dt: float, live: np.ndarray, x: np.ndarray,

@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import prange
 
-from ..jit import inline, kernel, parallel_kernel, python_buffers
+from ..jit import inline, kernel, parallel_kernel, python_buffers, whole_batch
 from ..sim.geometry2d import boxes_overlap
 from ..sim.traffic.motion import N_WORK, W_COS, W_SIN, W_TRIG_OK, W_TRIG_YAW, sin_cos
 from .kernels import chunk_count, lane_measures
@@ -73,6 +73,7 @@ def _sin_cos(lo: int, hi: int, yaw: np.ndarray, sin_y: np.ndarray, cos_y: np.nda
         sin_y[e], cos_y[e] = math.sin(yaw[e]), math.cos(yaw[e])
 
 
+@whole_batch
 @python_buffers
 @kernel
 def _lead_range(lo: int, hi: int, x: np.ndarray, z: np.ndarray, yaw: np.ndarray, u: np.ndarray, pos: np.ndarray, car_yaw: np.ndarray,

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from ..jit import inline, kernel, py_hypot, python_buffers
+from ..jit import inline, kernel, py_hypot, python_buffers, whole_batch
 from ..sim.guide import _SURE_M, _WALK_MAX, RoadGuide
 from .kernels import lane_of
 
@@ -112,6 +112,7 @@ def locate_route(x: np.ndarray, z: np.ndarray, rows: np.ndarray, seg: np.ndarray
             s_out[e], _, _, hint[e] = route_foot(x[e], z[e], seg, hint[e], xz, ps, seg_len)
 
 
+@whole_batch
 @python_buffers
 @kernel
 def record_route(x: np.ndarray, z: np.ndarray, rows: np.ndarray, first: np.ndarray, seg: np.ndarray, xz: np.ndarray, ps: np.ndarray,
