@@ -140,16 +140,11 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
                 at = TRAFFIC
             if at == TRAFFIC and not paused[e]:
                 bx, bz = x[e] - shift * sin_y[e], z[e] - shift * cos_y[e]  # (`kernels.box_centre`)
-                if not (abs(bz - anchor) < clear - CLEAR_MARGIN_M and t[e] < wake):  # (else: no volume within reach fires)
-                    anchor, clear, wake = bz, _clear_of_volumes(bz, vols, -1), math.inf
-                    j, near[e] = nearest_volume(bx, bz, vols, near[e])
-                    if j >= 0:
-                        armed = _armed_from(e, j, vol_triggers, locks)
-                        if not t[e] >= armed:  # (its triggers locked, as while the car stays in it: skip it until then)
-                            clear, wake = _clear_of_volumes(bz, vols, j), armed
-                        elif volume_fires(e, j, bx, bz, yaw[e], hx, hz, vols, vol_triggers, t[e], locks):
-                            park[e], stage[e], contact[e] = k, FIRE, j  # (Python fires them)
-                            break
+                j, anchor, clear, wake = gated_contact(e, bx, bz, yaw[e], t[e], hx, hz, vols, vol_triggers, locks, near, anchor, clear,
+                                                       wake)  # fmt: skip
+                if j >= 0:
+                    park[e], stage[e], contact[e] = k, FIRE, j  # (Python fires them)
+                    break
             at = STEP
             if has_timers and active[e] and not paused[e]:
                 how, peak[e], braked[e], hold_since[e] = timer_step(
@@ -169,6 +164,29 @@ def _substeps_range(lo: int, hi: int, resume: bool, k_from: int, k_to: int, dt: 
         elif k > ran:
             ran = k
     return parked, ran, changed
+
+
+@inline
+def gated_contact(e: int, bx: float, bz: float, yaw: float, t: float, hx: float, hz: float, vols: np.ndarray, vol_triggers: np.ndarray,
+                  locks: np.ndarray, near: np.ndarray, anchor: float, clear: float,
+                  wake: float) -> tuple[int, float, float, float]:  # fmt: skip
+    """The volume (row of `vols`) whose armed trigger env e's trigger box (centre bx, bz,
+    heading yaw, half sizes hx, hz) touches at time t, or -1: what `nearest_volume` and
+    `volume_fires` answer, searched only when the answer may have changed. (anchor, clear,
+    wake) carry what the last search learnt from one physics step to the next (start a
+    policy step with 0, -inf, inf): no volume but a locked one is within reach while the box
+    stays within `clear` of z = `anchor`, and the locked one stays locked before `wake`.
+    Returns the volume and the new (anchor, clear, wake)."""
+    if abs(bz - anchor) < clear - CLEAR_MARGIN_M and t < wake:
+        return -1, anchor, clear, wake
+    anchor, clear, wake = bz, _clear_of_volumes(bz, vols, -1), math.inf
+    j, near[e] = nearest_volume(bx, bz, vols, near[e])
+    if j < 0:
+        return -1, anchor, clear, wake
+    armed = _armed_from(e, j, vol_triggers, locks)
+    if not t >= armed:  # (its triggers locked, as while the car stays in it: skip it until then)
+        return -1, anchor, _clear_of_volumes(bz, vols, j), armed
+    return (j if volume_fires(e, j, bx, bz, yaw, hx, hz, vols, vol_triggers, t, locks) else -1), anchor, clear, wake
 
 
 @inline
