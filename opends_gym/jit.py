@@ -22,8 +22,9 @@ kernels (issue 9). The settings matter for results, so they live here, once:
   `_Background`. At exit the child is left to finish the queued compiles, so the cache
   fills once per machine. `opends-gym compile` fills it ahead (`compile_in_call`). Two
   exceptions keep a native batch's Python steps rare and cheap: a whole-batch kernel
-  (`parallel_kernel`) whose code the cache already holds loads in its first call
-  (`_in_cache`), and the hot passes marked `python_buffers` run as Python on memoryviews.
+  (a `parallel_kernel`, or a serial one marked `whole_batch`) whose code the cache already
+  holds loads in its first call (`_in_cache`), and the hot passes marked `python_buffers`
+  run as Python on memoryviews.
 
 `parallel_kernel` adds numba's `parallel=True` for the native batch's whole-batch steps:
 their `prange` loops run chunks of envs on numba's thread pool (`NUMBA_NUM_THREADS`, by
@@ -420,7 +421,7 @@ class _CompileChild:
 def _in_cache(dispatcher: Any, types: tuple[Any, ...]) -> bool:
     """Does the machine's numba cache hold `dispatcher`'s code for `types`, with the current
     kernel sources (`_kernel_sources_stamp`)? Read from the cache's index, without loading.
-    Why: a native batch's whole-batch kernels (`parallel_kernel`) run as Python at ~1-2 s a
+    Why: a native batch's whole-batch kernels (`parallel_kernel`, `whole_batch`) run as Python at ~1-2 s a
     step of 4,096 brake or platoon envs, while loading them from the cache takes a fraction
     of that, so a process whose cache holds them loads them in the call instead of stepping
     as Python until the background thread has. (A single env's kernels stay in the
