@@ -147,12 +147,28 @@ def volume_fires(e: int, j: int, bx: float, bz: float, yaw: float, hx: float, hz
     passes a thin sign gate's box within reach for a second or more before it touches it.
     The locks are tested first: the answer is the same, and a car inside a volume (its
     triggers locked after they fired) skips the geometry."""
-    armed = False  # (first: with every trigger locked, as while the car stays in a volume, no geometry to test)
+    if not t >= armed_from(e, j, vol_triggers, locks):  # (first: with every trigger locked, as while the car stays in a volume)
+        return False
+    return volume_touches(j, bx, bz, yaw, hx, hz, vols)
+
+
+@inline
+def armed_from(e: int, j: int, vol_triggers: np.ndarray, locks: np.ndarray) -> float:
+    """The time from which a trigger of volume j is armed for env e: the least of its
+    triggers' `locks[e, i] - 1e-9` (a trigger is armed at t >= that); inf without one."""
+    armed = math.inf
     for q in range(vol_triggers.shape[1]):  # (element by element: a kernel run as Python may index a memoryview, `jit.python_buffers`)
         i = vol_triggers[j, q]
-        armed = armed or (i >= 0 and t >= locks[e, i] - 1e-9)
-    if not armed:
-        return False
+        if i >= 0:
+            at = locks[e, i] - 1e-9
+            armed = at if at < armed else armed
+    return armed
+
+
+@inline
+def volume_touches(j: int, bx: float, bz: float, yaw: float, hx: float, hz: float, vols: np.ndarray) -> bool:
+    """Does a car box (centre bx, bz, heading yaw, half sizes hx, hz) overlap volume j? The
+    quick reject of `volume_fires`' docstring, then `boxes_overlap`."""
     dx, dz = vols[j, V_CX] - bx, vols[j, V_CZ] - bz
     sb, cb, car_r = vols[j, V_SIN], vols[j, V_COS], vols[j, V_CAR_R]
     if abs(dx * sb + dz * cb) > vols[j, V_HZ] + car_r + REJECT_MARGIN_M or abs(dx * cb - dz * sb) > vols[j, V_HX] + car_r + REJECT_MARGIN_M:

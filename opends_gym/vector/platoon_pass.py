@@ -34,7 +34,7 @@ from ..sim.ego.spec import MAX_WHEEL_ANGLE_RAD
 from ..sim.traffic.motion import ARRIVED, NOTHING_LIVE, WAIT_OVER, WAITS_OVER, advance_carrots, drive, step_rows
 from .block_view import prefetch_write
 from .ego import ego_step_wheels
-from .kernels import V_CZ, V_REACH, chunk_count, nearest_volume, timer_step, volume_fires
+from .kernels import V_CZ, V_REACH, armed_from, chunk_count, nearest_volume, timer_step, volume_touches
 from .platoon_step import after_one
 from .trace import PLATOON_TRACE_GROUP
 
@@ -183,10 +183,10 @@ def gated_contact(e: int, bx: float, bz: float, yaw: float, t: float, hx: float,
     j, near[e] = nearest_volume(bx, bz, vols, near[e])
     if j < 0:
         return -1, anchor, clear, wake
-    armed = _armed_from(e, j, vol_triggers, locks)
+    armed = armed_from(e, j, vol_triggers, locks)
     if not t >= armed:  # (its triggers locked, as while the car stays in it: skip it until then)
         return -1, anchor, _clear_of_volumes(bz, vols, j), armed
-    return (j if volume_fires(e, j, bx, bz, yaw, hx, hz, vols, vol_triggers, t, locks) else -1), anchor, clear, wake
+    return (j if volume_touches(j, bx, bz, yaw, hx, hz, vols) else -1), anchor, clear, wake
 
 
 @inline
@@ -203,19 +203,6 @@ def _clear_of_volumes(bz: float, vols: np.ndarray, skip: int) -> float:
         if v != skip and not d >= clear:
             clear = d if d == d else -math.inf
     return clear
-
-
-@inline
-def _armed_from(e: int, j: int, vol_triggers: np.ndarray, locks: np.ndarray) -> float:
-    """The time from which a trigger of volume j is armed for env e: the least of its
-    triggers' `locks[e, i] - 1e-9` (`volume_fires` asks t >= that of each); inf without one."""
-    armed = math.inf
-    for q in range(vol_triggers.shape[1]):
-        i = vol_triggers[j, q]
-        if i >= 0:
-            at = locks[e, i] - 1e-9
-            armed = at if at < armed else armed
-    return armed
 
 
 def traffic_events(tr: Any, w: int, code: int, dt: float, t: np.ndarray, ego3: np.ndarray) -> None:
