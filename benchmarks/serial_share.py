@@ -1,16 +1,17 @@
-"""How much of a native batch's step is Python outside its compiled step kernels?
+"""How much of a native batch's step is Python outside its compiled kernels, and which kernels take the rest?
 
-What a many-thread run pays serially shows on one thread with many envs: this times every
-call of the batch's step kernels (`KERNELS`: the LCT's `lct_step`, or before it
-`lct_substeps` and `lct_finish`; the brake and platoon tests' `platoon_step`, or before it
-`platoon_substeps` and `platoon_finish` with the lead measures of a reset) with
-`perf_counter` (no profiler, whose cost per Python call would count as Python) over
-`--steps` steps of random actions with resets, no metrics, after 100 untimed ones, and
-prints the wall time per step inside those calls (the kernels, numba's argument unboxing
-included) and outside them (Python: the env's step, argument tuples, output arrays, info
-dict, resets done in numpy), with the latter's share of the step.
+What a many-thread run pays serially shows on one thread with many envs; what each kernel
+loses to threads shows by running it again with k threads and k times the envs. This times
+every Python-level call of a compiled kernel (every numba dispatcher in `opends_gym`'s
+vector and metrics modules, patched in the module that calls it, after 100 untimed steps and
+the loads from the cache: compiled code calls its helpers directly, so nothing counts
+twice) with `perf_counter` (no profiler, whose cost per Python call would count as Python)
+over `--steps` steps of random actions with resets, and prints the wall time per step
+inside those calls (numba's argument unboxing included), kernel by kernel, and outside them
+(Python: the env's step, argument tuples, output arrays, info dict, resets done in numpy),
+with the latter's share of the step and its ns per env-step.
 
-    NUMBA_NUM_THREADS=1 python benchmarks/serial_share.py [--task LaneChangeTest] [--envs 32768] [--steps 60]
+    NUMBA_NUM_THREADS=1 python benchmarks/serial_share.py [--task LaneChangeTest] [--envs 32768] [--steps 60] [--metrics]
 """
 
 from __future__ import annotations
@@ -18,66 +19,78 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import sys
 import time
 from collections.abc import Callable
-from types import ModuleType
 from typing import Any
 
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 import gymnasium as gym
+from numba.core.dispatcher import Dispatcher
 
 import opends_gym  # noqa: F401  (registers the ids)
 from opends_gym.jit import wait_compiled
-from opends_gym.vector import lct, platoon
 
-# the step kernels each task's batch module calls (those it has: older versions have others)
-_PLATOON = ("platoon_step", "platoon_step_serial", "platoon_substeps", "_substeps_range", "platoon_finish", "_finish_range",
-            "lead_measures", "_lead_range", "lead_rows", "reset_envs", "reset_range", "step_controls")  # fmt: skip
-KERNELS: dict[str, tuple[ModuleType, tuple[str, ...]]] = {
-    "LaneChangeTest": (lct, ("lct_step", "lct_step_serial", "lct_substeps", "lct_finish", "_substeps_range", "_finish_range")),
-    "BrakeReaction": (platoon, _PLATOON),
-}
-KERNELS["ThreeVehiclePlatoon"] = KERNELS["BrakeReaction"]
+TASKS = ("LaneChangeTest", "BrakeReaction", "ThreeVehiclePlatoon")
+PATCHED = ("opends_gym.vector", "opends_gym.metrics")  # the packages whose modules call kernels from Python
+
+
+def patch_kernels(inside: dict[str, float]) -> int:
+    """Wrap every dispatcher that a vector or metrics module holds as a global so that its
+    calls from Python add their wall time to inside[name]. Returns how many were wrapped."""
+    count = 0
+    for mod_name, module in list(sys.modules.items()):
+        if module is None or not mod_name.startswith(PATCHED):
+            continue
+        for name, obj in list(vars(module).items()):
+            if not isinstance(obj, Dispatcher):
+                continue
+            inside.setdefault(name, 0.0)
+
+            def timed(*a: Any, _fn: Callable[..., Any] = obj, _name: str = name, **kw: Any) -> Any:
+                t = time.perf_counter()
+                try:
+                    return _fn(*a, **kw)
+                finally:
+                    inside[_name] += time.perf_counter() - t
+
+            setattr(module, name, timed)
+            count += 1
+    return count
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--task", choices=sorted(KERNELS), default="LaneChangeTest")
+    ap.add_argument("--task", choices=TASKS, default="LaneChangeTest")
     ap.add_argument("--envs", type=int, default=32768)
     ap.add_argument("--steps", type=int, default=60)
+    ap.add_argument("--metrics", action="store_true", help="with the per-step traces and episode metrics (record_metrics=True)")
     args = ap.parse_args()
     logging.disable(logging.WARNING)
     n = args.envs
-    env = gym.make_vec(f"OpenDS/{args.task}-v0", num_envs=n, vectorization_mode="vector_entry_point", record_metrics=False)
+    env = gym.make_vec(f"OpenDS/{args.task}-v0", num_envs=n, vectorization_mode="vector_entry_point", record_metrics=args.metrics)
     env.reset(seed=0)
     env.action_space.seed(0)
     actions = [env.action_space.sample() for _ in range(16)]
     for i in range(100):
         env.step(actions[i % 16])
     wait_compiled()  # (kernels still loading from the cache run as Python meanwhile)
-    inside = [0.0]
-    module, names = KERNELS[args.task]
-    for name in [k for k in names if hasattr(module, k)]:
-        kernel = getattr(module, name)
-
-        def timed(*a: Any, _fn: Callable[..., Any] = kernel) -> Any:
-            t = time.perf_counter()
-            try:
-                return _fn(*a)
-            finally:
-                inside[0] += time.perf_counter() - t
-
-        setattr(module, name, timed)
+    inside: dict[str, float] = {}
+    patch_kernels(inside)
     t0 = time.perf_counter()
     for i in range(args.steps):
         env.step(actions[i % 16])
     wall = time.perf_counter() - t0
-    outside = wall - inside[0]
-    print(f"native {args.task}, {n:,} envs, NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}, {args.steps} steps: "
-          f"{1e3 * wall / args.steps:.2f} ms per step, step kernels {1e3 * inside[0] / args.steps:.2f} ms, "
-          f"Python outside them {1e3 * outside / args.steps:.3f} ms ({100 * outside / wall:.2f} %, "
-          f"{1e9 * outside / args.steps / n:.0f} ns per env-step)")  # fmt: skip
+    kernels = sum(inside.values())
+    outside = wall - kernels
+    ms = 1e3 / args.steps
+    print(f"native {args.task}, {n:,} envs, metrics {'on' if args.metrics else 'off'}, NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}, "
+          f"{args.steps} steps: {wall * ms:.2f} ms per step, kernels {kernels * ms:.2f} ms, Python outside them {outside * ms:.3f} ms "
+          f"({100 * outside / wall:.2f} %, {1e9 * outside / args.steps / n:.0f} ns per env-step)")  # fmt: skip
+    for name, sec in sorted(inside.items(), key=lambda kv: -kv[1]):
+        if sec > 0:
+            print(f"  {name:<28} {sec * ms:8.3f} ms per step ({100 * sec / wall:5.1f} %, {1e9 * sec / args.steps / n:6.0f} ns per env-step)")
     env.close()
 
 
