@@ -11,7 +11,8 @@ programs had the cores or the threads waited) and the rate per CPU second (what 
 threads computed while they ran; the steadiest figure on a busy host). Thread counts above this host's cores are
 measured too (marked: they share the cores) unless `--threads` leaves them out.
 
-    python benchmarks/scaling.py [--env OpenDS/LaneChangeTest-v0] [--threads 1 2 4 8 16] [--envs-per-thread 2048] [--seconds 3] [--rounds 3] [--processes]
+    python benchmarks/scaling.py [--env OpenDS/LaneChangeTest-v0] [--threads 1 2 4 8 16] [--envs-per-thread 2048]
+                                 [--seconds 3] [--rounds 3] [--processes]
 
 `--processes` runs the same counts as the batch's `processes=k` worker processes of one
 thread each: the Python glue of each step then runs in k processes, not one.
@@ -54,7 +55,9 @@ print(json.dumps({"rate": steps * n / wall, "cpu": (time.process_time() - c0) / 
 """
 
 
-def probe(threads: int, envs: int, seconds: float, metrics: bool, processes: bool = False, env_id: str = "OpenDS/LaneChangeTest-v0") -> dict[str, float]:
+def probe(
+    threads: int, envs: int, seconds: float, metrics: bool, processes: bool = False, env_id: str = "OpenDS/LaneChangeTest-v0"
+) -> dict[str, float]:
     env = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
     argv = [str(envs), str(seconds), "1" if metrics else "0", str(threads if processes else 1), env_id]
     out = subprocess.run([sys.executable, "-c", PROBE, *argv], env=env, capture_output=True, text=True)
@@ -66,7 +69,9 @@ def probe(threads: int, envs: int, seconds: float, metrics: bool, processes: boo
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--env", default="OpenDS/LaneChangeTest-v0", help="a native batch's env id (LaneChangeTest, BrakeReaction, ThreeVehiclePlatoon)")
+    ap.add_argument(
+        "--env", default="OpenDS/LaneChangeTest-v0", help="a native batch's env id (LaneChangeTest, BrakeReaction, ThreeVehiclePlatoon)"
+    )
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2, 4, 8, 16])
     ap.add_argument("--envs-per-thread", type=int, default=2048)
     ap.add_argument("--seconds", type=float, default=3.0)

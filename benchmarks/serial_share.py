@@ -9,7 +9,10 @@ twice) with `perf_counter` (no profiler, whose cost per Python call would count 
 over `--steps` steps of random actions with resets, and prints the wall time per step
 inside those calls (numba's argument unboxing included), kernel by kernel, and outside them
 (Python: the env's step, argument tuples, output arrays, info dict, resets done in numpy),
-with the latter's share of the step and its ns per env-step.
+with the latter's share of the step and its ns per env-step. Kernels compiled serially
+(no `prange`) are marked: with Python they make the step's serial part, which more threads
+do not shorten (the bound printed: Amdahl's law with that part as measured on this run's
+threads).
 
     NUMBA_NUM_THREADS=1 python benchmarks/serial_share.py [--task LaneChangeTest] [--envs 32768] [--steps 60] [--metrics]
 """
@@ -36,9 +39,10 @@ TASKS = ("LaneChangeTest", "BrakeReaction", "ThreeVehiclePlatoon")
 PATCHED = ("opends_gym.vector", "opends_gym.metrics")  # the packages whose modules call kernels from Python
 
 
-def patch_kernels(inside: dict[str, float]) -> int:
+def patch_kernels(inside: dict[str, float], parallel: dict[str, bool]) -> int:
     """Wrap every dispatcher that a vector or metrics module holds as a global so that its
-    calls from Python add their wall time to inside[name]. Returns how many were wrapped."""
+    calls from Python add their wall time to inside[name]; parallel[name]: compiled with
+    `parallel=True`. Returns how many were wrapped."""
     count = 0
     for mod_name, module in list(sys.modules.items()):
         if module is None or not mod_name.startswith(PATCHED):
@@ -47,6 +51,7 @@ def patch_kernels(inside: dict[str, float]) -> int:
             if not isinstance(obj, Dispatcher):
                 continue
             inside.setdefault(name, 0.0)
+            parallel[name] = bool(obj.targetoptions.get("parallel", False))
 
             def timed(*a: Any, _fn: Callable[..., Any] = obj, _name: str = name, **kw: Any) -> Any:
                 t = time.perf_counter()
@@ -77,20 +82,29 @@ def main() -> None:
         env.step(actions[i % 16])
     wait_compiled()  # (kernels still loading from the cache run as Python meanwhile)
     inside: dict[str, float] = {}
-    patch_kernels(inside)
+    parallel: dict[str, bool] = {}
+    patch_kernels(inside, parallel)
     t0 = time.perf_counter()
     for i in range(args.steps):
         env.step(actions[i % 16])
     wall = time.perf_counter() - t0
     kernels = sum(inside.values())
     outside = wall - kernels
+    serial_names = {name for name in inside if not parallel.get(name, False)}
+    serial = outside + sum(inside[name] for name in serial_names)
+    threads = int(os.environ["NUMBA_NUM_THREADS"])
     ms = 1e3 / args.steps
-    print(f"native {args.task}, {n:,} envs, metrics {'on' if args.metrics else 'off'}, NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}, "
+    print(f"native {args.task}, {n:,} envs, metrics {'on' if args.metrics else 'off'}, NUMBA_NUM_THREADS={threads}, "
           f"{args.steps} steps: {wall * ms:.2f} ms per step, kernels {kernels * ms:.2f} ms, Python outside them {outside * ms:.3f} ms "
           f"({100 * outside / wall:.2f} %, {1e9 * outside / args.steps / n:.0f} ns per env-step)")  # fmt: skip
+    share = serial / wall
+    print(f"  serial part (Python and serial kernels): {serial * ms:.3f} ms per step, {100 * share:.1f} %: however many threads, "
+          f"this step runs at most {1 / share:.0f}x faster than on these {threads} (Amdahl)" if share > 0 else "")  # fmt: skip
     for name, sec in sorted(inside.items(), key=lambda kv: -kv[1]):
         if sec > 0:
-            print(f"  {name:<28} {sec * ms:8.3f} ms per step ({100 * sec / wall:5.1f} %, {1e9 * sec / args.steps / n:6.0f} ns per env-step)")
+            kind = "serial" if name in serial_names else "parallel"
+            print(f"  {name:<28} {kind:<8} {sec * ms:8.3f} ms per step ({100 * sec / wall:5.1f} %, "
+                  f"{1e9 * sec / args.steps / n:6.0f} ns per env-step)")  # fmt: skip
     env.close()
 
 

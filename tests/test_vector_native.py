@@ -13,6 +13,8 @@ import pytest
 import opends_gym  # noqa: F401  (registers the ids)
 from opends_gym.jit import kernel, py_hypot
 from opends_gym.vector import NativeVectorEnv
+from opends_gym.vector.kernels import CHUNK_ENVS
+from opends_gym.vector.platoon_controls import step_controls, step_controls_parallel
 
 LCT = "OpenDS/LaneChangeTest-v0"
 BRAKE = "OpenDS/BrakeReaction-v0"
@@ -250,6 +252,40 @@ def test_nan_action_names_the_env() -> None:
         env.step(a)
     with pytest.raises(ValueError, match="shape"):
         env.step(np.zeros((3, 2), dtype=np.float32))
+
+
+def test_nan_action_in_a_parallel_batch_names_the_first_env() -> None:
+    """A batch of several chunks checks its actions on the threads: the error still names the
+    first env with a bad action, nothing is stepped, and the next good step runs."""
+    n = 3 * CHUNK_ENVS
+    env = gym.make_vec(PLATOON, num_envs=n, vectorization_mode="vector_entry_point", record_metrics=False)
+    env.reset(seed=0)
+    a = np.zeros((n, 6), dtype=np.float32)
+    a[n - 1, 0] = np.nan
+    a[CHUNK_ENVS + 5, 1] = np.inf
+    with pytest.raises(ValueError, match=f"env {CHUNK_ENVS + 5}: action contains NaN or infinity"):
+        env.step(a)
+    a[:, 0], a[:, 1] = 0.0, 0.5
+    obs, *_ = env.step(a)
+    assert obs.shape[0] == n and np.isfinite(obs).all()
+
+
+def test_parallel_controls_are_the_serial_ones() -> None:
+    """`step_controls_parallel` writes what `step_controls` writes (steering and pedals
+    clipped and split, the reaction button's edge, the buttons held, the indicator)."""
+    rng = np.random.default_rng(3)
+    n = 5 * CHUNK_ENVS + 17
+    a = rng.choice([-1.5, -1.0, -0.3, 0.0, 0.4, 1.0, 2.0], size=(n, 6))
+    stepping = rng.random(n) < 0.8
+    held = rng.random((n, 4)) < 0.5
+    outs = []
+    for controls in (step_controls, step_controls_parallel):
+        arrays = (held.copy(), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64))
+        assert controls(a, stepping, True, *arrays) == -1
+        outs.append(arrays)
+    for serial, parallel in zip(*outs, strict=True):
+        assert np.array_equal(serial, parallel)
+    assert outs[0][4].any() and outs[0][5].any()  # (edges and indicators occurred: the comparison covers them)
 
 
 def test_without_metrics_the_same_steps() -> None:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..envs.actions import BUTTONS
-from ..jit import kernel
+from ..jit import inline, kernel
 
 SIGNAL_OFF, SIGNAL_LEFT, SIGNAL_RIGHT = 0, 1, 2
 
@@ -84,7 +84,13 @@ def action_block(actions: np.ndarray, n: int, width: int) -> np.ndarray:
 @kernel
 def first_nonfinite(a: np.ndarray, rows: np.ndarray) -> int:
     """The first env of `rows` whose action row of `a` holds NaN or infinity (-1: none)."""
-    for e in range(a.shape[0]):
+    return nonfinite_in(a, rows, 0, a.shape[0])
+
+
+@inline
+def nonfinite_in(a: np.ndarray, rows: np.ndarray, lo: int, hi: int) -> int:
+    """`first_nonfinite` among the envs lo..hi-1 (a chunk of a parallel pass)."""
+    for e in range(lo, hi):
         if rows[e]:
             for j in range(a.shape[1]):
                 if not math.isfinite(a[e, j]):
@@ -98,8 +104,14 @@ def continuous_controls(a: np.ndarray, steer: np.ndarray, gas: np.ndarray, brake
     `np.clip(a, -1, 1)`, `np.maximum(pedal, 0)`, `np.maximum(-pedal, 0)` (NaN stays NaN, a
     zero pedal gives +0.0: numpy's maximum returns its second operand when they are equal)."""
     for e in range(a.shape[0]):
-        s, p = a[e, 0], a[e, 1]
-        steer[e] = -1.0 if s < -1.0 else 1.0 if s > 1.0 else s
-        p = -1.0 if p < -1.0 else 1.0 if p > 1.0 else p
-        gas[e] = p if p > 0.0 or p != p else 0.0
-        brake[e] = -p if -p > 0.0 or p != p else 0.0
+        continuous_row(a, e, steer, gas, brake)
+
+
+@inline
+def continuous_row(a: np.ndarray, e: int, steer: np.ndarray, gas: np.ndarray, brake: np.ndarray) -> None:
+    """`continuous_controls` of env e alone (a chunk of a parallel pass calls it env by env)."""
+    s, p = a[e, 0], a[e, 1]
+    steer[e] = -1.0 if s < -1.0 else 1.0 if s > 1.0 else s
+    p = -1.0 if p < -1.0 else 1.0 if p > 1.0 else p
+    gas[e] = p if p > 0.0 or p != p else 0.0
+    brake[e] = -p if -p > 0.0 or p != p else 0.0

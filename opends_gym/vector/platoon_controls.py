@@ -10,9 +10,11 @@ keeps (`PlatoonBatch.checks_actions`: the env leaves the check to it).
 from __future__ import annotations
 
 import numpy as np
+from numba import prange
 
-from ..jit import kernel
-from .actions import SIGNAL_LEFT, SIGNAL_OFF, SIGNAL_RIGHT, continuous_controls, first_nonfinite
+from ..jit import inline, kernel, parallel_kernel
+from .actions import SIGNAL_LEFT, SIGNAL_OFF, SIGNAL_RIGHT, continuous_row, nonfinite_in
+from .kernels import chunk_count
 
 
 @kernel
@@ -24,11 +26,38 @@ def step_controls(a: np.ndarray, stepping: np.ndarray, buttons: bool, held: np.n
     nothing was written). A button is down above 0; the reaction button is pressed on its
     edge (down, not held before) in a stepping env; the buttons held are those of the
     stepping envs' actions; the indicator is left or right when only that button is down."""
-    bad = first_nonfinite(a, stepping)
-    if bad >= 0:
-        return bad
-    continuous_controls(a, steer, gas, brake)
-    for e in range(a.shape[0]):
+    n = a.shape[0]
+    bad = nonfinite_in(a, stepping, 0, n)
+    if bad < 0:
+        _controls_range(0, n, a, stepping, buttons, held, steer, gas, brake, pressed, signal)
+    return bad
+
+
+@parallel_kernel
+def step_controls_parallel(a: np.ndarray, stepping: np.ndarray, buttons: bool, held: np.ndarray, steer: np.ndarray, gas: np.ndarray,
+                           brake: np.ndarray, pressed: np.ndarray, signal: np.ndarray) -> int:  # fmt: skip
+    """`step_controls` with chunks of envs on numba's threads, the same answer and arrays.
+    Why: run serially its pass was ~7 % of a 16-thread platoon batch's step (32,768 envs,
+    `benchmarks/serial_share.py` on a 16-core host), a share that grows with the threads."""
+    n = a.shape[0]
+    chunks = chunk_count(n)
+    first = np.full(chunks, -1, dtype=np.int64)
+    for j in prange(chunks):
+        first[j] = nonfinite_in(a, stepping, j * n // chunks, (j + 1) * n // chunks)
+    for j in range(chunks):  # (chunks in env order: the first chunk with one holds the first env)
+        if first[j] >= 0:
+            return first[j]
+    for j in prange(chunks):
+        _controls_range(j * n // chunks, (j + 1) * n // chunks, a, stepping, buttons, held, steer, gas, brake, pressed, signal)
+    return -1
+
+
+@inline
+def _controls_range(lo: int, hi: int, a: np.ndarray, stepping: np.ndarray, buttons: bool, held: np.ndarray, steer: np.ndarray,
+                    gas: np.ndarray, brake: np.ndarray, pressed: np.ndarray, signal: np.ndarray) -> None:  # fmt: skip
+    """The controls of the envs lo..hi-1 (`step_controls`' rules)."""
+    for e in range(lo, hi):
+        continuous_row(a, e, steer, gas, brake)
         pressed[e], signal[e] = False, SIGNAL_OFF
         if buttons:
             left, right = a[e, 4] > 0.0, a[e, 5] > 0.0
@@ -37,4 +66,3 @@ def step_controls(a: np.ndarray, stepping: np.ndarray, buttons: bool, held: np.n
                 pressed[e] = a[e, 2] > 0.0 and not held[e, 0]
                 for j in range(held.shape[1]):
                     held[e, j] = a[e, 2 + j] > 0.0
-    return -1
