@@ -14,7 +14,7 @@ import opends_gym  # noqa: F401  (registers the ids)
 from opends_gym.jit import kernel, py_hypot
 from opends_gym.vector import NativeVectorEnv
 from opends_gym.vector.kernels import CHUNK_ENVS
-from opends_gym.vector.platoon_controls import step_controls, step_controls_parallel
+from opends_gym.vector.platoon_controls import PARALLEL_CONTROLS_ENVS, step_controls, step_controls_parallel
 
 LCT = "OpenDS/LaneChangeTest-v0"
 BRAKE = "OpenDS/BrakeReaction-v0"
@@ -255,15 +255,15 @@ def test_nan_action_names_the_env() -> None:
 
 
 def test_nan_action_in_a_parallel_batch_names_the_first_env() -> None:
-    """A batch of several chunks checks its actions on the threads: the error still names the
-    first env with a bad action, nothing is stepped, and the next good step runs."""
-    n = 3 * CHUNK_ENVS
+    """A large batch checks its actions on the threads: the error still names the first env
+    with a bad action, nothing is stepped, and the next good step runs."""
+    n = PARALLEL_CONTROLS_ENVS
     env = gym.make_vec(PLATOON, num_envs=n, vectorization_mode="vector_entry_point", record_metrics=False)
     env.reset(seed=0)
     a = np.zeros((n, 6), dtype=np.float32)
     a[n - 1, 0] = np.nan
-    a[CHUNK_ENVS + 5, 1] = np.inf
-    with pytest.raises(ValueError, match=f"env {CHUNK_ENVS + 5}: action contains NaN or infinity"):
+    a[3 * CHUNK_ENVS + 5, 1] = np.inf
+    with pytest.raises(ValueError, match=f"env {3 * CHUNK_ENVS + 5}: action contains NaN or infinity"):
         env.step(a)
     a[:, 0], a[:, 1] = 0.0, 0.5
     obs, *_ = env.step(a)

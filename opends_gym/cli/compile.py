@@ -231,6 +231,10 @@ def _drive_native(group: Group) -> None:
 
     from ..vector.kernels import CHUNK_ENVS
 
+    if group.env_id in ("OpenDS/BrakeReaction-v0", "OpenDS/ThreeVehiclePlatoon-v0"):
+        from ..vector.platoon_controls import compile_parallel_controls
+
+        compile_parallel_controls()  # (only batches larger than those below call it)
     tasks: list[dict[str, Any]] = [dict(group.kwargs)]
     if group.env_id == "OpenDS/DrivingTask-v0" and "task" not in group.kwargs:
         tasks = [{"task": str(t)} for t in _traffic_tasks()]

@@ -41,7 +41,7 @@ from .actions import SIGNAL_OFF, BatchControls
 from .core import BatchCore
 from .episode_table import EpisodeTable
 from .kernels import CHUNK_ENVS
-from .platoon_controls import step_controls, step_controls_parallel
+from .platoon_controls import PARALLEL_CONTROLS_ENVS, step_controls, step_controls_parallel
 from .platoon_finish import INFO_F, INFO_I, _finish_range, platoon_finish
 from .platoon_pass import TRAFFIC, _substeps_range, platoon_substeps, traffic_events
 from .platoon_reset import reset_envs, reset_range
@@ -443,7 +443,7 @@ class PlatoonBatch(BatchCore):
             raise ValueError(f"actions must have shape ({self.n}, {width}), got {a.shape}")
         a = a if a.flags.c_contiguous else np.ascontiguousarray(a)
         c = self._c
-        controls = step_controls_parallel if self.parallel else step_controls
+        controls = step_controls_parallel if self.parallel and self.n >= PARALLEL_CONTROLS_ENVS else step_controls
         bad = controls(a, stepping, self.actions.name == "continuous_buttons", self.actions.held, c.steer, c.gas, c.brake, c.pressed,
                        c.signal)  # fmt: skip
         if bad >= 0:

@@ -12,9 +12,16 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
+from ..envs.actions import BUTTONS
 from ..jit import inline, kernel, parallel_kernel
 from .actions import SIGNAL_LEFT, SIGNAL_OFF, SIGNAL_RIGHT, continuous_row, nonfinite_in
 from .kernels import chunk_count
+
+# From how many envs the parallel pass pays: its threads wake from the Python before it, which
+# on a 2-core host cost what a second thread saved up to 8,192 envs (~23 ns per env-step on
+# one and on two threads, `benchmarks/serial_share.py`), while at 32,768 envs on 16 threads the
+# serial pass was 1.5 ms, ~7 % of the platoon step (docs/performance.md, 16 cores, round 13).
+PARALLEL_CONTROLS_ENVS = 16384
 
 
 @kernel
@@ -36,9 +43,10 @@ def step_controls(a: np.ndarray, stepping: np.ndarray, buttons: bool, held: np.n
 @parallel_kernel
 def step_controls_parallel(a: np.ndarray, stepping: np.ndarray, buttons: bool, held: np.ndarray, steer: np.ndarray, gas: np.ndarray,
                            brake: np.ndarray, pressed: np.ndarray, signal: np.ndarray) -> int:  # fmt: skip
-    """`step_controls` with chunks of envs on numba's threads, the same answer and arrays.
-    Why: run serially its pass was ~7 % of a 16-thread platoon batch's step (32,768 envs,
-    `benchmarks/serial_share.py` on a 16-core host), a share that grows with the threads."""
+    """`step_controls` with chunks of envs on numba's threads, the same answer and arrays, for
+    batches of `PARALLEL_CONTROLS_ENVS` envs or more. Why: run serially its pass was ~7 % of a
+    16-thread platoon batch's step (32,768 envs, `benchmarks/serial_share.py` on a 16-core
+    host), a share that grows with the threads."""
     n = a.shape[0]
     chunks = chunk_count(n)
     first = np.full(chunks, -1, dtype=np.int64)
@@ -50,6 +58,15 @@ def step_controls_parallel(a: np.ndarray, stepping: np.ndarray, buttons: bool, h
     for j in prange(chunks):
         _controls_range(j * n // chunks, (j + 1) * n // chunks, a, stepping, buttons, held, steer, gas, brake, pressed, signal)
     return -1
+
+
+def compile_parallel_controls() -> None:
+    """Call `step_controls_parallel` once, on two envs, with the types the batches pass: for
+    `opends-gym compile`, whose batches are smaller than `PARALLEL_CONTROLS_ENVS`, so that a
+    large batch finds it in the cache instead of running it as Python while it compiles."""
+    n = 2
+    step_controls_parallel(np.zeros((n, 2 + len(BUTTONS))), np.ones(n, dtype=bool), True, np.zeros((n, len(BUTTONS)), dtype=bool),
+                           np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64))  # fmt: skip
 
 
 @inline
