@@ -8,7 +8,8 @@ the loads from the cache: compiled code calls its helpers directly, so nothing c
 twice) with `perf_counter` (no profiler, whose cost per Python call would count as Python)
 over `--steps` steps of random actions with resets, and prints the wall time per step
 inside those calls (numba's argument unboxing included), kernel by kernel, and outside them
-(Python: the env's step, argument tuples, output arrays, info dict, resets done in numpy),
+(Python: the env's step, argument tuples, output arrays, info dict, resets done in numpy)
+and its calls per step (a batch that parks envs for Python calls its pass again for them),
 with the latter's share of the step and its ns per env-step. Kernels compiled serially
 (no `prange`) are marked: with Python they make the step's serial part, which more threads
 do not shorten (the bound printed: Amdahl's law with that part as measured on this run's
@@ -39,10 +40,10 @@ TASKS = ("LaneChangeTest", "BrakeReaction", "ThreeVehiclePlatoon")
 PATCHED = ("opends_gym.vector", "opends_gym.metrics")  # the packages whose modules call kernels from Python
 
 
-def patch_kernels(inside: dict[str, float], parallel: dict[str, bool]) -> int:
+def patch_kernels(inside: dict[str, float], parallel: dict[str, bool], calls: dict[str, int]) -> int:
     """Wrap every dispatcher that a vector or metrics module holds as a global so that its
-    calls from Python add their wall time to inside[name]; parallel[name]: compiled with
-    `parallel=True`. Returns how many were wrapped."""
+    calls from Python add their wall time to inside[name] and count in calls[name];
+    parallel[name]: compiled with `parallel=True`. Returns how many were wrapped."""
     count = 0
     for mod_name, module in list(sys.modules.items()):
         if module is None or not mod_name.startswith(PATCHED):
@@ -51,9 +52,11 @@ def patch_kernels(inside: dict[str, float], parallel: dict[str, bool]) -> int:
             if not isinstance(obj, Dispatcher):
                 continue
             inside.setdefault(name, 0.0)
+            calls.setdefault(name, 0)
             parallel[name] = bool(obj.targetoptions.get("parallel", False))
 
             def timed(*a: Any, _fn: Callable[..., Any] = obj, _name: str = name, **kw: Any) -> Any:
+                calls[_name] += 1
                 t = time.perf_counter()
                 try:
                     return _fn(*a, **kw)
@@ -83,7 +86,8 @@ def main() -> None:
     wait_compiled()  # (kernels still loading from the cache run as Python meanwhile)
     inside: dict[str, float] = {}
     parallel: dict[str, bool] = {}
-    patch_kernels(inside, parallel)
+    calls: dict[str, int] = {}
+    patch_kernels(inside, parallel, calls)
     t0 = time.perf_counter()
     for i in range(args.steps):
         env.step(actions[i % 16])
@@ -104,7 +108,7 @@ def main() -> None:
         if sec > 0:
             kind = "serial" if name in serial_names else "parallel"
             print(f"  {name:<28} {kind:<8} {sec * ms:8.3f} ms per step ({100 * sec / wall:5.1f} %, "
-                  f"{1e9 * sec / args.steps / n:6.0f} ns per env-step)")  # fmt: skip
+                  f"{1e9 * sec / args.steps / n:6.0f} ns per env-step, {calls[name] / args.steps:.2f} calls per step)")  # fmt: skip
     env.close()
 
 

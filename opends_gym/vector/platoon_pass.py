@@ -36,6 +36,7 @@ from .block_view import prefetch_write
 from .ego import ego_step_wheels
 from .kernels import V_CZ, V_REACH, armed_from, chunk_count, nearest_volume, timer_step, volume_touches
 from .platoon_step import after_one
+from .sealed import seal, unseal
 from .trace import PLATOON_TRACE_GROUP
 
 STEP, TRAFFIC, FIRE = 0, 1, 2  # where a parked env's physics step goes on (`stage`): Python finished its traffic, or fired its triggers
@@ -50,15 +51,24 @@ def platoon_substeps(resume: bool, k_from: int, k_to: int, dt: float, live: np.n
     """Physics steps k_from..k_to-1 of the policy step for the envs `live` (cleared for those
     that stop early), env by env (see `_substeps_range`), chunks on numba's threads. Returns
     (envs parked, the most physics steps a finished env ran counted from the policy step's
-    first, stimuli that changed result)."""
+    first, stimuli that changed result). The loop's body takes the arguments as one sealed
+    value (`sealed.seal`, as `lct_step.lct_substeps` does): numba lowers a parallel loop's
+    body with each free variable as an argument (a tuple's items each), at a cost that grows
+    faster than their number, and the worker it calls unseals them without reference counts."""
     n = len(live)
     chunks = chunk_count(n)
     parked, ran, changed = np.zeros(chunks, dtype=np.int64), np.full(chunks, k_from, dtype=np.int64), np.zeros(chunks, dtype=np.int64)
+    sealed = seal((resume, k_from, k_to, dt, live, park, stage, step_count, controls, ego, traffic, trig, timers, a, lead, lanes, ring,
+                   hook, band, stim, hits, stop))  # fmt: skip
     for j in prange(chunks):
-        parked[j], ran[j], changed[j] = _substeps_range(j * n // chunks, (j + 1) * n // chunks, resume, k_from, k_to, dt, live, park,
-                                                        stage, step_count, controls, ego, traffic, trig, timers, a, lead, lanes, ring,
-                                                        hook, band, stim, hits, stop)  # fmt: skip
+        parked[j], ran[j], changed[j] = _substeps_chunk(j * n // chunks, (j + 1) * n // chunks, sealed)
     return parked.sum(), ran.max(), changed.sum()
+
+
+@borrowing_kernel
+def _substeps_chunk(lo: int, hi: int, args: Any) -> tuple[int, int, int]:
+    """`_substeps_range` of the envs lo..hi-1, its other arguments sealed (`platoon_substeps`)."""
+    return _substeps_range(lo, hi, *unseal(args))
 
 
 @python_buffers
