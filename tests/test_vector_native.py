@@ -266,8 +266,12 @@ def test_nan_action_in_a_parallel_batch_names_the_first_env() -> None:
     with pytest.raises(ValueError, match=f"env {3 * CHUNK_ENVS + 5}: action contains NaN or infinity"):
         env.step(a)
     a[:, 0], a[:, 1] = 0.0, 0.5
-    obs, *_ = env.step(a)
+    obs, _, _, _, info = env.step(a)
     assert obs.shape[0] == n and np.isfinite(obs).all()
+    small = gym.make_vec(PLATOON, num_envs=2, vectorization_mode="vector_entry_point", record_metrics=False)
+    small.reset(seed=0)
+    _, _, _, _, once = small.step(a[:2])  # (one step from the reset: the refused one moved no env)
+    assert np.all(info["sim_time_s"] == once["sim_time_s"][0]) and once["sim_time_s"][0] > 0.0
 
 
 def test_parallel_controls_are_the_serial_ones() -> None:
