@@ -190,16 +190,19 @@ def test_max_speed_cap_cuts_power_in_the_last_kmh() -> None:
     assert below > 0.0 and 0.0 < half < below and above < 0.0
 
 
-def test_gear_choice_skips_only_polynomials_that_clamp_to_zero() -> None:
-    # The compiled gearbox skips gear g's polynomial from speed share GEAR_ZERO_FROM[g] on (its share is 0 there): each
-    # polynomial (OpenDS Transmission.getPowerPercentage's coefficients, highest power first) must stay clearly negative
-    # beyond (a dense scan up to 3, past which the negative leading term rules), and the gear chosen and the previous
-    # gear's share must equal those of evaluating every polynomial
+def test_gear_lookup_picks_the_gear_every_polynomial_would_pick() -> None:
+    # The compiled gearbox looks the automatic's gear up among the speed shares where the choice changes
+    # (`gearbox.GEAR_BREAKS`) instead of evaluating every polynomial each physics step. For every gearbox size (1..6
+    # forward gears) the lookup must pick what evaluating every polynomial (OpenDS Transmission.findBestPowerGear over
+    # getPowerPercentage, its coefficients below) picks: on a dense scan past the speeds where all of them are negative,
+    # at random speed shares, and at each break and the float just below it.
     import numpy as np
 
-    from opends_gym.sim.ego.kernels import GEAR_ZERO_FROM, best_gear_and_share, best_power_gear_py, power_percentage_py
+    from opends_gym.sim.ego.gearbox import GEAR_BREAKS, GEAR_RUNS, SCAN_TO
+    from opends_gym.sim.ego.kernels import best_power_gear_py, power_percentage_py
 
     opends = {
+        -1: [-1154.84, 134.09, 21.63, 0.5, 0.57],
         1: [-2892.78, 678.61, 558.43, -216.84, 17.78, 0.58],
         2: [-4206.38, 4837.65, -1897.61, 310.7, -34.7, 3.82, 0.43],
         3: [-3.17, 1.44, 0.12, 0.27],
@@ -208,12 +211,19 @@ def test_gear_choice_skips_only_polynomials_that_clamp_to_zero() -> None:
         6: [-0.27, 0.24, 0.18, 0.01],
     }
     for g, coeffs in opends.items():
-        assert np.polyval(coeffs, np.linspace(GEAR_ZERO_FROM[g], 3.0, 300_001)).max() < -1e-4
-        assert power_percentage_py(g, 0.2) == pytest.approx(min(1.0, max(0.0, np.polyval(coeffs, 0.2))), abs=1e-12)
-    edges = [float(np.nextafter(t, d)) for t in GEAR_ZERO_FROM[1:] for d in (0.0, 9.0)] + list(GEAR_ZERO_FROM[1:])
-    for x in np.linspace(0.0, 2.0, 2001).tolist() + edges:
-        shares = [power_percentage_py(g, x) for g in range(1, 7)]
-        plain = 1 + shares.index(max(shares)) if max(shares) > 0.0 else 1
-        assert best_power_gear_py(6, x) == plain
-        for share_gear in (-1, 0, 1, 3, 6):
-            assert best_gear_and_share.py_func(6, x, share_gear) == (plain, power_percentage_py(share_gear, x))
+        for x in (0.0, 0.2, 0.45, 0.9):
+            assert power_percentage_py(g, x) == pytest.approx(min(1.0, max(0.0, np.polyval(coeffs, x))), abs=1e-12)
+        if g > 0:  # beyond the scan every polynomial stays negative (their leading terms are), so the choice there is gear 1
+            assert np.polyval(coeffs, np.linspace(1.4, SCAN_TO, 100_001)).max() < -1e-4
+    assert power_percentage_py(0, 0.3) == 0.0 and power_percentage_py(7, 0.3) == 0.0
+    breaks = [b for row in GEAR_BREAKS for b in row if 0.0 < b < np.inf]
+    assert len(breaks) >= 6  # (the six-gear box alone shifts up five times and back to 1 past ~195 km/h)
+    edges = breaks + [float(np.nextafter(b, 0.0)) for b in breaks]
+    grid = np.linspace(0.0, SCAN_TO + 1.0, 4001).tolist() + np.random.default_rng(0).uniform(0.0, 1.6, 20_000).tolist()
+    for n in range(1, 7):
+        for x in grid + edges:
+            shares = [power_percentage_py(g, x) for g in range(1, n + 1)]
+            plain = 1 + shares.index(max(shares)) if max(shares) > 0.0 else 1
+            assert best_power_gear_py(n, x) == plain, (n, x)
+    assert best_power_gear_py(9, 0.5) == best_power_gear_py(6, 0.5) and best_power_gear_py(0, 0.5) == 1
+    assert GEAR_RUNS[5, :7].tolist() == [1, 2, 3, 4, 5, 6, 1]

@@ -17,6 +17,7 @@ import math
 import numpy as np
 
 from ...jit import inline, kernel
+from .gearbox import GEAR_BREAKS, GEAR_RUNS, MAX_GEARS, POWER_COEFFS
 
 SIDE_DAMPING = 0.2  # Bullet's resolveSingleBilateral: share of a wheel's sideways sliding removed per OpenDS tick
 FORWARD_SLIP_FACTOR = 0.5  # btRaycastVehicle::updateFriction's fwdFactor in the friction circle
@@ -55,6 +56,16 @@ SLOPE_PITCH_OFFSET_RAD = 0.031765
 BRAKE_FORCE_PER_DECEL_KG = 0.004375  # SteeringCar: maxBrakeForce = 0.004375 x decelerationBrake x mass
 TABLE_STEP = 0.1  # m/s resolution of the automatic gearbox table
 RPM_TABLE_STEP = 10.0
+# Divisions by constants as multiplications by their reciprocals: a division's latency is ~3-4x a multiplication's, and the
+# powertrain's chain from the engine speed to the brake force (load, the free-wheel coefficient, the force per tick) lies on
+# the path from one physics step's speed to the next, which bounds the car's cost (a sampling profile of the compiled car
+# put ~16 % of its time after those divisions). The products differ from the quotients in the last bit at most.
+PER_RPM_TABLE_STEP = 1.0 / RPM_TABLE_STEP
+RPM_PER_KMH = 1.0 / WHEEL_CONSTANT
+KW_PER_W = 1.0 / 1000.0
+OPENDS_TICKS_PER_S = 1.0 / OPENDS_TICK_S
+SHARE_PER_KMH = 1.0 / SPEED_AT_FULL_SHARE_KMH
+LITRES_PER_KJ = 1.0 / (FUEL_LHV_KJ_PER_G * FUEL_DENSITY_G_PER_L)  # kJ / (kJ/g) / (g/L)
 CRUISE_GAIN = 0.5  # throttle (or brake) per m/s of speed error
 CRUISE_KI = 0.3  # throttle per (m/s x s): the integral holds the set speed against drag
 CRUISE_INTEGRAL_BAND_MPS = 2.0  # integrate only this close to the set speed (no wind-up)
@@ -138,8 +149,9 @@ def body_step_trig(p: np.ndarray, x: float, z: float, yaw: float, u: float, v: f
 
 
 # `wheel_constants`: 1/mass, 1/yaw inertia, the sideways share, then per wheel (front left, front right, rear left, rear right)
-# the sideways and the forward effective-mass denominators, then the front and the rear wheel's impulse limit
-W_INV_M, W_INV_I, W_SIDE, W_DEN_SIDE, W_DEN_FWD, W_MAX_FRONT, W_MAX_REAR = 0, 1, 2, 3, 7, 11, 12
+# the reciprocal of the sideways effective-mass denominator and a quarter of the forward one's reciprocal, then the front and
+# the rear wheel's impulse limit (reciprocals: see "Divisions" in the module docstring)
+W_INV_M, W_INV_I, W_SIDE, W_INV_SIDE, W_INV_FWD, W_MAX_FRONT, W_MAX_REAR = 0, 1, 2, 3, 7, 11, 12
 
 
 @inline
@@ -156,7 +168,8 @@ def wheel_constants(p: np.ndarray, dt: float, cos_d: float, sin_d: float) -> tup
     s1, f1 = _wheel_denominators(lf, -ht, cos_d, sin_d, inv_m, inv_i, roll_term)
     s2, f2 = _wheel_denominators(-lr, ht, 1.0, 0.0, inv_m, inv_i, roll_term)
     s3, f3 = _wheel_denominators(-lr, -ht, 1.0, 0.0, inv_m, inv_i, roll_term)
-    return inv_m, inv_i, side_share(dt), s0, s1, s2, s3, f0, f1, f2, f3, p[B_LOAD_FRONT] * dt * slip, p[B_LOAD_REAR] * dt * slip
+    return (inv_m, inv_i, side_share(dt), 1.0 / s0, 1.0 / s1, 1.0 / s2, 1.0 / s3, 0.25 / f0, 0.25 / f1, 0.25 / f2, 0.25 / f3,
+            p[B_LOAD_FRONT] * dt * slip, p[B_LOAD_REAR] * dt * slip)
 
 
 @inline
@@ -192,12 +205,12 @@ def body_step_wheels(p: np.ndarray, wc: tuple[float, ...], x: float, z: float, y
         pu = u - r * b
         pv = v + r * a
         # sideways: the axle (-fs, fc)
-        j_side = -side * (-fs * pu + fc * pv) / wc[W_DEN_SIDE + w]
+        j_side = -side * (-fs * pu + fc * pv) * wc[W_INV_SIDE + w]
         # forward: engine force on the front wheels, else rolling friction up to the brake
         if w < 2 and front_force != 0.0:
             j_fwd = front_force * dt
         else:
-            j_fwd = -(fc * pu + fs * pv) / wc[W_DEN_FWD + w] / 4.0
+            j_fwd = -(fc * pu + fs * pv) * wc[W_INV_FWD + w]
             if j_fwd > brake_imp:
                 j_fwd = brake_imp
             elif j_fwd < -brake_imp:
@@ -231,12 +244,12 @@ def body_step_wheels(p: np.ndarray, wc: tuple[float, ...], x: float, z: float, y
 def full_power_kw(car: np.ndarray, rpm: float) -> float:
     """Engine power at full gas (kW), interpolated in the 10-rpm table from 1500 rpm."""
     x = (POWER_RPM_MIN if rpm < POWER_RPM_MIN else POWER_RPM_MAX if rpm > POWER_RPM_MAX else rpm) - POWER_RPM_MIN
-    i = int(x / RPM_TABLE_STEP)
+    i = int(x * PER_RPM_TABLE_STEP)
     a = C_TABLES + int(car[C_N_RATIOS])
     last = int(car[C_N_POWER]) - 1
     if i >= last:
         return float(car[a + last])
-    f = x / RPM_TABLE_STEP - i
+    f = x * PER_RPM_TABLE_STEP - i
     return float(car[a + i] + (car[a + i + 1] - car[a + i]) * f)
 
 
@@ -244,59 +257,27 @@ def full_power_kw(car: np.ndarray, rpm: float) -> float:
 def power_percentage(gear: int, speed_share: float) -> float:
     """OpenDS's `Transmission.getPowerPercentage`: the share of the engine's power a gear
     passes on at speed_share = v / 140 km/h (fitted polynomials of gears 1..6 and reverse,
-    clamped to 0..1; other gears 0)."""
-    x = speed_share
-    if gear == 1:
-        pp = ((((-2892.78 * x + 678.61) * x + 558.43) * x - 216.84) * x + 17.78) * x + 0.58
-    elif gear == 2:
-        pp = (((((-4206.38 * x + 4837.65) * x - 1897.61) * x + 310.7) * x - 34.7) * x + 3.82) * x + 0.43
-    elif gear == 3:
-        pp = ((-3.17 * x + 1.44) * x + 0.12) * x + 0.27
-    elif gear == 4:
-        pp = ((-1.27 * x + 0.64) * x + 0.24) * x + 0.20
-    elif gear == 5:
-        pp = ((-0.47 * x + 0.12) * x + 0.35) * x + 0.11
-    elif gear == 6:
-        pp = ((-0.27 * x + 0.24) * x + 0.18) * x + 0.01
-    elif gear == -1:
-        pp = (((-1154.84 * x + 134.09) * x + 21.63) * x + 0.5) * x + 0.57
-    else:
-        pp = 0.0
+    `gearbox.POWER_COEFFS`, clamped to 0..1; other gears 0)."""
+    if gear < -1 or gear > MAX_GEARS:
+        return 0.0
+    pp = 0.0
+    for i in range(POWER_COEFFS.shape[1]):
+        pp = pp * speed_share + POWER_COEFFS[gear + 1, i]
     return 0.0 if pp < 0.0 else 1.0 if pp > 1.0 else pp
-
-
-# the speed share from which each forward gear's `power_percentage` polynomial stays below 0 (gears 1..6; index 0 unused): just
-# above its largest real root (numpy.roots of its coefficients; tests/test_powertrain.py checks the polynomials stay below -1e-4
-# beyond), so its clamped share is exactly 0 there and the polynomial need not be evaluated
-GEAR_ZERO_FROM = (math.inf, 0.2858, 0.4380, 0.6898, 0.9060, 1.1142, 1.3893)
-
-
-@inline
-def forward_gear_power(g: int, speed_share: float) -> float:
-    """`power_percentage` of forward gear g (1..6), skipping the polynomial where it is 0."""
-    return 0.0 if speed_share >= GEAR_ZERO_FROM[g] else power_percentage(g, speed_share)
 
 
 @inline
 def best_power_gear(n_gears: int, speed_share: float) -> int:
-    """`Transmission.findBestPowerGear`: the forward gear of highest power percentage (the
-    first on a tie; 1 when all are 0)."""
-    return best_gear_and_share(n_gears, speed_share, 0)[0]
-
-
-@inline
-def best_gear_and_share(n_gears: int, speed_share: float, share_gear: int) -> tuple[int, float]:
-    """(`best_power_gear` of at most 6 gears, `power_percentage` of `share_gear`), each gear's
-    polynomial evaluated once."""
-    best, best_gear, share = 0.0, 1, -1.0
-    for g in range(1, 7):
-        if g <= n_gears:
-            pp = forward_gear_power(g, speed_share)
-            if pp > best:
-                best, best_gear = pp, g
-            if g == share_gear:
-                share = pp
-    return best_gear, (share if share >= 0.0 else power_percentage(share_gear, speed_share))
+    """`Transmission.findBestPowerGear` of a gearbox of n forward gears (at most 6 count):
+    the forward gear of highest power percentage (the first on a tie; 1 when all are 0),
+    looked up among the speed shares where the choice changes (`gearbox.GEAR_BREAKS`)."""
+    if n_gears < 1:
+        return 1
+    row = (n_gears if n_gears < MAX_GEARS else MAX_GEARS) - 1
+    k = 0
+    while speed_share >= GEAR_BREAKS[row, k + 1]:
+        k += 1
+    return GEAR_RUNS[row, k]
 
 
 @inline
@@ -326,7 +307,7 @@ def powertrain_core(car: np.ndarray, gear: int, automatic: bool, engine_on: bool
     if gear == 0:
         target_rpm = (-gas if gas < 0.0 else gas) * max_rpm
     else:
-        target_rpm = speed_kmh * ratio / WHEEL_CONSTANT
+        target_rpm = speed_kmh * ratio * RPM_PER_KMH
         target_rpm = max_rpm if target_rpm > max_rpm else target_rpm
     if engine_on and target_rpm < min_rpm:
         target_rpm = min_rpm
@@ -346,10 +327,10 @@ def powertrain_core(car: np.ndarray, gear: int, automatic: bool, engine_on: bool
         (
             ROLLING_COEFF * m * G * speed
             + AIR_K * speed * speed * speed
-            + 0.5 * INERTIA_MASS_FACTOR * m * dv * (dv if dv > 0 else -dv) / dt
+            + 0.5 * INERTIA_MASS_FACTOR * m * dv * (dv if dv > 0 else -dv) * (1.0 / dt)
             + m * G * speed * sin_slope
         )
-        / 1000.0
+        * KW_PER_W
         + ACCESSORIES_KW
         + inner_kw
     )
@@ -360,11 +341,10 @@ def powertrain_core(car: np.ndarray, gear: int, automatic: bool, engine_on: bool
     # Transmission.performAcceleration: the automatic picks this step's best gear, the power
     # share is the previous gear's; near maxSpeed the share shrinks by (maxSpeed - v)
     share_gear = gear
-    speed_share = speed_kmh / SPEED_AT_FULL_SHARE_KMH
+    speed_share = speed_kmh * SHARE_PER_KMH
+    pp = power_percentage(share_gear, speed_share)
     if automatic and gear > 0:
-        gear, pp = best_gear_and_share(n_ratios if n_ratios < 6 else 6, speed_share, share_gear)
-    else:
-        pp = power_percentage(share_gear, speed_share)
+        gear = best_power_gear(n_ratios, speed_share)
     max_kmh = car[C_PT + P_MAX_SPEED_KMH]
     if speed_kmh >= max_kmh - 1.0:
         pp *= max_kmh - speed_kmh
@@ -380,15 +360,15 @@ def powertrain_core(car: np.ndarray, gear: int, automatic: bool, engine_on: bool
     if hand_brake:
         per_wheel = car[C_PT + P_MAX_BRAKE]
     else:
-        coeff = (surplus_kw - 10.0) / 50.0
+        coeff = (surplus_kw - 10.0) * 0.02
         coeff = 0.2 if coeff < 0.2 else 1.0 if coeff > 1.0 else coeff
         per_wheel = brake * car[C_PT + P_MAX_BRAKE] + coeff * car[C_PT + P_MAX_FREE_WHEEL]
-    brake_force = 4.0 * per_wheel / OPENDS_TICK_S
+    brake_force = 4.0 * per_wheel * OPENDS_TICKS_PER_S
     # fuel: grams = P_engine dt / 43.7 kJ/g, times 1..1.5 above 3600 rpm; idle 0.0003 L/s
     litres = 0.0
     if p_engine > 0.0:
-        factor = 1.0 if rpm <= 3600.0 else 1.5 if rpm >= 4800.0 else 1.0 + 0.5 * (rpm - 3600.0) / 1200.0
-        litres = p_engine * dt / FUEL_LHV_KJ_PER_G * factor / FUEL_DENSITY_G_PER_L
+        factor = 1.0 if rpm <= 3600.0 else 1.5 if rpm >= 4800.0 else 1.0 + (rpm - 3600.0) * (0.5 / 1200.0)
+        litres = p_engine * dt * factor * LITRES_PER_KJ
     if litres == 0.0 and engine_on and rpm <= min_rpm + 1e-6:
         litres = IDLE_FUEL_L_PER_S * dt
     fuel_used += litres

@@ -35,6 +35,7 @@ from .kernels import (  # the constants the compiled powertrain uses too: one de
     WHEEL_CONSTANT,
     G,
 )
+from .kernels import PER_RPM_TABLE_STEP as _PER_RPM_TABLE_STEP
 from .kernels import RPM_TABLE_STEP as _RPM_TABLE_STEP
 from .kernels import TABLE_STEP as _TABLE_STEP
 
@@ -279,11 +280,11 @@ class Powertrain:
     def _full_power_kw(self, rpm: float) -> float:
         """Engine power at full gas (kW), interpolated from a 10-rpm table built once."""
         x = (POWER_RPM_MIN if rpm < POWER_RPM_MIN else POWER_RPM_MAX if rpm > POWER_RPM_MAX else rpm) - POWER_RPM_MIN
-        i = int(x / _RPM_TABLE_STEP)
+        i = int(x * _PER_RPM_TABLE_STEP)  # (as `kernels.full_power_kw`)
         table = self._power_table
         if i >= len(table) - 1:
             return table[-1]
-        f = x / _RPM_TABLE_STEP - i
+        f = x * _PER_RPM_TABLE_STEP - i
         return table[i] + (table[i + 1] - table[i]) * f
 
     def forces(
