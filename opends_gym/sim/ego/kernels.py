@@ -3,8 +3,11 @@
 Why: these run every physics step of every env. Each is one scalar function of one car,
 called by the single env (`FastVehicle.step`, `Powertrain.step`) and, in a loop over
 envs, by the native batch (`opends_gym.vector.ego`), so both compute the same floats by
-construction. The expressions keep the operand order of the Python they replaced, and the
-kernels use C-library `math` like CPython (`jit`), so results did not change.
+construction; run as Python (`NUMBA_DISABLE_JIT`) they compute the same floats too (C
+library `math` as CPython's, no fused multiply-add: `jit`). Two changes for speed moved
+results by an ulp or so against the Python they replaced (2026-11-27): divisions by
+constants became multiplications by their reciprocals, and the automatic's gear is looked
+up among precomputed speed breaks (`gearbox`).
 
 Units: SI (m, s, kg, N, rad); powers in kW and rpm as in OpenDS's formulas
 (`sim.powertrain`). Parameter and state slots are the constants below.
@@ -150,7 +153,7 @@ def body_step_trig(p: np.ndarray, x: float, z: float, yaw: float, u: float, v: f
 
 # `wheel_constants`: 1/mass, 1/yaw inertia, the sideways share, then per wheel (front left, front right, rear left, rear right)
 # the reciprocal of the sideways effective-mass denominator and a quarter of the forward one's reciprocal, then the front and
-# the rear wheel's impulse limit (reciprocals: see "Divisions" in the module docstring)
+# the rear wheel's impulse limit (reciprocals: see PER_RPM_TABLE_STEP)
 W_INV_M, W_INV_I, W_SIDE, W_INV_SIDE, W_INV_FWD, W_MAX_FRONT, W_MAX_REAR = 0, 1, 2, 3, 7, 11, 12
 
 
