@@ -35,6 +35,7 @@ POWER_COEFFS = np.array(
         [0.0, 0.0, 0.0, -0.27, 0.24, 0.18, 0.01],
     ]
 )
+POWER_ROWS = tuple(tuple(row) for row in POWER_COEFFS.tolist())  # (the kernels' form: a constant they index, fast as Python too)
 MAX_GEARS = 6  # forward gears with a polynomial
 # past this speed share every forward polynomial is negative for good (each one's leading term is negative; the tests scan
 # up to it), so the choice there is gear 1, Transmission.findBestPowerGear's default
@@ -45,9 +46,8 @@ def clamped_share(gear: int, x: float) -> float:
     """The polynomial of `gear` at speed share x, clamped to 0..1 (Python; the same floats as the kernel's)."""
     if gear < -1 or gear > MAX_GEARS:
         return 0.0
-    row = POWER_COEFFS[gear + 1]
     pp = 0.0
-    for c in row.tolist():
+    for c in POWER_ROWS[gear + 1]:
         pp = pp * x + c
     return 0.0 if pp < 0.0 else 1.0 if pp > 1.0 else pp
 
