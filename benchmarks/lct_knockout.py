@@ -83,14 +83,16 @@ def compile_variant(folder: Path, scratch: Path) -> None:
                            capture_output=True, text=True, check=True).stdout.strip()  # fmt: skip
     if not where.startswith(str(folder)):
         sys.exit(f"lct_knockout: {folder.name} imports opends_gym from {where}, not from its copy")
-    code = "import sys; from opends_gym.cli.main import main; sys.exit(main(['compile', '--kind', 'native', '--only', 'LaneChangeTest', '--jobs', '1']))"
+    argv = ["compile", "--kind", "native", "--only", "LaneChangeTest", "--jobs", "1"]
+    code = f"import sys; from opends_gym.cli.main import main; sys.exit(main({argv!r}))"
     subprocess.run([sys.executable, "-c", code], env=env, cwd=folder, check=True, capture_output=True)
 
 
 def pass_ns(folder: Path, scratch: Path, steps: int, envs: int) -> tuple[float, float]:
     """`native_profile.py --parts`' CPU ns per env-step of the pass (`lct_step`), without and with metrics."""
-    out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "native_profile.py"), "--parts", "--steps", str(steps), "--envs",
-                          str(envs)], env=env_for(folder, scratch), cwd=folder, capture_output=True, text=True, check=True).stdout  # fmt: skip
+    script = str(ROOT / "benchmarks" / "native_profile.py")
+    command = [sys.executable, script, "--parts", "--steps", str(steps), "--envs", str(envs)]
+    out = subprocess.run(command, env=env_for(folder, scratch), cwd=folder, capture_output=True, text=True, check=True).stdout
     found = [float(v) for v in re.findall(r"one-pass step \(lct_step\)\s+([\d,]+) ns", out.replace(",", ""))]
     if len(found) != 2:
         sys.exit(f"lct_knockout: native_profile.py printed no pass times for {folder.name}:\n{out}")

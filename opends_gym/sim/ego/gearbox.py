@@ -16,6 +16,7 @@ share of the engine's power the gear passes on, clamped to 0..1 by the caller.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -105,7 +106,7 @@ def gear_breaks() -> tuple[np.ndarray, np.ndarray]:
     """(breaks, gears), row n - 1 for a gearbox of n forward gears (1..6): the choice is
     gears[row, k] for breaks[row, k] <= x < breaks[row, k + 1] (padded with +inf)."""
     points = _candidates()
-    samples = sorted({*points, *(0.5 * (a + b) for a, b in zip(points, points[1:]))})
+    samples = sorted({*points, *(0.5 * (a + b) for a, b in itertools.pairwise(points))})
     rows = [_breaks(n, samples) for n in range(1, MAX_GEARS + 1)]
     width = max(len(b) for b, _ in rows) + 1
     breaks = np.full((MAX_GEARS, width), math.inf)

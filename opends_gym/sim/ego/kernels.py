@@ -171,8 +171,21 @@ def wheel_constants(p: np.ndarray, dt: float, cos_d: float, sin_d: float) -> tup
     s1, f1 = _wheel_denominators(lf, -ht, cos_d, sin_d, inv_m, inv_i, roll_term)
     s2, f2 = _wheel_denominators(-lr, ht, 1.0, 0.0, inv_m, inv_i, roll_term)
     s3, f3 = _wheel_denominators(-lr, -ht, 1.0, 0.0, inv_m, inv_i, roll_term)
-    return (inv_m, inv_i, side_share(dt), 1.0 / s0, 1.0 / s1, 1.0 / s2, 1.0 / s3, 0.25 / f0, 0.25 / f1, 0.25 / f2, 0.25 / f3,
-            p[B_LOAD_FRONT] * dt * slip, p[B_LOAD_REAR] * dt * slip)
+    return (
+        inv_m,
+        inv_i,
+        side_share(dt),
+        1.0 / s0,
+        1.0 / s1,
+        1.0 / s2,
+        1.0 / s3,
+        0.25 / f0,
+        0.25 / f1,
+        0.25 / f2,
+        0.25 / f3,
+        p[B_LOAD_FRONT] * dt * slip,
+        p[B_LOAD_REAR] * dt * slip,
+    )
 
 
 @inline
