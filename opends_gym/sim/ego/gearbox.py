@@ -3,7 +3,8 @@
 Why: `Transmission.findBestPowerGear` picks, every physics step, the forward gear whose
 fitted power polynomial (`Transmission.getPowerPercentage`) is highest at the speed. The
 compiled car evaluated all six polynomials for it (and LLVM computed every one of them
-even where a branch skipped it): about a third of the car model's instructions. The
+even where a branch skipped it): ~17 of the car's ~76 ns per physics step when last split
+(docs/performance.md, "What limits it"). The
 choice depends on the speed share alone, so it changes only at a few speed shares; those
 breaks are found once here, on the same floats the polynomials give (the gear at each
 break and at the float below it are the polynomials' own choice), and the step looks the
@@ -44,7 +45,8 @@ SCAN_TO = 3.0
 
 
 def clamped_share(gear: int, x: float) -> float:
-    """The polynomial of `gear` at speed share x, clamped to 0..1 (Python; the same floats as the kernel's)."""
+    """The polynomial of `gear` at speed share x, clamped to 0..1: `kernels.power_percentage`
+    in Python (the same floats), for finding the breaks at import."""
     if gear < -1 or gear > MAX_GEARS:
         return 0.0
     pp = 0.0
