@@ -24,20 +24,17 @@ import numpy as np
 
 # Transmission.getPowerPercentage's coefficients, highest power first, padded with leading zeros to degree 6 (a leading
 # 0 * x + c is exactly c, so Horner's scheme over a padded row gives the floats of the unpadded polynomial). Row
-# gear + 1: reverse, neutral (no power), gears 1..6.
-POWER_COEFFS = np.array(
-    [
-        [0.0, 0.0, -1154.84, 134.09, 21.63, 0.5, 0.57],  # reverse
-        [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],  # neutral
-        [0.0, -2892.78, 678.61, 558.43, -216.84, 17.78, 0.58],
-        [-4206.38, 4837.65, -1897.61, 310.7, -34.7, 3.82, 0.43],
-        [0.0, 0.0, 0.0, -3.17, 1.44, 0.12, 0.27],
-        [0.0, 0.0, 0.0, -1.27, 0.64, 0.24, 0.20],
-        [0.0, 0.0, 0.0, -0.47, 0.12, 0.35, 0.11],
-        [0.0, 0.0, 0.0, -0.27, 0.24, 0.18, 0.01],
-    ]
+# gear + 1: reverse, neutral (no power), gears 1..6. A tuple: the kernels take it as a constant, and Python indexes it fast.
+POWER_ROWS = (
+    (0.0, 0.0, -1154.84, 134.09, 21.63, 0.5, 0.57),  # reverse
+    (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),  # neutral
+    (0.0, -2892.78, 678.61, 558.43, -216.84, 17.78, 0.58),
+    (-4206.38, 4837.65, -1897.61, 310.7, -34.7, 3.82, 0.43),
+    (0.0, 0.0, 0.0, -3.17, 1.44, 0.12, 0.27),
+    (0.0, 0.0, 0.0, -1.27, 0.64, 0.24, 0.20),
+    (0.0, 0.0, 0.0, -0.47, 0.12, 0.35, 0.11),
+    (0.0, 0.0, 0.0, -0.27, 0.24, 0.18, 0.01),
 )
-POWER_ROWS = tuple(tuple(row) for row in POWER_COEFFS.tolist())  # (the kernels' form: a constant they index, fast as Python too)
 MAX_GEARS = 6  # forward gears with a polynomial
 # past this speed share every forward polynomial is negative for good (each one's leading term is negative; the tests scan
 # up to it), so the choice there is gear 1, Transmission.findBestPowerGear's default
@@ -45,8 +42,10 @@ SCAN_TO = 3.0
 
 
 def clamped_share(gear: int, x: float) -> float:
-    """The polynomial of `gear` at speed share x, clamped to 0..1: `kernels.power_percentage`
-    in Python (the same floats), for finding the breaks at import."""
+    """OpenDS's `Transmission.getPowerPercentage`: the share of the engine's power a gear
+    passes on at speed share x (its polynomial, clamped to 0..1; other gears 0). Plain Python
+    here, for finding the breaks at import; the kernels compile this same function
+    (`kernels.power_percentage`)."""
     if gear < -1 or gear > MAX_GEARS:
         return 0.0
     pp = 0.0
@@ -69,7 +68,7 @@ def argmax_gear(n_gears: int, x: float) -> int:
 def _candidates() -> list[float]:
     """Speed shares in 0..SCAN_TO where the choice can change: where two polynomials cross or
     one crosses 0 or 1 (numpy's roots, approximate: the breaks are then found on the floats)."""
-    polys = [np.trim_zeros(POWER_COEFFS[g + 1], "f") for g in range(1, MAX_GEARS + 1)]
+    polys = [np.trim_zeros(np.array(POWER_ROWS[g + 1]), "f") for g in range(1, MAX_GEARS + 1)]
     found = {0.0, SCAN_TO}
     for i, p in enumerate(polys):
         others = [*polys[i + 1 :], np.array([0.0]), np.array([1.0])]

@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from ...jit import inline, kernel
-from .gearbox import GEAR_BREAKS, GEAR_RUNS, MAX_GEARS, POWER_ROWS
+from .gearbox import GEAR_BREAKS, GEAR_RUNS, MAX_GEARS, clamped_share
 
 SIDE_DAMPING = 0.2  # Bullet's resolveSingleBilateral: share of a wheel's sideways sliding removed per OpenDS tick
 FORWARD_SLIP_FACTOR = 0.5  # btRaycastVehicle::updateFriction's fwdFactor in the friction circle
@@ -269,18 +269,8 @@ def full_power_kw(car: np.ndarray, rpm: float) -> float:
     return float(car[a + i] + (car[a + i + 1] - car[a + i]) * f)
 
 
-@inline
-def power_percentage(gear: int, speed_share: float) -> float:
-    """OpenDS's `Transmission.getPowerPercentage`: the share of the engine's power a gear
-    passes on at speed_share = v / 140 km/h (fitted polynomials of gears 1..6 and reverse,
-    `gearbox.POWER_ROWS`, clamped to 0..1; other gears 0)."""
-    if gear < -1 or gear > MAX_GEARS:
-        return 0.0
-    row = POWER_ROWS[gear + 1]
-    pp = 0.0
-    for c in row:
-        pp = pp * speed_share + c
-    return 0.0 if pp < 0.0 else 1.0 if pp > 1.0 else pp
+# OpenDS's `Transmission.getPowerPercentage` (`gearbox.clamped_share`: one definition for the kernels and the gear breaks)
+power_percentage = inline(clamped_share)
 
 
 @inline
