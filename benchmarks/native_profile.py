@@ -50,7 +50,7 @@ def physics_only(car: np.ndarray, dt: float, steps: int, x: np.ndarray, z: np.nd
                  steer: np.ndarray, gas: np.ndarray, brake: np.ndarray) -> None:  # fmt: skip
     """`steps` ego physics steps of every car, its state in registers, without reference
     counting (as `lct_substeps`: a `kernel` would update the car array's count atomically at
-    every physics step, which cost ~14 ns of the ~58 per physics step, 2026-11-27)."""
+    every physics step, a few ns of the ~58 per physics step, 2026-11-27)."""
     for e in range(len(x)):
         xe, ze, ye, ue, ve, re, ge, rpm, pv, fu, fl, con, cint = x[e], z[e], yaw[e], u[e], 0.0, 0.0, 3, 2000.0, u[e], 0.0, 50.0, True, 0.0
         a = steer[e] * MAX_WHEEL_ANGLE_RAD

@@ -59,10 +59,9 @@ SLOPE_PITCH_OFFSET_RAD = 0.031765
 BRAKE_FORCE_PER_DECEL_KG = 0.004375  # SteeringCar: maxBrakeForce = 0.004375 x decelerationBrake x mass
 TABLE_STEP = 0.1  # m/s resolution of the automatic gearbox table
 RPM_TABLE_STEP = 10.0
-# Divisions by constants as multiplications by their reciprocals: a division costs several multiplications, and a sampling
-# profile of the compiled car put ~16 % of its samples just after the powertrain's divisions (the load's, the free-wheel
-# coefficient's, the force per tick's); with these and the wheels' reciprocals a loop of the car went from ~54 to ~48 ns per
-# physics step (docs/performance.md, round 14). The products differ from the quotients in the last bit at most.
+# Divisions by constants as multiplications by their reciprocals: a division costs several multiplications, and the car
+# divided by these at every physics step (docs/performance.md, round 14). The products differ from the quotients in the last
+# bit at most.
 PER_RPM_TABLE_STEP = 1.0 / RPM_TABLE_STEP
 RPM_PER_KMH = 1.0 / WHEEL_CONSTANT
 KW_PER_W = 1.0 / 1000.0
