@@ -3,7 +3,7 @@
 What a many-thread run pays serially shows on one thread with many envs; what each kernel
 loses to threads shows by running it again with k threads and k times the envs. This times
 every Python-level call of a compiled kernel (every numba dispatcher in `opends_gym`'s
-vector and metrics modules, patched in the module that calls it, after 100 untimed steps and
+vector and metrics modules, patched in the module that calls it, after `--warm-steps` untimed steps and
 the loads from the cache: compiled code calls its helpers directly, so nothing counts
 twice) with `perf_counter` (no profiler, whose cost per Python call would count as Python)
 over `--steps` steps of random actions with resets, and prints the wall time per step
@@ -16,6 +16,7 @@ do not shorten (the bound printed: Amdahl's law with that part as measured on th
 threads).
 
     NUMBA_NUM_THREADS=1 python benchmarks/serial_share.py [--task LaneChangeTest] [--envs 32768] [--steps 60] [--metrics]
+        [--warm-steps 100]
 """
 
 from __future__ import annotations
@@ -74,6 +75,12 @@ def main() -> None:
     ap.add_argument("--envs", type=int, default=32768)
     ap.add_argument("--steps", type=int, default=60)
     ap.add_argument("--metrics", action="store_true", help="with the per-step traces and episode metrics (record_metrics=True)")
+    ap.add_argument(
+        "--warm-steps",
+        type=int,
+        default=100,
+        help="untimed steps first; past the episode limit (LCT: 3,000) the episodes that end are as long as they get",
+    )
     args = ap.parse_args()
     logging.disable(logging.WARNING)
     n = args.envs
@@ -81,7 +88,7 @@ def main() -> None:
     env.reset(seed=0)
     env.action_space.seed(0)
     actions = [env.action_space.sample() for _ in range(16)]
-    for i in range(100):
+    for i in range(args.warm_steps):
         env.step(actions[i % 16])
     wait_compiled()  # (kernels still loading from the cache run as Python meanwhile)
     inside: dict[str, float] = {}

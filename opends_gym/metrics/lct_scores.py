@@ -20,11 +20,47 @@ import math
 
 import numpy as np
 
-from ..jit import kernel
+from ..jit import inline, kernel
 from .episode_scores import j2944_segments, reversal_rates_into
 from .sums import np_sum
 
 J2944 = 5  # sdlp_j2944_m, _valid_fraction, _excluded_fraction, _segments, _segments_valid (`episode_scores.KEYS[9:14]`)
+
+
+@inline
+def _never_decreases(d: np.ndarray, lo: int, hi: int) -> bool:
+    """d[lo:hi] never decreases (and holds no NaN): then the rows of any window [a, b] of it
+    are a slice, found by `_first_not_below` and `_first_above` (`lct._never_decreases`)."""
+    for i in range(lo + 1, hi):  # noqa: SIM110  (numba compiles no generators)
+        if not d[i] >= d[i - 1]:
+            return False
+    return True
+
+
+@inline
+def _first_not_below(d: np.ndarray, lo: int, hi: int, v: float) -> int:
+    """In a d[lo:hi] that never decreases, the first row i with not d[i] < v (hi: none), by
+    bisection: every row at or after it has d >= v (v NaN: lo, and no row has d >= v)."""
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if d[mid] < v:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@inline
+def _first_above(d: np.ndarray, lo: int, hi: int, v: float) -> int:
+    """In a d[lo:hi] that never decreases, the first row i with not d[i] <= v (hi: none):
+    every row before it has d <= v."""
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if d[mid] <= v:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
 
 
 @kernel
@@ -42,6 +78,7 @@ def lct_scores(starts: np.ndarray, t: np.ndarray, z: np.ndarray, lateral: np.nda
     total = len(t)
     keep = np.empty(total, dtype=np.bool_)  # outside every instructed lane change
     lane = np.empty(total, dtype=np.int64)
+    mark = np.empty(total, dtype=np.int64)  # the last sign whose rows begin at each row (-1: none)
     y = np.empty(total)  # lateral position from the instructed lane's centre
     buf = np.empty(total)
     segs = np.empty(total)
@@ -63,6 +100,11 @@ def lct_scores(starts: np.ndarray, t: np.ndarray, z: np.ndarray, lateral: np.nda
             lane[i] = initial_lane
         reached, presented, passed = 0, 0, 0
         last = start_z - z[hi - 1] if n else math.nan
+        for i in range(lo, hi):
+            buf[i] = start_z - z[i]  # d of each row
+        sliced = _never_decreases(buf, lo, hi)
+        for i in range(lo, hi):
+            mark[i] = -1
         for k in range(len(sign_d)):  # `_instructed_changes`, in track order
             start = sign_d[k] - visibility
             if sign_d[k] <= furthest:
@@ -75,12 +117,25 @@ def lct_scores(starts: np.ndarray, t: np.ndarray, z: np.ndarray, lateral: np.nda
                 continue
             end = sign_d[k] - start_before + per_lane * abs(sign_to[k] - sign_from[k])
             top = end if end > start else start  # (Python's max(start, end))
+            if sliced:  # (the usual drive) the rows from i0 on have d >= start; those to i1 also d <= top
+                i0 = _first_not_below(buf, lo, hi, start)
+                if i0 < hi and buf[i0] >= start and k > mark[i0]:
+                    mark[i0] = k  # (each row's lane: the last sign whose rows began at or before it, below)
+                for i in range(i0, _first_above(buf, i0, hi, top)):
+                    if buf[i] >= start and buf[i] <= top:
+                        keep[i] = False
+                continue
             for i in range(lo, hi):
-                di = start_z - z[i]
+                di = buf[i]
                 if di >= start:
                     lane[i] = sign_to[k]
                     if di <= top:
                         keep[i] = False
+        if sliced:
+            latest = -1
+            for i in range(lo, hi):
+                latest = mark[i] if mark[i] > latest else latest
+                lane[i] = sign_to[latest] if latest >= 0 else initial_lane
         for i in range(lo, hi):
             y[i] = lateral[i] - lane_lat[lane[i]]
         # SDLP over fixed segments (`lateral.sdlp_segments` with the instructed changes excluded)
@@ -108,14 +163,35 @@ def _normative(d: np.ndarray, lo: int, hi: int, sign_d: np.ndarray, sign_from: n
                lane_lat: np.ndarray, initial_lane: int, start_before: float, per_lane: float, offset: float,
                out: np.ndarray) -> None:  # fmt: skip
     """`lct.normative_path(d[lo:hi], the first `signs` signs, ...)` into out[lo:hi] (signs in
-    track order: their starts are in order, `lct._ramps`)."""
+    track order: their starts are in order, `lct._ramps`; were they not, each row takes the
+    last sign whose start is at or before it, as `normative_path` does then)."""
+    ordered = True
+    for s in range(1, signs):
+        if not sign_d[s] - start_before >= sign_d[s - 1] - start_before:
+            ordered = False
+    walk = ordered and _never_decreases(d, lo, hi)  # (the usual drive: the count below only grows from row to row)
+    a = 0
     for i in range(lo, hi):
         di = d[i]
         y = float(lane_lat[initial_lane])
         k = -1
-        for s in range(signs):  # (the last start <= di: np.searchsorted, side 'right')
-            if sign_d[s] - start_before <= di:
-                k = s
+        if walk:  # the number of starts <= di, counted on from the row before
+            while a < signs and sign_d[a] - start_before <= di:
+                a += 1
+            k = a - 1
+        elif ordered:  # ... by bisection (np.searchsorted, side 'right')
+            a, b = 0, signs
+            while a < b:
+                mid = (a + b) // 2
+                if sign_d[mid] - start_before <= di:
+                    a = mid + 1
+                else:
+                    b = mid
+            k = a - 1
+        else:
+            for s in range(signs):  # (the last start <= di)
+                if sign_d[s] - start_before <= di:
+                    k = s
         if k >= 0 and not math.isnan(di):
             start = sign_d[k] - start_before
             length = per_lane * abs(sign_to[k] - sign_from[k])
@@ -163,6 +239,7 @@ def lct_lane_changes(starts: np.ndarray, z: np.ndarray, lateral: np.ndarray, sta
             continue
         last = d[hi - 1]
         n_fit = 0
+        sliced = _never_decreases(d, lo, hi)  # (the usual drive: each window's rows are a slice)
         for k in range(p):  # `fit_lane_changes` (each window as `d`'s mask: a sorted search's slice where d never decreases)
             w0 = sign_d[k] - visibility
             w1 = sign_d[k + 1] - visibility if k + 1 < p else last
@@ -170,7 +247,9 @@ def lct_lane_changes(starts: np.ndarray, z: np.ndarray, lateral: np.ndarray, sta
             shift = y_to - y_from
             near = 0.5 * abs(shift) * 0.5
             i10, i90, reached, empty = -1, -1, False, True
-            for i in range(lo, hi):
+            r0 = _first_not_below(d, lo, hi, w0) if sliced else lo
+            r1 = _first_above(d, r0, hi, w1) if sliced else hi
+            for i in range(r0, r1):
                 if d[i] >= w0 and d[i] <= w1:
                     empty = False
                     if shift != 0.0:
@@ -219,7 +298,9 @@ def lct_lane_changes(starts: np.ndarray, z: np.ndarray, lateral: np.ndarray, sta
                 keeping[i] = True
             for k in range(p):
                 if math.isfinite(f_start[k]):
-                    for i in range(lo, hi):
+                    r0 = _first_not_below(d, lo, hi, f_start[k]) if sliced else lo
+                    r1 = _first_above(d, r0, hi, f_start[k] + f_len[k]) if sliced else hi
+                    for i in range(r0, r1):
                         if d[i] >= f_start[k] and d[i] <= f_start[k] + f_len[k]:
                             keeping[i] = False
             m = 0
