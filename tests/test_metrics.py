@@ -25,7 +25,7 @@ from opends_gym.metrics.lateral import lane_exceedances, lane_keeping_mask
 from opends_gym.metrics.lct import mean_deviation as lct_area_mean
 from opends_gym.metrics.reaction import brake_reaction_time, summarize_reactions
 from opends_gym.metrics.stats import t_quantile
-from opends_gym.metrics.steering import butter2_lowpass, filtfilt, reversal_count
+from opends_gym.metrics.steering import butter2_lowpass, filtfilt, reversal_count, reversal_counts
 
 
 def test_sdlp_and_exceedances() -> None:
@@ -53,6 +53,21 @@ def test_reversal_rate_counts_sine_reversals() -> None:
     small = 0.4 * np.sin(2 * np.pi * 0.25 * t)  # amplitude 0.8 p-p: below a 2 degree gap
     assert reversal_rate(small, fs, gap_deg=2.0) == 0.0
     assert reversal_count(np.array([0.0, 3.0, 0.5, 3.0, 0.0]), gap_deg=2.0) == 4
+
+
+def test_reversal_counts_at_several_gaps_are_each_gaps_count() -> None:
+    """`reversal_counts` (the native scorers': stationary points found once for every gap)
+    adds to each gap's count what `reversal_count` gives at that gap, on filtered random
+    walks, plateaus, a flat signal and signals too short to count."""
+    gaps = np.array([0.5, 2.0, 10.0])
+    rng = np.random.default_rng(4)
+    signals = [filtfilt(*butter2_lowpass(0.6, 60.0), np.cumsum(rng.normal(0, 1.0, 3000))) for _ in range(5)]
+    signals += [np.round(np.cumsum(rng.normal(0, 1.0, 500))), np.zeros(50), np.array([1.0, 4.0])]
+    for x in signals:
+        counts = np.full(3, 7, dtype=np.int64)
+        reversal_counts(x, gaps, counts)
+        assert list(counts) == [7 + reversal_count(x, g) for g in gaps]
+    assert sum(reversal_count(x, 0.5) for x in signals) > sum(reversal_count(x, 10.0) for x in signals) > 0
 
 
 def test_filtfilt_is_zero_phase_and_passes_dc() -> None:

@@ -22,7 +22,16 @@ import numpy as np
 from ..jit import kernel
 from .headway import FOLLOWING, THW_THRESHOLDS_S, TTC_THRESHOLDS_S
 from .lateral import SDLP_MIN_VALID_FRACTION, SDLP_SEGMENT_S
-from .steering import SRR_GAPS_DEG, SRR_MIN_SEGMENT_S, _reversal_count, _steady_state, _zero_phase, butter2_lowpass, gap_key
+from .steering import (
+    SRR_GAPS_DEG,
+    SRR_MIN_SEGMENT_S,
+    _reversal_count,
+    _steady_state,
+    _zero_phase,
+    butter2_lowpass,
+    gap_key,
+    reversal_counts,
+)
 from .sums import np_sum
 
 KEYS: tuple[str, ...] = (
@@ -148,9 +157,7 @@ def reversal_rates_into(row: np.ndarray, at: int, keep: np.ndarray, lo: int, hi:
             run = i
         elif not kk and run >= 0:
             if i - run >= min_run:
-                y = _filtered(b, a, zi, on, steer_deg, run, i - run)
-                for g in range(len(gaps)):
-                    counts[g] += _reversals(y, gaps[g])
+                reversal_counts(_filtered(b, a, zi, on, steer_deg, run, i - run), gaps, counts)
                 duration += (i - run - 1) / fs
             run = -1
     for g in range(len(gaps)):

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from ..jit import kernel
+from ..jit import inline, kernel
 
 
 def butter2_lowpass(cutoff_hz: float, fs_hz: float) -> tuple[np.ndarray, np.ndarray]:
@@ -112,8 +112,26 @@ def reversal_count(angle_deg: np.ndarray, gap_deg: float) -> int:
 
 @kernel
 def _reversal_count(x: np.ndarray, gap_deg: float) -> int:
-    # stationary points: sign changes of the derivative (plateaus take their first sample)
     values = np.empty(len(x))
+    return _count_reversals(values, _stationary_points(x, values), gap_deg)
+
+
+@kernel
+def reversal_counts(x: np.ndarray, gaps_deg: np.ndarray, counts: np.ndarray) -> None:
+    """counts[g] += the reversals of at least gaps_deg[g] of a (filtered) signal of 3 samples
+    or more: `_reversal_count` at every gap, the stationary points found once for all."""
+    if len(x) < 3:
+        return
+    values = np.empty(len(x))
+    m = _stationary_points(x, values)
+    for g in range(len(gaps_deg)):
+        counts[g] += _count_reversals(values, m, gaps_deg[g])
+
+
+@inline
+def _stationary_points(x: np.ndarray, values: np.ndarray) -> int:
+    """The stationary points of x (sign changes of the derivative, plateaus taking their
+    first sample), with its first and last sample, into values[:m]; m = 0 when x is flat."""
     values[0] = x[0]
     m, prev, seen = 1, 0.0, False
     for i in range(len(x) - 1):
@@ -128,7 +146,12 @@ def _reversal_count(x: np.ndarray, gap_deg: float) -> int:
     if not seen:
         return 0
     values[m] = x[len(x) - 1]
-    m += 1
+    return m + 1
+
+
+@inline
+def _count_reversals(values: np.ndarray, m: int, gap_deg: float) -> int:
+    """Reversals of at least `gap_deg` among the m stationary points in values."""
     count = 0
     # count upward and downward reversals separately, as the reference implementation
     for direction in (1.0, -1.0):
