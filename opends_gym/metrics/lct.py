@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..jit import kernel
+from ..jit import inline, kernel
 
 
 @dataclass(frozen=True)
@@ -80,19 +80,38 @@ def _ramps(d: np.ndarray, start: np.ndarray, end: np.ndarray, y_from: np.ndarray
     (a binary search) sets y on its ramp, clipped to 0..1; before the first (or NaN) y stays."""
     for i in range(len(d)):
         di = d[i]
-        lo, hi = 0, len(start)  # the number of starts <= di (np.searchsorted, side 'right')
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if start[mid] <= di:
-                lo = mid + 1
-            else:
-                hi = mid
-        k = lo - 1
+        k = first_above(start, 0, len(start), di) - 1  # (the number of starts <= di: np.searchsorted, side 'right')
         if k < 0 or math.isnan(di):
             continue
         ramp = (di - start[k]) / (end[k] - start[k])
         ramp = 0.0 if ramp < 0.0 else 1.0 if ramp > 1.0 else ramp
         y[i] = y_from[k] + ramp * (y_to[k] - y_from[k])
+
+
+@inline
+def first_not_below(d: np.ndarray, lo: int, hi: int, v: float) -> int:
+    """In a d[lo:hi] that never decreases, the first row i with not d[i] < v (hi: none), by
+    bisection: every row at or after it has d >= v (v NaN: lo, and no row has d >= v)."""
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if d[mid] < v:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@inline
+def first_above(d: np.ndarray, lo: int, hi: int, v: float) -> int:
+    """In a d[lo:hi] that never decreases, the first row i with not d[i] <= v (hi: none), by
+    bisection: every row before it has d <= v."""
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if d[mid] <= v:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
 
 
 def mean_deviation(d: np.ndarray, y: np.ndarray, y_norm: np.ndarray) -> float:

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..jit import inline, kernel
 from .episode_scores import j2944_segments, reversal_rates_into
+from .lct import first_above, first_not_below
 from .sums import np_sum
 
 J2944 = 5  # sdlp_j2944_m, _valid_fraction, _excluded_fraction, _segments, _segments_valid (`episode_scores.KEYS[9:14]`)
@@ -30,37 +31,11 @@ J2944 = 5  # sdlp_j2944_m, _valid_fraction, _excluded_fraction, _segments, _segm
 @inline
 def _never_decreases(d: np.ndarray, lo: int, hi: int) -> bool:
     """d[lo:hi] never decreases (and holds no NaN): then the rows of any window [a, b] of it
-    are a slice, found by `_first_not_below` and `_first_above` (`lct._never_decreases`)."""
+    are a slice, found by `lct.first_not_below` and `lct.first_above` (`lct._never_decreases`)."""
     for i in range(lo + 1, hi):  # noqa: SIM110  (numba compiles no generators)
         if not d[i] >= d[i - 1]:
             return False
     return True
-
-
-@inline
-def _first_not_below(d: np.ndarray, lo: int, hi: int, v: float) -> int:
-    """In a d[lo:hi] that never decreases, the first row i with not d[i] < v (hi: none), by
-    bisection: every row at or after it has d >= v (v NaN: lo, and no row has d >= v)."""
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if d[mid] < v:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
-
-
-@inline
-def _first_above(d: np.ndarray, lo: int, hi: int, v: float) -> int:
-    """In a d[lo:hi] that never decreases, the first row i with not d[i] <= v (hi: none):
-    every row before it has d <= v."""
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if d[mid] <= v:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
 
 
 @kernel
@@ -118,10 +93,10 @@ def lct_scores(starts: np.ndarray, t: np.ndarray, z: np.ndarray, lateral: np.nda
             end = sign_d[k] - start_before + per_lane * abs(sign_to[k] - sign_from[k])
             top = end if end > start else start  # (Python's max(start, end))
             if sliced:  # (the usual drive) the rows from i0 on have d >= start; those to i1 also d <= top
-                i0 = _first_not_below(buf, lo, hi, start)
+                i0 = first_not_below(buf, lo, hi, start)
                 if i0 < hi and buf[i0] >= start and k > mark[i0]:
                     mark[i0] = k  # (each row's lane: the last sign whose rows began at or before it, below)
-                for i in range(i0, _first_above(buf, i0, hi, top)):
+                for i in range(i0, first_above(buf, i0, hi, top)):
                     if buf[i] >= start and buf[i] <= top:
                         keep[i] = False
                 continue
@@ -165,10 +140,10 @@ def _normative(d: np.ndarray, lo: int, hi: int, sign_d: np.ndarray, sign_from: n
     """`lct.normative_path(d[lo:hi], the first `signs` signs, ...)` into out[lo:hi] (signs in
     track order: their starts are in order, `lct._ramps`; were they not, each row takes the
     last sign whose start is at or before it, as `normative_path` does then)."""
-    ordered = True
-    for s in range(1, signs):
-        if not sign_d[s] - start_before >= sign_d[s - 1] - start_before:
-            ordered = False
+    starts = np.empty(signs)
+    for s in range(signs):
+        starts[s] = sign_d[s] - start_before
+    ordered = _never_decreases(starts, 0, signs)
     walk = ordered and _never_decreases(d, lo, hi)  # (the usual drive: the count below only grows from row to row)
     a = 0
     for i in range(lo, hi):
@@ -176,21 +151,14 @@ def _normative(d: np.ndarray, lo: int, hi: int, sign_d: np.ndarray, sign_from: n
         y = float(lane_lat[initial_lane])
         k = -1
         if walk:  # the number of starts <= di, counted on from the row before
-            while a < signs and sign_d[a] - start_before <= di:
+            while a < signs and starts[a] <= di:
                 a += 1
             k = a - 1
         elif ordered:  # ... by bisection (np.searchsorted, side 'right')
-            a, b = 0, signs
-            while a < b:
-                mid = (a + b) // 2
-                if sign_d[mid] - start_before <= di:
-                    a = mid + 1
-                else:
-                    b = mid
-            k = a - 1
+            k = first_above(starts, 0, signs, di) - 1
         else:
             for s in range(signs):  # (the last start <= di)
-                if sign_d[s] - start_before <= di:
+                if starts[s] <= di:
                     k = s
         if k >= 0 and not math.isnan(di):
             start = sign_d[k] - start_before
@@ -247,8 +215,8 @@ def lct_lane_changes(starts: np.ndarray, z: np.ndarray, lateral: np.ndarray, sta
             shift = y_to - y_from
             near = 0.5 * abs(shift) * 0.5
             i10, i90, reached, empty = -1, -1, False, True
-            r0 = _first_not_below(d, lo, hi, w0) if sliced else lo
-            r1 = _first_above(d, r0, hi, w1) if sliced else hi
+            r0 = first_not_below(d, lo, hi, w0) if sliced else lo
+            r1 = first_above(d, r0, hi, w1) if sliced else hi
             for i in range(r0, r1):
                 if d[i] >= w0 and d[i] <= w1:
                     empty = False
@@ -298,8 +266,8 @@ def lct_lane_changes(starts: np.ndarray, z: np.ndarray, lateral: np.ndarray, sta
                 keeping[i] = True
             for k in range(p):
                 if math.isfinite(f_start[k]):
-                    r0 = _first_not_below(d, lo, hi, f_start[k]) if sliced else lo
-                    r1 = _first_above(d, r0, hi, f_start[k] + f_len[k]) if sliced else hi
+                    r0 = first_not_below(d, lo, hi, f_start[k]) if sliced else lo
+                    r1 = first_above(d, r0, hi, f_start[k] + f_len[k]) if sliced else hi
                     for i in range(r0, r1):
                         if d[i] >= f_start[k] and d[i] <= f_start[k] + f_len[k]:
                             keeping[i] = False
