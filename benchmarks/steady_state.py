@@ -29,23 +29,15 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from throughput import NATIVE_TASKS, lane_keeping
 
 import opends_gym  # noqa: F401  (registers the ids)
 from opends_gym.jit import wait_compiled
 
-TASKS = ("LaneChangeTest", "BrakeReaction", "ThreeVehiclePlatoon")
-
-
-def lane_keeping(obs: np.ndarray) -> np.ndarray:
-    """The LCT's lane follower of `throughput.py` (steers for the sign's lane, no pedals)."""
-    a = np.zeros((len(obs), 2), dtype=np.float32)
-    a[:, 0] = np.clip(0.04 * obs[:, -2] - 0.8 * obs[:, 1] - 0.1 * obs[:, 6], -1, 1)
-    return a
-
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--task", choices=TASKS, default="LaneChangeTest")
+    ap.add_argument("--task", choices=NATIVE_TASKS, default="LaneChangeTest")
     ap.add_argument("--envs", type=int, default=4096)
     ap.add_argument("--windows", type=int, default=12)
     ap.add_argument("--seconds", type=float, default=2.0, help="wall seconds per window")

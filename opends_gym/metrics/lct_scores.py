@@ -94,7 +94,7 @@ def lct_scores(starts: np.ndarray, t: np.ndarray, z: np.ndarray, lateral: np.nda
             top = end if end > start else start  # (Python's max(start, end))
             if sliced:  # (the usual drive) the rows from i0 on have d >= start; those to i1 also d <= top
                 i0 = first_not_below(buf, lo, hi, start)
-                if i0 < hi and buf[i0] >= start and k > mark[i0]:
+                if i0 < hi and buf[i0] >= start:
                     mark[i0] = k  # (each row's lane: the last sign whose rows began at or before it, below)
                 for i in range(i0, first_above(buf, i0, hi, top)):
                     if buf[i] >= start and buf[i] <= top:
